@@ -1,0 +1,33 @@
+// Error types and the exit codes the CLI maps them to (documented in `locsim --help`).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace locsim {
+
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailure = 1,    // anything not caused by the user's input
+  kExitBadInput = 2,   // bad command line, or a world/scenario/map file that cannot be used
+  kExitInterrupted = 130,  // SIGINT; the run folder holds everything written so far
+};
+
+/// Where in a file something was found. Line and column are 1-based; 0 means unknown.
+struct SourceLocation {
+  std::string file;
+  int line = 0;
+  int column = 0;
+
+  /// "file:line:col", or less where less is known.
+  std::string str() const;
+};
+
+/// The user's input cannot be used. The message names the file, line, column and key.
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+  InputError(const SourceLocation& where, const std::string& key, const std::string& problem);
+};
+
+}  // namespace locsim

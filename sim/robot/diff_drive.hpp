@@ -1,0 +1,70 @@
+// A differential-drive robot in the Box2D world.
+//
+// Each wheel is a motor-driven rotation (what encoders count) that pushes the body through a
+// friction-limited contact with the floor. The contact force is whatever brings the wheel's
+// contact point to roll without slipping this step, capped by the friction circle |F| <= mu N;
+// when the cap binds, the wheel and the body part ways: that is slip. The motor tracks the
+// commanded wheel speed under an acceleration ramp and a torque limit, against the contact
+// force's reaction, so a wheel on ice spins up while the body barely moves and a robot pushing a
+// wall keeps its wheels turning (when mu N r is below the motor's torque limit).
+#pragma once
+
+#include <box2d/box2d.h>
+
+#include "sim/robot/robot_def.hpp"
+#include "sim/world/physics_world.hpp"
+
+namespace locsim {
+
+struct WheelState {
+  double radius_m = 0.05;        // true radius [m]
+  double angle_rad = 0.0;        // cumulative rotation, what an ideal encoder counts [rad]
+  double speed_radps = 0.0;      // [rad/s]
+  double traction_n = 0.0;       // last longitudinal floor force on the robot [N]
+  bool slipping = false;         // the friction cap bound in the last step
+};
+
+class DiffDriveRobot {
+ public:
+  DiffDriveRobot(const RobotDef& def, PhysicsWorld& world, int index);
+  DiffDriveRobot(const DiffDriveRobot&) = delete;
+  DiffDriveRobot& operator=(const DiffDriveRobot&) = delete;
+
+  const RobotDef& def() const { return def_; }
+  const std::string& name() const { return def_.name; }
+
+  /// Body velocity command, converted to wheel speeds with the nominal geometry. [m/s, rad/s]
+  void command(double v_mps, double w_radps);
+  /// Motor and floor forces for the coming step. Call before the world steps.
+  void apply_drive(double dt_s, const FloorFriction& floor);
+
+  Pose2 pose() const;
+  Vec2 velocity_mps() const;  // of the body origin, world frame
+  double yaw_rate_radps() const;
+  const WheelState& left() const { return wheels_[0]; }
+  const WheelState& right() const { return wheels_[1]; }
+
+  /// Kidnapping: off the floor (no collisions), wheels stopped and not counting.
+  void lift();
+  /// Puts the robot down at `pose`, at rest.
+  void put_down(const Pose2& pose);
+  bool carried() const { return carried_; }
+  /// An impulse at the body's centre of mass (world frame). [N s, N m s]
+  void push(const Vec2& impulse_ns, double angular_impulse_nms);
+
+  b2Body* body() { return body_; }
+  const b2Body* body() const { return body_; }
+  const b2Shape& shape() const;
+
+ private:
+  RobotDef def_;
+  double gravity_mps2_;
+  b2Body* body_ = nullptr;  // owned by the b2World
+  b2CircleShape circle_;
+  b2PolygonShape polygon_;
+  WheelState wheels_[2];  // left, right
+  double commanded_radps_[2] = {0.0, 0.0};
+  bool carried_ = false;
+};
+
+}  // namespace locsim

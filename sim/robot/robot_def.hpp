@@ -1,0 +1,56 @@
+// What a differential-drive robot is made of. Defaults describe a small indoor research robot
+// (Pioneer-like): 10 kg, 0.35 m wheel base, 5 cm wheels.
+#pragma once
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/math.hpp"
+
+namespace locsim {
+
+/// The outline of a body seen from above, in the body frame (x forward, y left).
+struct FootprintDef {
+  enum class Kind { kCircle, kBox, kPolygon };
+  Kind kind = Kind::kCircle;
+  double radius_m = 0.2;             // kCircle [m]
+  Vec2 size_m{0.4, 0.3};             // kBox: length along x, width along y [m]
+  std::vector<Vec2> points_m;        // kPolygon: convex, counter-clockwise, <= 8 vertices [m]
+};
+
+/// Radius of the smallest circle about the body origin that holds the footprint. [m]
+inline double bounding_radius(const FootprintDef& footprint) {
+  switch (footprint.kind) {
+    case FootprintDef::Kind::kCircle:
+      return footprint.radius_m;
+    case FootprintDef::Kind::kBox:
+      return 0.5 * footprint.size_m.norm();
+    case FootprintDef::Kind::kPolygon: {
+      double radius = 0.0;
+      for (const Vec2& p : footprint.points_m) radius = std::max(radius, p.norm());
+      return radius;
+    }
+  }
+  return 0.0;
+}
+
+struct RobotDef {
+  std::string name = "robot";
+  FootprintDef footprint;
+  double mass_kg = 10.0;                 // whole robot [kg]
+  double wheel_base_m = 0.35;            // distance between the wheel contact points [m]
+  double wheel_radius_m = 0.05;          // nominal radius the robot believes in (odometry) [m]
+  double wheel_radius_left_m = 0.05;     // true left radius; != nominal is a systematic error [m]
+  double wheel_radius_right_m = 0.05;    // true right radius [m]
+  double wheel_inertia_kgm2 = 0.002;     // wheel plus reflected rotor inertia, per wheel [kg m²]
+  double max_wheel_speed_radps = 20.0;   // motor speed limit [rad/s]
+  double max_wheel_accel_radps2 = 30.0;  // speed controller's ramp limit [rad/s²]
+  double max_wheel_torque_nm = 5.0;      // motor torque limit at the wheel [N m]
+  double drive_load_fraction = 0.8;      // share of the weight on the two drive wheels [-]
+  Pose2 start;                           // initial true pose in the world
+  SourceLocation where;                  // of the robot's entry, for messages
+};
+
+}  // namespace locsim

@@ -1,0 +1,240 @@
+#include "sim/run/runner.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "sim/run/config_json.hpp"
+#include "sim/run/simulation.hpp"
+#include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/world_loader.hpp"
+
+#ifndef LOCSIM_VERSION_STRING
+#define LOCSIM_VERSION_STRING "unknown"
+#endif
+
+namespace locsim {
+
+const char* locsim_version() { return LOCSIM_VERSION_STRING; }
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::path>& scenario_file,
+                          std::optional<double> duration_s) {
+  RunInputs inputs{load_world(world_file), ScenarioDef{}};
+  if (scenario_file) {
+    inputs.scenario = load_scenario(*scenario_file);
+  } else if (inputs.world.scenario) {
+    inputs.scenario = *inputs.world.scenario;
+    inputs.scenario.source = world_file;
+  } else {
+    inputs.scenario.source = world_file;  // defaults: idle robots for 60 s
+  }
+  if (duration_s) {
+    if (!(*duration_s > 0.0)) throw InputError("--duration: must be > 0");
+    inputs.scenario.duration_s = *duration_s;
+  }
+  bind_scenario(inputs.scenario, inputs.world);
+  return inputs;
+}
+
+namespace {
+
+/// Writes the files of one run as it goes, flushing often so that a crash or Ctrl-C keeps
+/// everything up to the last few steps.
+class RunWriter {
+ public:
+  RunWriter(const fs::path& dir, const Simulation& sim) : dir_(dir) {
+    const std::size_t n = sim.robot_count();
+    stride_ = std::llround(sim.world_def().physics.step_hz / sim.scenario().groundtruth_hz);
+    for (std::size_t i = 0; i < n; ++i) {
+      const fs::path robot_dir = n == 1 ? dir : dir / sim.robot(i).name();
+      fs::create_directories(robot_dir);
+      robot_dirs_.push_back(robot_dir);
+      auto& file = groundtruth_.emplace_back(robot_dir / "groundtruth.tum", std::ios::binary);
+      if (!file) throw std::runtime_error("cannot write " + (robot_dir / "groundtruth.tum").string());
+      file << "# timestamp tx ty tz qx qy qz qw  (true pose of robot '" << sim.robot(i).name()
+           << "', TUM format, z = 0)\n";
+    }
+    events_.open(dir / "events.csv", std::ios::binary);
+    if (!events_) throw std::runtime_error("cannot write " + (dir / "events.csv").string());
+    events_ << "t_s,kind,robot,details\n";
+  }
+
+  /// Called after every step (and once before the first).
+  void record(Simulation& sim) {
+    for (const SimEvent& event : sim.take_events()) {
+      line_.clear();
+      append_fixed(line_, event.t_s, 4);
+      line_ += ',' + event.kind + ',' + event.robot + ",\"" + event.details + "\"\n";
+      events_ << line_;
+    }
+    if (sim.step_index() % stride_ != 0 || sim.step_index() == last_step_) return;
+    last_step_ = sim.step_index();
+    for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+      const DiffDriveRobot& robot = sim.robot(i);
+      if (robot.carried()) continue;  // in the air: no floor pose to report
+      const Pose2 pose = robot.pose();
+      line_.clear();
+      append_fixed(line_, sim.time_s(), 4);
+      line_ += ' ';
+      append_fixed(line_, pose.x, 6);
+      line_ += ' ';
+      append_fixed(line_, pose.y, 6);
+      line_ += " 0 0 0 ";
+      append_fixed(line_, std::sin(0.5 * pose.theta), 9);
+      line_ += ' ';
+      append_fixed(line_, std::cos(0.5 * pose.theta), 9);
+      line_ += '\n';
+      groundtruth_[i] << line_;
+    }
+    if (sim.step_index() % (stride_ * 50) == 0) flush();
+  }
+
+  void flush() {
+    for (auto& file : groundtruth_) file.flush();
+    events_.flush();
+  }
+
+  const std::vector<fs::path>& robot_dirs() const { return robot_dirs_; }
+
+ private:
+  fs::path dir_;
+  std::int64_t stride_ = 1;
+  std::int64_t last_step_ = -1;
+  std::vector<fs::path> robot_dirs_;
+  std::vector<std::ofstream> groundtruth_;
+  std::ofstream events_;
+  std::string line_;
+};
+
+fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
+  const std::time_t now = std::time(nullptr);
+  char stamp[32];
+  std::strftime(stamp, sizeof(stamp), "%Y%m%d-%H%M%S", std::localtime(&now));
+  const std::string base = inputs.world.name + "-" + inputs.scenario.name + "-seed" +
+                           std::to_string(seed) + "-" + stamp;
+  fs::path dir = fs::path("runs") / base;
+  for (int suffix = 2; fs::exists(dir); ++suffix) {
+    dir = fs::path("runs") / (base + "-" + std::to_string(suffix));
+  }
+  return dir;
+}
+
+void write_json_atomically(const fs::path& file, const json& content) {
+  const fs::path temporary = file.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary);
+    out << content.dump(2) << '\n';
+    if (!out) throw std::runtime_error("cannot write " + temporary.string());
+  }
+  fs::rename(temporary, file);
+}
+
+}  // namespace
+
+RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt) {
+  // Everything that can be wrong with the input is found before the folder is made.
+  RunInputs inputs = load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
+  Simulation sim(inputs.world, inputs.scenario, options.seed);
+
+  RunResult result;
+  result.out_dir = options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;
+  if (fs::exists(result.out_dir) && !fs::is_directory(result.out_dir)) {
+    throw InputError("--out: '" + result.out_dir.string() + "' exists and is not a folder");
+  }
+  if (fs::exists(result.out_dir) && !fs::is_empty(result.out_dir) && !options.overwrite) {
+    throw InputError("--out: folder '" + result.out_dir.string() +
+                     "' is not empty; choose another or pass --overwrite");
+  }
+  fs::create_directories(result.out_dir);
+  RunWriter writer(result.out_dir, sim);
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto next_progress = wall_start + std::chrono::seconds(1);
+  bool progress_shown = false;
+  std::string error;
+  std::exception_ptr failure;
+  result.status = "completed";
+  try {
+    writer.record(sim);
+    while (!sim.done()) {
+      if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
+        result.status = "interrupted";
+        break;
+      }
+      sim.step();
+      writer.record(sim);
+      if (options.realtime) {
+        std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(sim.time_s()));
+      }
+      if (options.progress && (sim.step_index() & 255) == 0) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now >= next_progress) {
+          const double wall = std::chrono::duration<double>(now - wall_start).count();
+          std::fprintf(stderr, "\r  t = %.1f / %.1f s (%3.0f%%), %.0fx real time   ", sim.time_s(),
+                       inputs.scenario.duration_s,
+                       100.0 * static_cast<double>(sim.step_index()) / static_cast<double>(sim.end_step()),
+                       sim.time_s() / wall);
+          next_progress = now + std::chrono::milliseconds(500);
+          progress_shown = true;
+        }
+      }
+    }
+  } catch (const std::exception& e) {
+    result.status = "failed";
+    error = e.what();
+    failure = std::current_exception();
+  }
+  if (progress_shown) std::fprintf(stderr, "\n");
+  writer.flush();
+  result.wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  result.simulated_s = sim.time_s();
+  result.state_hash = sim.state_hash();
+
+  json run;
+  run["locsim_version"] = locsim_version();
+  run["status"] = result.status;
+  if (!error.empty()) run["error"] = error;
+  run["seed"] = options.seed;
+  run["world_file"] = options.world_file.string();
+  run["scenario_file"] = inputs.scenario.source.string();
+  run["simulated_s"] = result.simulated_s;
+  run["steps"] = sim.step_index();
+  char hash[24];
+  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(result.state_hash));
+  run["state_hash"] = hash;
+  json robots = json::array();
+  for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+    const RobotStats& stats = sim.stats(i);
+    const Pose2 pose = sim.robot(i).pose();
+    robots.push_back({{"name", sim.robot(i).name()},
+                      {"folder", fs::relative(writer.robot_dirs()[i], result.out_dir).string()},
+                      {"final_pose", {{"x", pose.x}, {"y", pose.y}, {"theta", pose.theta}}},
+                      {"ground_distance_m", stats.ground_distance_m},
+                      {"wheel_distance_left_m", stats.wheel_distance_left_m},
+                      {"wheel_distance_right_m", stats.wheel_distance_right_m},
+                      {"slip_time_s", stats.slip_time_s},
+                      {"collisions", stats.collisions},
+                      {"kidnaps", stats.kidnaps}});
+  }
+  run["robots"] = robots;
+  run["config"] = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};
+  // Wall-clock figures vary from run to run; they are kept last, in this one block, so that
+  // everything else in the run folder is byte-identical for the same inputs and seed.
+  run["timing"] = {{"wall_s", result.wall_s},
+                   {"real_time_factor", result.wall_s > 0.0 ? result.simulated_s / result.wall_s : 0.0},
+                   {"realtime_paced", options.realtime}};
+  write_json_atomically(result.out_dir / "run.json", run);
+  if (failure) std::rethrow_exception(failure);
+  return result;
+}
+
+}  // namespace locsim

@@ -1,0 +1,51 @@
+// `locsim run` as a library call: load and check the inputs, simulate, and write the run folder
+// (run.json, groundtruth.tum per robot, events.csv).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "sim/scenario/scenario_def.hpp"
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+struct RunOptions {
+  std::filesystem::path world_file;
+  std::optional<std::filesystem::path> scenario_file;  // else the world's `scenario:` section
+  std::uint64_t seed = 1;
+  std::optional<double> duration_s;  // overrides the scenario's duration [s]
+  std::filesystem::path out_dir;     // empty: a new folder under runs/
+  bool realtime = false;             // pace the simulation to the wall clock
+  bool progress = false;             // progress line on stderr
+  bool overwrite = false;            // allow writing into a non-empty folder
+};
+
+struct RunResult {
+  std::filesystem::path out_dir;
+  std::string status;  // completed, interrupted, failed
+  double simulated_s = 0.0;
+  double wall_s = 0.0;
+  std::uint64_t state_hash = 0;
+};
+
+/// World and scenario, loaded and checked together. Throws InputError.
+struct RunInputs {
+  WorldDef world;
+  ScenarioDef scenario;
+};
+RunInputs load_run_inputs(const std::filesystem::path& world_file,
+                          const std::optional<std::filesystem::path>& scenario_file,
+                          std::optional<double> duration_s);
+
+/// Runs to the end (or until `*interrupt` turns true). Bad input throws InputError before any
+/// file is written; a failure during the run writes run.json with status "failed" and rethrows.
+RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt = nullptr);
+
+/// The version string recorded in every run.
+const char* locsim_version();
+
+}  // namespace locsim

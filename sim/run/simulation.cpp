@@ -1,0 +1,242 @@
+#include "sim/run/simulation.hpp"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+
+namespace locsim {
+
+void append_fixed(std::string& out, double value, int decimals) {
+  std::array<char, 64> buffer{};
+  if (value == 0.0) value = 0.0;  // no "-0.000"
+  auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
+                                    std::chars_format::fixed, decimals);
+  if (error != std::errc()) {
+    out += "nan";
+    return;
+  }
+  // Negative values that round to zero would print as "-0.000".
+  std::string_view text(buffer.data(), end - buffer.data());
+  if (text.front() == '-' && text.find_first_not_of("-0.") == std::string_view::npos) {
+    text.remove_prefix(1);
+  }
+  out += text;
+}
+
+std::string fixed(double value, int decimals) {
+  std::string out;
+  append_fixed(out, value, decimals);
+  return out;
+}
+
+std::string format_pose(const Pose2& pose) {
+  return "(" + fixed(pose.x, 4) + "," + fixed(pose.y, 4) + "," + fixed(pose.theta, 4) + ")";
+}
+
+Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
+    : world_def_(std::move(world)),
+      scenario_(std::move(scenario)),
+      seed_(seed),
+      dt_s_(1.0 / world_def_.physics.step_hz),
+      end_step_(std::llround(scenario_.duration_s * world_def_.physics.step_hz)),
+      collision_quiet_steps_(std::llround(kCollisionQuietS * world_def_.physics.step_hz)),
+      world_(std::make_unique<PhysicsWorld>(world_def_)) {
+  for (std::size_t i = 0; i < world_def_.robots.size(); ++i) {
+    const RobotDef& def = world_def_.robots[i];
+    RobotSlot slot;
+    slot.robot = std::make_unique<DiffDriveRobot>(def, *world_, static_cast<int>(i));
+    if (!world_->is_free(slot.robot->shape(), def.start, slot.robot->body())) {
+      throw InputError(def.where, "start",
+                       "robot '" + def.name + "' starts in collision at " + format_pose(def.start) +
+                           " (overlaps a wall, shape, mover or another robot)");
+    }
+    slot.kidnap_rng = make_stream(seed, "kidnap/" + def.name);
+    slot.last_position = def.start.position();
+    // A robot the scenario does not drive keeps whatever command its owner last gave it.
+    for (const DriveDef& d : scenario_.drives) {
+      if (d.robot == def.name) slot.driver = make_driver(d, make_stream(seed, "driver/" + def.name));
+    }
+    robots_.push_back(std::move(slot));
+  }
+  for (const EventDef& event : scenario_.events) {
+    event_steps_.push_back(std::llround(event.at_s * world_def_.physics.step_hz));
+  }
+  fire_due_events();  // those at t = 0
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::log(std::string kind, std::string robot, std::string details) {
+  events_.push_back(SimEvent{step_index_, time_s(), std::move(kind), std::move(robot),
+                             std::move(details)});
+}
+
+std::vector<SimEvent> Simulation::take_events() {
+  std::vector<SimEvent> out;
+  out.swap(events_);
+  return out;
+}
+
+Simulation::RobotSlot& Simulation::slot_of(const std::string& robot) {
+  for (RobotSlot& slot : robots_) {
+    if (slot.robot->name() == robot) return slot;
+  }
+  throw std::logic_error("unbound robot name '" + robot + "'");  // bind_scenario prevents this
+}
+
+std::string Simulation::body_name(const BodyTag& tag) const {
+  switch (tag.kind) {
+    case BodyKind::kStatic:
+      return "static";
+    case BodyKind::kRobot:
+      return robots_[tag.index].robot->name();
+    case BodyKind::kMover:
+      return world_->movers()[tag.index].def.name;
+  }
+  return "?";
+}
+
+Pose2 Simulation::random_free_pose(RobotSlot& slot, const EventDef& event) {
+  const Vec2 lo = event.random_min_m.value_or(world_->bounds_min());
+  const Vec2 hi = event.random_max_m.value_or(world_->bounds_max());
+  for (int attempt = 0; attempt < 10000; ++attempt) {
+    const Pose2 pose{slot.kidnap_rng.uniform(lo.x(), hi.x()),
+                     slot.kidnap_rng.uniform(lo.y(), hi.y()),
+                     slot.kidnap_rng.uniform(-std::numbers::pi, std::numbers::pi)};
+    if (world_->is_free(slot.robot->shape(), pose, slot.robot->body())) return pose;
+  }
+  throw InputError(event.where, "kidnap.to",
+                   "found no free pose for robot '" + slot.robot->name() + "' in 10000 tries");
+}
+
+void Simulation::put_down(RobotSlot& slot) {
+  const EventDef& event = *slot.pending_kidnap;
+  const Pose2 target = event.to ? *event.to : random_free_pose(slot, event);
+  slot.robot->put_down(target);
+  slot.last_position = target.position();
+  slot.put_down_step.reset();
+  slot.pending_kidnap = nullptr;
+  log("put_down", slot.robot->name(), "to=" + format_pose(target));
+}
+
+void Simulation::fire(const EventDef& event) {
+  switch (event.kind) {
+    case EventDef::Kind::kKidnap: {
+      RobotSlot& slot = slot_of(event.robot);
+      if (slot.robot->carried()) break;  // already in the air: the later kidnap is moot
+      const Pose2 from = slot.robot->pose();
+      slot.robot->lift();
+      slot.pending_kidnap = &event;
+      ++slot.stats.kidnaps;
+      log("kidnap", event.robot,
+          "from=" + format_pose(from) + " carry_s=" + fixed(event.carry_s, 3) +
+              " to=" + (event.to ? format_pose(*event.to) : std::string("random")));
+      slot.put_down_step = step_index_ + std::llround(event.carry_s / dt_s_);
+      if (*slot.put_down_step <= step_index_) put_down(slot);
+      break;
+    }
+    case EventDef::Kind::kPush:
+      slot_of(event.robot).robot->push(event.impulse_ns, event.angular_impulse_nms);
+      log("push", event.robot,
+          "impulse_ns=(" + fixed(event.impulse_ns.x(), 3) + "," + fixed(event.impulse_ns.y(), 3) +
+              ") angular_impulse_nms=" + fixed(event.angular_impulse_nms, 3));
+      break;
+    case EventDef::Kind::kFriction:
+      world_->floor().set(event.region, event.friction);
+      log("friction", "", "region=" + event.region + " friction=" + fixed(event.friction, 3));
+      break;
+    case EventDef::Kind::kObstacle:
+      for (Mover& mover : world_->movers()) {
+        if (mover.def.name == event.obstacle) mover.moving = event.start_moving;
+      }
+      log(event.start_moving ? "obstacle_start" : "obstacle_stop", "", "name=" + event.obstacle);
+      break;
+    case EventDef::Kind::kEnd:
+      done_ = true;
+      break;
+  }
+}
+
+void Simulation::fire_due_events() {
+  for (RobotSlot& slot : robots_) {
+    if (slot.put_down_step && *slot.put_down_step <= step_index_) put_down(slot);
+  }
+  while (next_event_ < scenario_.events.size() && event_steps_[next_event_] <= step_index_) {
+    fire(scenario_.events[next_event_++]);
+  }
+  if (step_index_ >= end_step_) done_ = true;
+  if (done_) log("end", "", "t_s=" + fixed(time_s(), 4));
+}
+
+void Simulation::step() {
+  if (done_) return;
+  const double t = time_s();
+  for (RobotSlot& slot : robots_) {
+    if (slot.robot->carried() || !slot.driver) continue;
+    const VelocityCommand command = slot.driver->update(t, *slot.robot, *world_);
+    slot.robot->command(command.v_mps, command.w_radps);
+  }
+  world_->drive_movers(dt_s_);
+  for (RobotSlot& slot : robots_) slot.robot->apply_drive(dt_s_, world_->floor());
+  world_->step(dt_s_);
+  ++step_index_;
+
+  for (RobotSlot& slot : robots_) {
+    DiffDriveRobot& robot = *slot.robot;
+    if (robot.carried()) continue;
+    const Vec2 position = robot.pose().position();
+    slot.stats.ground_distance_m += (position - slot.last_position).norm();
+    slot.last_position = position;
+    slot.stats.wheel_distance_left_m += std::abs(robot.left().speed_radps) * robot.left().radius_m * dt_s_;
+    slot.stats.wheel_distance_right_m +=
+        std::abs(robot.right().speed_radps) * robot.right().radius_m * dt_s_;
+    if (robot.left().slipping || robot.right().slipping) slot.stats.slip_time_s += dt_s_;
+  }
+  for (const ContactChange& change : world_->take_contact_changes()) {
+    for (const auto& [self, other] : {std::pair{change.a, change.b}, std::pair{change.b, change.a}}) {
+      if (self.kind != BodyKind::kRobot) continue;
+      RobotSlot& slot = robots_[self.index];
+      Touch& touch = slot.touching[encode_tag(other)];
+      if (change.begin) {
+        // A body resting against another makes and breaks contact every few steps; only a
+        // contact after kCollisionQuietS of no touching counts as a new collision.
+        if (touch.count++ == 0 && step_index_ - touch.last_touch_step > collision_quiet_steps_) {
+          ++slot.stats.collisions;
+          log("collision", slot.robot->name(),
+              "with=" + body_name(other) + " at=" + format_pose(slot.robot->pose()));
+        }
+      } else if (touch.count > 0) {
+        --touch.count;
+      }
+      touch.last_touch_step = step_index_;
+    }
+  }
+  fire_due_events();
+}
+
+std::uint64_t Simulation::state_hash() const {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto mix = [&hash](double value) {
+    unsigned char bytes[sizeof(double)];
+    std::memcpy(bytes, &value, sizeof(double));
+    for (const unsigned char byte : bytes) {
+      hash ^= byte;
+      hash *= 0x100000001b3ULL;
+    }
+  };
+  mix(static_cast<double>(step_index_));
+  for (const RobotSlot& slot : robots_) {
+    const b2Body* body = slot.robot->body();
+    mix(body->GetPosition().x), mix(body->GetPosition().y), mix(body->GetAngle());
+    mix(body->GetLinearVelocity().x), mix(body->GetLinearVelocity().y);
+    mix(body->GetAngularVelocity());
+    mix(slot.robot->left().angle_rad), mix(slot.robot->right().angle_rad);
+  }
+  for (const Mover& mover : world_->movers()) {
+    mix(mover.body->GetPosition().x), mix(mover.body->GetPosition().y);
+  }
+  return hash;
+}
+
+}  // namespace locsim

@@ -1,0 +1,117 @@
+// One run: the physics world, its robots and movers, driven by a scenario on a fixed-step
+// simulated clock. Deterministic: the same world, scenario and seed give the same states.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/common/random.hpp"
+#include "sim/robot/diff_drive.hpp"
+#include "sim/scenario/drivers.hpp"
+#include "sim/scenario/scenario_def.hpp"
+#include "sim/world/physics_world.hpp"
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+/// Something that happened, for events.csv.
+struct SimEvent {
+  std::int64_t step = 0;
+  double t_s = 0.0;
+  std::string kind;     // kidnap, put_down, push, friction, obstacle_start/stop, end, collision
+  std::string robot;    // empty when not about one robot
+  std::string details;  // key=value pairs separated by spaces
+};
+
+/// Running totals per robot, for run.json and tests.
+struct RobotStats {
+  double ground_distance_m = 0.0;      // path length of the body on the floor (not while carried)
+  double wheel_distance_left_m = 0.0;  // |rotation| x true radius, summed
+  double wheel_distance_right_m = 0.0;
+  double slip_time_s = 0.0;  // time with a wheel at its friction limit
+  int collisions = 0;  // contacts begun after 0.5 s without touching that body
+  int kidnaps = 0;
+};
+
+class Simulation {
+ public:
+  /// `world` and `scenario` must have been checked (bind_scenario). Throws InputError when a
+  /// robot starts in collision.
+  Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed);
+  ~Simulation();
+
+  /// Advances one physics step, then applies the scenario events due at the new time, so that
+  /// the state at time t includes every event scheduled at or before t.
+  void step();
+  bool done() const { return done_; }
+
+  std::int64_t step_index() const { return step_index_; }
+  double time_s() const { return static_cast<double>(step_index_) * dt_s_; }
+  double dt_s() const { return dt_s_; }
+  std::int64_t end_step() const { return end_step_; }
+  std::uint64_t seed() const { return seed_; }
+
+  const WorldDef& world_def() const { return world_def_; }
+  const ScenarioDef& scenario() const { return scenario_; }
+  PhysicsWorld& world() { return *world_; }
+  const PhysicsWorld& world() const { return *world_; }
+  std::size_t robot_count() const { return robots_.size(); }
+  DiffDriveRobot& robot(std::size_t i) { return *robots_[i].robot; }
+  const DiffDriveRobot& robot(std::size_t i) const { return *robots_[i].robot; }
+  const RobotStats& stats(std::size_t i) const { return robots_[i].stats; }
+
+  /// Events since the last call, in order.
+  std::vector<SimEvent> take_events();
+  /// FNV-1a hash of every body's state and every wheel's rotation: equal hashes, equal runs.
+  std::uint64_t state_hash() const;
+
+ private:
+  struct Touch {
+    int count = 0;  // touching fixture pairs with one other body
+    std::int64_t last_touch_step = -1'000'000;
+  };
+  struct RobotSlot {
+    std::unique_ptr<DiffDriveRobot> robot;
+    std::unique_ptr<Driver> driver;  // null: commanded from outside (robot(i).command)
+    RandomStream kidnap_rng{0};
+    std::optional<std::int64_t> put_down_step;  // while carried
+    const EventDef* pending_kidnap = nullptr;
+    Vec2 last_position{0.0, 0.0};
+    RobotStats stats;
+    std::map<std::uintptr_t, Touch> touching;  // by the other body's tag
+  };
+  static constexpr double kCollisionQuietS = 0.5;  // see step() [s]
+
+  void fire_due_events();
+  void fire(const EventDef& event);
+  void put_down(RobotSlot& slot);
+  Pose2 random_free_pose(RobotSlot& slot, const EventDef& event);
+  RobotSlot& slot_of(const std::string& robot);
+  std::string body_name(const BodyTag& tag) const;
+  void log(std::string kind, std::string robot, std::string details);
+
+  WorldDef world_def_;
+  ScenarioDef scenario_;
+  std::uint64_t seed_;
+  double dt_s_;
+  std::int64_t step_index_ = 0;
+  std::int64_t end_step_;
+  std::int64_t collision_quiet_steps_;
+  std::size_t next_event_ = 0;
+  std::vector<std::int64_t> event_steps_;
+  bool done_ = false;
+  std::unique_ptr<PhysicsWorld> world_;
+  std::vector<RobotSlot> robots_;
+  std::vector<SimEvent> events_;
+};
+
+/// Fixed-precision decimal text, independent of the C locale. Appends to `out`.
+void append_fixed(std::string& out, double value, int decimals);
+std::string fixed(double value, int decimals);
+std::string format_pose(const Pose2& pose);
+
+}  // namespace locsim

@@ -1,0 +1,120 @@
+#include "sim/scenario/drivers.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace locsim {
+
+namespace {
+
+class IdleDriver final : public Driver {
+ public:
+  VelocityCommand update(double t_s, const DiffDriveRobot&, const PhysicsWorld&) override {
+    return {t_s, 0.0, 0.0};
+  }
+};
+
+/// Turns toward the current waypoint (in place when it lies more than 60° off the heading) and
+/// drives at cruise speed, slowing down for the last waypoint of an open path.
+class WaypointDriver final : public Driver {
+ public:
+  explicit WaypointDriver(DriveDef def) : def_(std::move(def)) {}
+
+  VelocityCommand update(double t_s, const DiffDriveRobot& robot, const PhysicsWorld&) override {
+    if (done_) return {t_s, 0.0, 0.0};
+    const Pose2 pose = robot.pose();
+    Vec2 to_target = def_.path_m[next_] - pose.position();
+    while (to_target.norm() < def_.tolerance_m) {
+      if (next_ + 1 < def_.path_m.size()) {
+        ++next_;
+      } else if (def_.loop) {
+        next_ = 0;
+      } else {
+        done_ = true;
+        return {t_s, 0.0, 0.0};
+      }
+      to_target = def_.path_m[next_] - pose.position();
+    }
+    const double heading_error = wrap_angle(std::atan2(to_target.y(), to_target.x()) - pose.theta);
+    const double w = std::clamp(def_.heading_gain * heading_error, -def_.max_turn_rate_radps,
+                                def_.max_turn_rate_radps);
+    double v = std::abs(heading_error) > std::numbers::pi / 3.0
+                   ? 0.0
+                   : def_.speed_mps * std::cos(heading_error);
+    const bool last = !def_.loop && next_ + 1 == def_.path_m.size();
+    if (last) v = std::min(v, to_target.norm());  // arrive gently: 1 m/s per metre left
+    return {t_s, v, w};
+  }
+
+ private:
+  DriveDef def_;
+  std::size_t next_ = 0;
+  bool done_ = false;
+};
+
+/// Piecewise-constant commands; the last one holds until the end.
+class VelocityDriver final : public Driver {
+ public:
+  explicit VelocityDriver(DriveDef def) : def_(std::move(def)) {}
+
+  VelocityCommand update(double t_s, const DiffDriveRobot&, const PhysicsWorld&) override {
+    while (next_ < def_.commands.size() && def_.commands[next_].t_s <= t_s + 1e-9) ++next_;
+    if (next_ == 0) return {t_s, 0.0, 0.0};
+    const VelocityCommand& current = def_.commands[next_ - 1];
+    return {t_s, current.v_mps, current.w_radps};
+  }
+
+ private:
+  DriveDef def_;
+  std::size_t next_ = 0;
+};
+
+/// Drives straight; when something is within the clearance ahead, turns in place toward the
+/// freer side for a random time, then goes on.
+class WanderDriver final : public Driver {
+ public:
+  WanderDriver(DriveDef def, RandomStream rng) : def_(std::move(def)), rng_(rng) {}
+
+  VelocityCommand update(double t_s, const DiffDriveRobot& robot,
+                         const PhysicsWorld& world) override {
+    if (t_s < turning_until_s_) return {t_s, 0.0, turn_direction_ * def_.max_turn_rate_radps};
+    const Pose2 pose = robot.pose();
+    const double reach = def_.clearance_m + bounding_radius(robot.def().footprint);
+    const auto free_distance = [&](double bearing) {
+      const Vec2 end = pose.transform({reach * std::cos(bearing), reach * std::sin(bearing)});
+      return world.ray_cast(pose.position(), end, robot.body()).value_or(reach);
+    };
+    const double ahead = std::min({free_distance(0.0), free_distance(0.35), free_distance(-0.35)});
+    if (ahead < reach) {
+      turn_direction_ = free_distance(1.2) >= free_distance(-1.2) ? 1.0 : -1.0;
+      const double turn_rad = rng_.uniform(0.4, 1.0) * std::numbers::pi;
+      turning_until_s_ = t_s + turn_rad / def_.max_turn_rate_radps;
+      return {t_s, 0.0, turn_direction_ * def_.max_turn_rate_radps};
+    }
+    return {t_s, def_.speed_mps, 0.0};
+  }
+
+ private:
+  DriveDef def_;
+  RandomStream rng_;
+  double turning_until_s_ = -1.0;
+  double turn_direction_ = 1.0;
+};
+
+}  // namespace
+
+std::unique_ptr<Driver> make_driver(const DriveDef& def, RandomStream rng) {
+  switch (def.mode) {
+    case DriveDef::Mode::kIdle:
+      return std::make_unique<IdleDriver>();
+    case DriveDef::Mode::kWaypoints:
+      return std::make_unique<WaypointDriver>(def);
+    case DriveDef::Mode::kVelocity:
+      return std::make_unique<VelocityDriver>(def);
+    case DriveDef::Mode::kWander:
+      return std::make_unique<WanderDriver>(def, rng);
+  }
+  return std::make_unique<IdleDriver>();
+}
+
+}  // namespace locsim

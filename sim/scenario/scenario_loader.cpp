@@ -1,0 +1,218 @@
+#include "sim/scenario/scenario_loader.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+namespace {
+
+DriveDef parse_drive(const YamlNode& node) {
+  node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
+                   "tolerance_m", "heading_gain", "commands", "clearance_m"});
+  DriveDef drive;
+  drive.where = node.where();
+  drive.robot = node.get_string("robot", "");
+  const YamlNode mode = node["mode"];
+  const std::string mode_name = mode.as_string();
+  const auto only = [&](std::initializer_list<std::string_view> keys) {
+    for (const std::string_view key : {"path", "loop", "tolerance_m", "heading_gain", "commands",
+                                       "clearance_m", "speed_mps", "max_turn_rate_radps"}) {
+      if (node.has(key) && std::find(keys.begin(), keys.end(), key) == keys.end()) {
+        node[key].fail("not used by mode '" + mode_name + "'");
+      }
+    }
+  };
+  drive.speed_mps = node.get_double("speed_mps", drive.speed_mps, Check::kNonNegative);
+  drive.max_turn_rate_radps =
+      node.get_double("max_turn_rate_radps", drive.max_turn_rate_radps, Check::kPositive);
+  if (mode_name == "idle") {
+    drive.mode = DriveDef::Mode::kIdle;
+    only({});
+  } else if (mode_name == "waypoints") {
+    drive.mode = DriveDef::Mode::kWaypoints;
+    only({"path", "loop", "speed_mps", "max_turn_rate_radps", "tolerance_m", "heading_gain"});
+    drive.path_m = node["path"].as_points(1);
+    drive.loop = node.get_bool("loop", drive.loop);
+    drive.tolerance_m = node.get_double("tolerance_m", drive.tolerance_m, Check::kPositive);
+    drive.heading_gain = node.get_double("heading_gain", drive.heading_gain, Check::kPositive);
+  } else if (mode_name == "velocity") {
+    drive.mode = DriveDef::Mode::kVelocity;
+    only({"commands"});
+    double previous_t = -1.0;
+    for (const YamlNode& item : node["commands"].items()) {
+      item.allow_keys({"t_s", "v_mps", "w_radps"});
+      VelocityCommand command;
+      command.t_s = item["t_s"].as_double(Check::kNonNegative);
+      if (command.t_s <= previous_t) item["t_s"].fail("command times must increase");
+      previous_t = command.t_s;
+      command.v_mps = item.get_double("v_mps", 0.0);
+      command.w_radps = item.get_double("w_radps", 0.0);
+      drive.commands.push_back(command);
+    }
+  } else if (mode_name == "wander") {
+    drive.mode = DriveDef::Mode::kWander;
+    only({"speed_mps", "max_turn_rate_radps", "clearance_m"});
+    drive.clearance_m = node.get_double("clearance_m", drive.clearance_m, Check::kPositive);
+  } else {
+    mode.fail("unknown mode (known: idle, waypoints, velocity, wander)");
+  }
+  return drive;
+}
+
+EventDef parse_event(const YamlNode& node) {
+  static constexpr std::array<std::string_view, 5> kKinds = {"kidnap", "push", "friction",
+                                                             "obstacle", "end"};
+  node.allow_keys({"at_s", "kidnap", "push", "friction", "obstacle", "end"});
+  EventDef event;
+  event.where = node.where();
+  event.at_s = node["at_s"].as_double(Check::kNonNegative);
+  int kinds_given = 0;
+  for (const std::string_view kind : kKinds) kinds_given += node.has(kind) ? 1 : 0;
+  if (kinds_given != 1) node.fail("an event has 'at_s' and exactly one of: kidnap, push, friction, obstacle, end");
+
+  if (const auto kidnap = node.find("kidnap")) {
+    event.kind = EventDef::Kind::kKidnap;
+    kidnap->allow_keys({"robot", "to", "within", "carry_s"});
+    event.robot = kidnap->get_string("robot", "");
+    const YamlNode to = (*kidnap)["to"];
+    if (to.is_scalar()) {
+      if (to.as_string() != "random") to.fail("expected a pose {x, y, theta} or 'random'");
+      if (const auto within = kidnap->find("within")) {
+        within->allow_keys({"min", "max"});
+        event.random_min_m = (*within)["min"].as_vec2();
+        event.random_max_m = (*within)["max"].as_vec2();
+        if (!(event.random_max_m->x() > event.random_min_m->x() &&
+              event.random_max_m->y() > event.random_min_m->y())) {
+          within->fail("'max' must exceed 'min' in x and y");
+        }
+      }
+    } else {
+      event.to = to.as_pose();
+      if (kidnap->has("within")) (*kidnap)["within"].fail("only with 'to: random'");
+    }
+    event.carry_s = kidnap->get_double("carry_s", 0.0, Check::kNonNegative);
+  } else if (const auto push = node.find("push")) {
+    event.kind = EventDef::Kind::kPush;
+    push->allow_keys({"robot", "impulse_ns", "angular_impulse_nms"});
+    event.robot = push->get_string("robot", "");
+    if (const auto impulse = push->find("impulse_ns")) event.impulse_ns = impulse->as_vec2();
+    event.angular_impulse_nms = push->get_double("angular_impulse_nms", 0.0);
+  } else if (const auto friction = node.find("friction")) {
+    event.kind = EventDef::Kind::kFriction;
+    friction->allow_keys({"region", "friction"});
+    event.region = (*friction)["region"].as_string();
+    event.friction = (*friction)["friction"].as_double(Check::kNonNegative);
+  } else if (const auto obstacle = node.find("obstacle")) {
+    event.kind = EventDef::Kind::kObstacle;
+    obstacle->allow_keys({"name", "action"});
+    event.obstacle = (*obstacle)["name"].as_string();
+    const YamlNode action = (*obstacle)["action"];
+    const std::string action_name = action.as_string();
+    if (action_name != "start" && action_name != "stop") action.fail("expected 'start' or 'stop'");
+    event.start_moving = action_name == "start";
+  } else {
+    event.kind = EventDef::Kind::kEnd;
+    const YamlNode end = node["end"];
+    if (!end.is_null()) end.allow_keys({});
+  }
+  return event;
+}
+
+}  // namespace
+
+ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*base_dir*/) {
+  node.allow_keys({"name", "duration_s", "groundtruth_hz", "drive", "events"});
+  ScenarioDef scenario;
+  scenario.name = node.get_string("name", scenario.name);
+  scenario.duration_s = node.get_double("duration_s", scenario.duration_s, Check::kPositive);
+  scenario.groundtruth_hz =
+      node.get_double("groundtruth_hz", scenario.groundtruth_hz, Check::kPositive);
+  if (const auto drive = node.find("drive")) {
+    if (drive->is_sequence()) {
+      for (const YamlNode& item : drive->items()) scenario.drives.push_back(parse_drive(item));
+    } else {
+      scenario.drives.push_back(parse_drive(*drive));
+    }
+  }
+  if (const auto events = node.find("events")) {
+    for (const YamlNode& item : events->items()) scenario.events.push_back(parse_event(item));
+  }
+  std::stable_sort(scenario.events.begin(), scenario.events.end(),
+                   [](const EventDef& a, const EventDef& b) { return a.at_s < b.at_s; });
+  return scenario;
+}
+
+ScenarioDef load_scenario(const std::filesystem::path& file) {
+  ScenarioDef scenario = parse_scenario(YamlNode::load_file(file), file.parent_path());
+  scenario.source = file;
+  return scenario;
+}
+
+void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
+  const auto bind_robot = [&](std::string& robot, const SourceLocation& where,
+                              const std::string& what) {
+    if (robot.empty()) {
+      if (world.robots.size() != 1) {
+        throw InputError(where, "robot", what + " must name its robot: the world has " +
+                                             std::to_string(world.robots.size()) + " robots");
+      }
+      robot = world.robots.front().name;
+      return;
+    }
+    const bool known = std::any_of(world.robots.begin(), world.robots.end(),
+                                   [&](const RobotDef& r) { return r.name == robot; });
+    if (!known) throw InputError(where, "robot", "no robot called '" + robot + "' in the world");
+  };
+  std::vector<std::string> driven;
+  for (DriveDef& drive : scenario.drives) {
+    bind_robot(drive.robot, drive.where, "a drive");
+    if (std::find(driven.begin(), driven.end(), drive.robot) != driven.end()) {
+      throw InputError(drive.where, "robot", "robot '" + drive.robot + "' has two drives");
+    }
+    driven.push_back(drive.robot);
+  }
+  const double step_hz = world.physics.step_hz;
+  const double ratio = step_hz / scenario.groundtruth_hz;
+  if (scenario.groundtruth_hz > step_hz || std::abs(ratio - std::round(ratio)) > 1e-9) {
+    throw InputError(SourceLocation{scenario.source.string()}, "groundtruth_hz",
+                     "must divide the physics rate (" + std::to_string(step_hz) + " Hz)");
+  }
+  for (EventDef& event : scenario.events) {
+    switch (event.kind) {
+      case EventDef::Kind::kKidnap:
+        bind_robot(event.robot, event.where, "a kidnap");
+        break;
+      case EventDef::Kind::kPush:
+        bind_robot(event.robot, event.where, "a push");
+        break;
+      case EventDef::Kind::kFriction: {
+        const bool known =
+            event.region == "floor" ||
+            std::any_of(world.floor.regions.begin(), world.floor.regions.end(),
+                        [&](const FloorRegionDef& r) { return r.name == event.region; });
+        if (!known) {
+          throw InputError(event.where, "friction.region",
+                           "no floor region called '" + event.region + "' (or use 'floor')");
+        }
+        break;
+      }
+      case EventDef::Kind::kObstacle: {
+        const bool known = std::any_of(world.movers.begin(), world.movers.end(),
+                                       [&](const MoverDef& m) { return m.name == event.obstacle; });
+        if (!known) {
+          throw InputError(event.where, "obstacle.name",
+                           "no mover called '" + event.obstacle + "' in the world");
+        }
+        break;
+      }
+      case EventDef::Kind::kEnd:
+        break;
+    }
+  }
+}
+
+}  // namespace locsim

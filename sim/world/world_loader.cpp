@@ -1,0 +1,327 @@
+#include "sim/world/world_loader.hpp"
+
+#include <map>
+#include <set>
+
+#include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/pgm.hpp"
+
+namespace locsim {
+
+namespace {
+
+bool is_convex_ccw(const std::vector<Vec2>& points) {
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2& a = points[i];
+    const Vec2& b = points[(i + 1) % n];
+    const Vec2& c = points[(i + 2) % n];
+    if (cross(b - a, c - b) <= 1e-12) return false;
+  }
+  return true;
+}
+
+double signed_area(const std::vector<Vec2>& points) {
+  double area = 0.0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    area += cross(points[i], points[(i + 1) % points.size()]);
+  }
+  return 0.5 * area;
+}
+
+/// Box2D polygons: convex, 3..8 vertices. Accepts either winding and stores counter-clockwise.
+std::vector<Vec2> convex_polygon(const YamlNode& node) {
+  std::vector<Vec2> points = node.as_points(3);
+  if (points.size() > 8) node.fail("a polygon has at most 8 vertices (Box2D's limit); split it "
+                                   "or use walls");
+  if (signed_area(points) < 0.0) std::reverse(points.begin(), points.end());
+  if (!is_convex_ccw(points)) node.fail("polygon must be convex with no repeated points");
+  return points;
+}
+
+Rgb parse_color(const YamlNode& node, std::string& name_out) {
+  static const std::map<std::string, Rgb> kNamed = {
+      {"red", {230, 25, 25}},      {"green", {20, 170, 40}},   {"blue", {30, 80, 230}},
+      {"yellow", {240, 210, 20}},  {"cyan", {20, 200, 220}},   {"magenta", {220, 40, 200}},
+      {"orange", {255, 130, 0}},   {"purple", {120, 40, 170}}, {"white", {245, 245, 245}},
+      {"black", {20, 20, 20}},     {"pink", {255, 140, 180}},  {"brown", {130, 80, 30}},
+  };
+  if (node.is_scalar()) {
+    name_out = node.as_string();
+    const auto it = kNamed.find(name_out);
+    if (it == kNamed.end()) {
+      std::string known;
+      for (const auto& [n, rgb] : kNamed) known += (known.empty() ? "" : ", ") + n;
+      node.fail("unknown colour '" + name_out + "' (known: " + known + "; or give [r, g, b])");
+    }
+    return it->second;
+  }
+  const auto channels = node.items();
+  if (channels.size() != 3) node.fail("expected a colour name or [r, g, b] with 0..255 each");
+  name_out.clear();
+  Rgb rgb{};
+  for (std::size_t i = 0; i < 3; ++i) rgb[i] = static_cast<unsigned char>(channels[i].as_int(0, 255));
+  return rgb;
+}
+
+PhysicsDef parse_physics(const YamlNode& node) {
+  node.allow_keys({"step_hz", "velocity_iterations", "position_iterations", "gravity_mps2"});
+  PhysicsDef physics;
+  physics.step_hz = node.get_double("step_hz", physics.step_hz, Check::kPositive);
+  if (physics.step_hz < 10.0 || physics.step_hz > 10000.0) {
+    node["step_hz"].fail("must be in [10, 10000] Hz");
+  }
+  physics.velocity_iterations =
+      static_cast<int>(node.get_int("velocity_iterations", physics.velocity_iterations, 1, 100));
+  physics.position_iterations =
+      static_cast<int>(node.get_int("position_iterations", physics.position_iterations, 1, 100));
+  physics.gravity_mps2 = node.get_double("gravity_mps2", physics.gravity_mps2, Check::kPositive);
+  return physics;
+}
+
+FloorDef parse_floor(const YamlNode& node) {
+  node.allow_keys({"friction", "regions"});
+  FloorDef floor;
+  floor.friction = node.get_double("friction", floor.friction, Check::kNonNegative);
+  std::set<std::string> names;
+  if (const auto regions = node.find("regions")) {
+    for (const YamlNode& item : regions->items()) {
+      item.allow_keys({"name", "friction", "polygon", "box"});
+      FloorRegionDef region;
+      region.name = item["name"].as_string();
+      if (region.name == "floor") item["name"].fail("'floor' is reserved for the default floor");
+      if (!names.insert(region.name).second) item["name"].fail("region name used twice");
+      region.friction = item["friction"].as_double(Check::kNonNegative);
+      const auto polygon = item.find("polygon");
+      const auto box = item.find("box");
+      if (polygon.has_value() == box.has_value()) item.fail("give exactly one of 'polygon' or 'box'");
+      if (polygon) {
+        region.polygon_m = polygon->as_points(3);
+        if (std::abs(signed_area(region.polygon_m)) < 1e-9) polygon->fail("polygon has no area");
+      } else {
+        box->allow_keys({"min", "max"});
+        const Vec2 lo = (*box)["min"].as_vec2(), hi = (*box)["max"].as_vec2();
+        if (!(hi.x() > lo.x() && hi.y() > lo.y())) box->fail("'max' must exceed 'min' in x and y");
+        region.polygon_m = {lo, {hi.x(), lo.y()}, hi, {lo.x(), hi.y()}};
+      }
+      floor.regions.push_back(std::move(region));
+    }
+  }
+  return floor;
+}
+
+}  // namespace
+
+FootprintDef parse_footprint(const YamlNode& node) {
+  node.allow_keys({"radius_m", "box_m", "polygon"});
+  FootprintDef footprint;
+  const auto radius = node.find("radius_m");
+  const auto box = node.find("box_m");
+  const auto polygon = node.find("polygon");
+  if (int(radius.has_value()) + int(box.has_value()) + int(polygon.has_value()) != 1) {
+    node.fail("give exactly one of 'radius_m', 'box_m' [length, width] or 'polygon'");
+  }
+  if (radius) {
+    footprint.kind = FootprintDef::Kind::kCircle;
+    footprint.radius_m = radius->as_double(Check::kPositive);
+  } else if (box) {
+    footprint.kind = FootprintDef::Kind::kBox;
+    footprint.size_m = box->as_vec2();
+    if (!(footprint.size_m.x() > 0.0 && footprint.size_m.y() > 0.0)) box->fail("sizes must be > 0");
+  } else {
+    footprint.kind = FootprintDef::Kind::kPolygon;
+    footprint.points_m = convex_polygon(*polygon);
+  }
+  return footprint;
+}
+
+OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
+  const YamlNode root = YamlNode::load_file(map_yaml);
+  root.allow_keys({"image", "resolution", "origin", "occupied_thresh", "free_thresh", "negate",
+                   "mode"});
+  OccupancyMapDef map;
+  map.yaml_file = map_yaml;
+  map.image_file = map_yaml.parent_path() / root["image"].as_string();
+  map.resolution_m = root["resolution"].as_double(Check::kPositive);
+  const auto origin = root["origin"].items();
+  if (origin.size() != 3) root["origin"].fail("expected [x, y, yaw]");
+  map.origin = Pose2{origin[0].as_double(), origin[1].as_double(), origin[2].as_double()};
+  map.occupied_thresh = root.get_double("occupied_thresh", map.occupied_thresh, Check::kUnitInterval);
+  map.free_thresh = root.get_double("free_thresh", map.free_thresh, Check::kUnitInterval);
+  if (map.free_thresh > map.occupied_thresh) {
+    root["free_thresh"].fail("must not exceed occupied_thresh");
+  }
+  if (const auto negate = root.find("negate")) map.negate = negate->as_int(0, 1) != 0;
+  if (const auto mode = root.find("mode")) {
+    const std::string m = mode->as_string();
+    if (m != "trinary" && m != "scale") mode->fail("only 'trinary' and 'scale' maps are supported");
+  }
+  if (!std::filesystem::exists(map.image_file)) {
+    root["image"].fail("no such map image '" + map.image_file.string() + "'");
+  }
+  const GrayImage image = read_pgm(map.image_file);
+  map.width_px = image.width;
+  map.height_px = image.height;
+  map.occupied.resize(image.pixels.size());
+  for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+    const double value = image.pixels[i] / 255.0;
+    // map_server: occupancy p = (255 - value) / 255, or value / 255 when negated.
+    const double occupancy = map.negate ? value : 1.0 - value;
+    map.occupied[i] = occupancy > map.occupied_thresh ? 1 : 0;
+  }
+  return map;
+}
+
+WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir) {
+  root.allow_keys({"name", "physics", "floor", "walls", "boxes", "circles", "polygons", "map",
+                   "landmarks", "beacons", "movers", "robots", "scenario"});
+  WorldDef world;
+  world.name = root.get_string("name", world.name);
+  if (const auto physics = root.find("physics")) world.physics = parse_physics(*physics);
+  if (const auto floor = root.find("floor")) world.floor = parse_floor(*floor);
+
+  if (const auto walls = root.find("walls")) {
+    for (const YamlNode& item : walls->items()) {
+      item.allow_keys({"points", "closed", "thickness_m"});
+      WallDef wall;
+      wall.points_m = item["points"].as_points(2);
+      wall.closed = item.get_bool("closed", false);
+      if (wall.closed && wall.points_m.size() < 3) item["closed"].fail("a closed wall needs 3 points");
+      wall.thickness_m = item.get_double("thickness_m", wall.thickness_m, Check::kPositive);
+      for (std::size_t i = 0; i + 1 < wall.points_m.size(); ++i) {
+        if ((wall.points_m[i + 1] - wall.points_m[i]).norm() < 0.01) {
+          item["points"].fail("consecutive points closer than 1 cm (point " + std::to_string(i + 1) + ")");
+        }
+      }
+      world.walls.push_back(std::move(wall));
+    }
+  }
+  if (const auto boxes = root.find("boxes")) {
+    for (const YamlNode& item : boxes->items()) {
+      item.allow_keys({"center", "size", "angle", "angle_deg"});
+      BoxDef box;
+      box.center_m = item["center"].as_vec2();
+      box.size_m = item["size"].as_vec2();
+      if (!(box.size_m.x() > 0.0 && box.size_m.y() > 0.0)) item["size"].fail("sizes must be > 0");
+      box.angle_rad = item.get_angle("angle", 0.0);
+      world.boxes.push_back(box);
+    }
+  }
+  if (const auto circles = root.find("circles")) {
+    for (const YamlNode& item : circles->items()) {
+      item.allow_keys({"center", "radius_m"});
+      world.circles.push_back(
+          CircleDef{item["center"].as_vec2(), item["radius_m"].as_double(Check::kPositive)});
+    }
+  }
+  if (const auto polygons = root.find("polygons")) {
+    for (const YamlNode& item : polygons->items()) {
+      item.allow_keys({"points"});
+      world.polygons.push_back(PolygonDef{convex_polygon(item["points"])});
+    }
+  }
+  if (const auto map = root.find("map")) {
+    const std::filesystem::path map_file = base_dir / map->as_string();
+    if (!std::filesystem::exists(map_file)) map->fail("no such map file '" + map_file.string() + "'");
+    world.map = load_occupancy_map(map_file);
+  }
+
+  if (const auto landmarks = root.find("landmarks")) {
+    std::set<int> ids;
+    for (const YamlNode& item : landmarks->items()) {
+      item.allow_keys({"id", "position", "color", "radius_m", "height_m"});
+      LandmarkDef landmark;
+      landmark.id = static_cast<int>(item["id"].as_int(0, 1'000'000));
+      if (!ids.insert(landmark.id).second) item["id"].fail("landmark id used twice");
+      landmark.position_m = item["position"].as_vec2();
+      if (const auto color = item.find("color")) landmark.color = parse_color(*color, landmark.color_name);
+      landmark.radius_m = item.get_double("radius_m", landmark.radius_m, Check::kPositive);
+      landmark.height_m = item.get_double("height_m", landmark.height_m, Check::kPositive);
+      world.landmarks.push_back(landmark);
+    }
+  }
+  if (const auto beacons = root.find("beacons")) {
+    std::set<int> ids;
+    for (const YamlNode& item : beacons->items()) {
+      item.allow_keys({"id", "position", "height_m"});
+      BeaconDef beacon;
+      beacon.id = static_cast<int>(item["id"].as_int(0, 1'000'000));
+      if (!ids.insert(beacon.id).second) item["id"].fail("beacon id used twice");
+      beacon.position_m = item["position"].as_vec2();
+      beacon.height_m = item.get_double("height_m", beacon.height_m, Check::kNonNegative);
+      world.beacons.push_back(beacon);
+    }
+  }
+  std::set<std::string> body_names;
+  if (const auto movers = root.find("movers")) {
+    for (const YamlNode& item : movers->items()) {
+      item.allow_keys({"name", "kind", "footprint", "path", "speed_mps", "loop", "moving"});
+      MoverDef mover;
+      mover.name = item["name"].as_string();
+      if (!body_names.insert(mover.name).second) item["name"].fail("name used twice");
+      mover.kind = item.get_string("kind", mover.kind);
+      if (mover.kind == "person") {
+        mover.footprint.kind = FootprintDef::Kind::kCircle;
+        mover.footprint.radius_m = 0.25;
+      } else if (mover.kind == "cart") {
+        mover.footprint.kind = FootprintDef::Kind::kBox;
+        mover.footprint.size_m = {0.8, 0.5};
+      } else {
+        item["kind"].fail("expected 'person' or 'cart'");
+      }
+      if (const auto footprint = item.find("footprint")) mover.footprint = parse_footprint(*footprint);
+      mover.path_m = item["path"].as_points(1);
+      mover.speed_mps = item.get_double("speed_mps", mover.speed_mps, Check::kNonNegative);
+      mover.loop = item.get_bool("loop", mover.loop);
+      mover.moving = item.get_bool("moving", mover.moving);
+      world.movers.push_back(std::move(mover));
+    }
+  }
+
+  const auto robots = root["robots"];
+  for (const YamlNode& item : robots.items()) {
+    item.allow_keys({"name", "footprint", "mass_kg", "wheel_base_m", "wheel_radius_m",
+                     "wheel_radius_left_m", "wheel_radius_right_m", "wheel_inertia_kgm2",
+                     "max_wheel_speed_radps", "max_wheel_accel_radps2", "max_wheel_torque_nm",
+                     "drive_load_fraction", "start"});
+    RobotDef robot;
+    robot.where = item.where();
+    robot.name = item.get_string("name", "robot" + std::to_string(world.robots.size()));
+    if (robot.name.empty() || robot.name.find_first_of("/\\ .") != std::string::npos) {
+      item["name"].fail("a robot name names its output folder: no spaces, dots or slashes");
+    }
+    if (!body_names.insert(robot.name).second) item.fail("name '" + robot.name + "' used twice");
+    if (const auto footprint = item.find("footprint")) robot.footprint = parse_footprint(*footprint);
+    robot.mass_kg = item.get_double("mass_kg", robot.mass_kg, Check::kPositive);
+    robot.wheel_base_m = item.get_double("wheel_base_m", robot.wheel_base_m, Check::kPositive);
+    robot.wheel_radius_m = item.get_double("wheel_radius_m", robot.wheel_radius_m, Check::kPositive);
+    robot.wheel_radius_left_m =
+        item.get_double("wheel_radius_left_m", robot.wheel_radius_m, Check::kPositive);
+    robot.wheel_radius_right_m =
+        item.get_double("wheel_radius_right_m", robot.wheel_radius_m, Check::kPositive);
+    robot.wheel_inertia_kgm2 =
+        item.get_double("wheel_inertia_kgm2", robot.wheel_inertia_kgm2, Check::kPositive);
+    robot.max_wheel_speed_radps =
+        item.get_double("max_wheel_speed_radps", robot.max_wheel_speed_radps, Check::kPositive);
+    robot.max_wheel_accel_radps2 =
+        item.get_double("max_wheel_accel_radps2", robot.max_wheel_accel_radps2, Check::kPositive);
+    robot.max_wheel_torque_nm =
+        item.get_double("max_wheel_torque_nm", robot.max_wheel_torque_nm, Check::kPositive);
+    robot.drive_load_fraction =
+        item.get_double("drive_load_fraction", robot.drive_load_fraction, Check::kUnitInterval);
+    robot.start = item["start"].as_pose();
+    world.robots.push_back(std::move(robot));
+  }
+  if (world.robots.empty()) robots.fail("a world needs at least one robot");
+
+  if (const auto scenario = root.find("scenario")) world.scenario = parse_scenario(*scenario, base_dir);
+  return world;
+}
+
+WorldDef load_world(const std::filesystem::path& file) {
+  WorldDef world = parse_world(YamlNode::load_file(file), file.parent_path());
+  world.source = file;
+  return world;
+}
+
+}  // namespace locsim

@@ -1,0 +1,100 @@
+// Physics throughput as a table of named scenes (Box2D v3 style). Counters: steps_per_s and
+// real_time_factor (simulated seconds per wall second). Target: the demo world >= 2000x real
+// time on one core at 200 Hz.
+#include <benchmark/benchmark.h>
+
+#include <box2d/box2d.h>
+
+#include <filesystem>
+
+#include "sim/run/runner.hpp"
+#include "sim/run/simulation.hpp"
+#include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace locsim;
+
+void report(benchmark::State& state, std::int64_t steps, double step_hz) {
+  state.counters["steps_per_s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+  state.counters["real_time_factor"] =
+      benchmark::Counter(static_cast<double>(steps) / step_hz, benchmark::Counter::kIsRate);
+}
+
+/// The reference: a bare Box2D loop, one circle bouncing in a walled 10 m x 8 m room at 200 Hz.
+void BM_Box2dBareRoom(benchmark::State& state) {
+  b2World world(b2Vec2(0.0f, 0.0f));
+  b2BodyDef ground_def;
+  b2Body* ground = world.CreateBody(&ground_def);
+  const b2Vec2 corners[4] = {{0, 0}, {10, 0}, {10, 8}, {0, 8}};
+  b2ChainShape walls;
+  walls.CreateLoop(corners, 4);
+  ground->CreateFixture(&walls, 0.0f);
+  b2BodyDef body_def;
+  body_def.type = b2_dynamicBody;
+  body_def.position.Set(5, 4);
+  body_def.allowSleep = false;
+  b2Body* body = world.CreateBody(&body_def);
+  b2CircleShape circle;
+  circle.m_radius = 0.2f;
+  b2FixtureDef fixture;
+  fixture.shape = &circle;
+  fixture.density = 80.0f;
+  fixture.restitution = 1.0f;
+  body->CreateFixture(&fixture);
+  body->SetLinearVelocity({0.7f, 0.4f});
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    world.Step(1.0f / 200.0f, 8, 3);
+    ++steps;
+  }
+  benchmark::DoNotOptimize(body->GetPosition());
+  report(state, steps, 200.0);
+}
+BENCHMARK(BM_Box2dBareRoom);
+
+Simulation make(const fs::path& world_file) {
+  WorldDef world = load_world(world_file);
+  ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
+  scenario.duration_s = 1e9;  // the benchmark decides how long
+  scenario.events.clear();    // no kidnaps: measure steady driving
+  bind_scenario(scenario, world);
+  return Simulation(world, scenario, 1);
+}
+
+/// Steps of a world file's scenario, without output.
+void BM_Scene(benchmark::State& state, const char* world_file) {
+  Simulation sim = make(fs::path(LOCSIM_SOURCE_DIR) / world_file);
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    sim.step();
+    ++steps;
+  }
+  report(state, steps, sim.world_def().physics.step_hz);
+}
+BENCHMARK_CAPTURE(BM_Scene, demo, "worlds/demo/demo.yaml");
+BENCHMARK_CAPTURE(BM_Scene, office_map, "worlds/maps/office_world.yaml");
+BENCHMARK_CAPTURE(BM_Scene, four_robots, "worlds/demo/four_robots.yaml");
+
+/// `locsim run` of the demo world end to end: loading, 60 s of simulation, writing the folder.
+void BM_DemoRunWithOutput(benchmark::State& state) {
+  const fs::path out = fs::temp_directory_path() / "locsim_bench_run";
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    RunOptions options;
+    options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+    options.out_dir = out;
+    options.overwrite = true;
+    const RunResult result = run_simulation(options);
+    steps += static_cast<std::int64_t>(result.simulated_s * 200.0);
+  }
+  fs::remove_all(out);
+  report(state, steps, 200.0);
+}
+BENCHMARK(BM_DemoRunWithOutput)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

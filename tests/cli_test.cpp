@@ -1,0 +1,122 @@
+// The locsim command as a user meets it: exit codes, messages, and run folders.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome locsim(const std::string& arguments) {
+  const std::string command = std::string(LOCSIM_BINARY) + " " + arguments + " 2>&1 </dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  Outcome outcome;
+  if (pipe == nullptr) return outcome;
+  char buffer[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) outcome.output.append(buffer, n);
+  const int status = pclose(pipe);
+  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return outcome;
+}
+
+const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+
+TEST(Cli, HelpDocumentsTheExitCodes) {
+  const Outcome help = locsim("--help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.output.find("2    bad input"), std::string::npos) << help.output;
+  const Outcome run_help = locsim("run --help");
+  EXPECT_EQ(run_help.exit_code, 0);
+  EXPECT_NE(run_help.output.find("--seed"), std::string::npos);
+  EXPECT_NE(run_help.output.find("130  interrupted"), std::string::npos);
+}
+
+TEST(Cli, BadCommandLineExitsWithTwo) {
+  EXPECT_EQ(locsim("").exit_code, 2);
+  EXPECT_EQ(locsim("run").exit_code, 2);
+  EXPECT_EQ(locsim("run " + kDemo + " --seed banana").exit_code, 2);
+  EXPECT_EQ(locsim("run " + kDemo + " --duration -3").exit_code, 2);
+  EXPECT_EQ(locsim("fly").exit_code, 2);
+}
+
+TEST(Cli, MissingWorldFileExitsWithTwoAndWritesNothing) {
+  const fs::path out = testing::temp_dir("cli") / "out";
+  const Outcome o = locsim("run /nonexistent/world.yaml --out " + out.string());
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.output.find("/nonexistent/world.yaml: no such file"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, MalformedWorldNamesFileLineColumnAndKeyAndWritesNothing) {
+  const fs::path dir = testing::temp_dir("cli");
+  std::ofstream(dir / "bad.yaml") << "robots:\n  - start: {x: 0, y: 0}\n    wheel_radius_m: -1\n";
+  const Outcome o = locsim("run " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.output.find("bad.yaml:3:21: 'robots[0].wheel_radius_m': must be > 0"), std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(Cli, RunWritesTheRunFolder) {
+  const fs::path out = testing::temp_dir("cli") / "out";
+  const Outcome o = locsim("run " + kDemo + " --duration 2 --seed 5 --out " + out.string());
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("completed"), std::string::npos);
+  for (const char* file : {"run.json", "groundtruth.tum", "events.csv"}) {
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(out / "run.json.tmp"));
+  EXPECT_NE(testing::read_file(out / "run.json").find("\"seed\": 5"), std::string::npos);
+}
+
+TEST(Cli, RefusesToOverwriteANonEmptyFolder) {
+  const fs::path out = testing::temp_dir("cli");
+  std::ofstream(out / "precious.txt") << "keep me";
+  const Outcome o = locsim("run " + kDemo + " --duration 1 --out " + out.string());
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.output.find("--overwrite"), std::string::npos);
+  EXPECT_EQ(testing::read_file(out / "precious.txt"), "keep me");
+  EXPECT_FALSE(fs::exists(out / "run.json"));
+  EXPECT_EQ(locsim("run " + kDemo + " --duration 1 --overwrite -q --out " + out.string()).exit_code, 0);
+  EXPECT_TRUE(fs::exists(out / "run.json"));
+}
+
+TEST(Cli, MultiRobotWorldsWriteOneFolderPerRobot) {
+  const fs::path dir = testing::temp_dir("cli");
+  std::ofstream(dir / "two.yaml") << "robots:\n  - {name: a, start: {x: 0, y: 0}}\n"
+                                     "  - {name: b, start: {x: 2, y: 0}}\n";
+  const Outcome o = locsim("run " + (dir / "two.yaml").string() + " --duration 1 --out " +
+                           (dir / "out").string());
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_TRUE(fs::exists(dir / "out/a/groundtruth.tum"));
+  EXPECT_TRUE(fs::exists(dir / "out/b/groundtruth.tum"));
+  EXPECT_TRUE(fs::exists(dir / "out/events.csv"));
+  EXPECT_FALSE(fs::exists(dir / "out/groundtruth.tum"));
+}
+
+TEST(Cli, ValidateChecksWithoutRunning) {
+  const Outcome ok = locsim("validate " + kDemo);
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("ok"), std::string::npos);
+  const fs::path dir = testing::temp_dir("cli");
+  std::ofstream(dir / "stuck.yaml") << "boxes:\n  - {center: [0, 0], size: [1, 1]}\n"
+                                       "robots:\n  - start: {x: 0, y: 0}\n";
+  const Outcome stuck = locsim("validate " + (dir / "stuck.yaml").string());
+  EXPECT_EQ(stuck.exit_code, 2);
+  EXPECT_NE(stuck.output.find("stuck.yaml:4:5: 'start': robot 'robot0' starts in collision"),
+            std::string::npos)
+      << stuck.output;
+}
+
+}  // namespace
+}  // namespace locsim

@@ -1,0 +1,307 @@
+// The physics users rely on: rolling without slip where friction allows, slip where it does not,
+// walls that stop the body but not the wheels, kidnapping unseen by the wheels, collisions.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+using testing::drive_for;
+using testing::make_sim;
+
+constexpr const char* kOpenFloor = R"(
+floor: {friction: 1.0}
+robots:
+  - name: r
+    wheel_base_m: 0.35
+    wheel_radius_m: 0.05
+    start: {x: 0, y: 0, theta: 0}
+)";
+
+/// Distance the wheels' rims have rolled: mean of both wheels. [m]
+double rim_travel(const DiffDriveRobot& robot) {
+  return 0.5 * (robot.left().angle_rad * robot.left().radius_m +
+                robot.right().angle_rad * robot.right().radius_m);
+}
+
+TEST(DiffDrive, StraightDriveMatchesKinematicsOnHighFriction) {
+  Simulation sim = make_sim(kOpenFloor);
+  drive_for(sim, 5.0, 0.3, 0.0);
+  drive_for(sim, 1.0, 0.0, 0.0);  // and stop
+  const Pose2 pose = sim.robot(0).pose();
+  const double rolled = rim_travel(sim.robot(0));
+  EXPECT_NEAR(rolled, 0.3 * 5.0, 0.05);  // the ramp takes a little
+  EXPECT_NEAR(pose.x, rolled, 1e-3 * rolled);  // no slip: ground = wheel distance within 0.1 %
+  EXPECT_NEAR(pose.y, 0.0, 1e-4);
+  EXPECT_NEAR(pose.theta, 0.0, 1e-4);
+  EXPECT_LT(sim.robot(0).velocity_mps().norm(), 1e-3);
+}
+
+TEST(DiffDrive, TurnInPlaceMatchesKinematicsOnHighFriction) {
+  Simulation sim = make_sim(kOpenFloor);
+  drive_for(sim, 4.0, 0.0, 0.5);
+  drive_for(sim, 1.0, 0.0, 0.0);
+  const DiffDriveRobot& robot = sim.robot(0);
+  // Heading change from the wheels: (right rim - left rim) / wheel base.
+  const double from_wheels =
+      (robot.right().angle_rad * robot.right().radius_m - robot.left().angle_rad * robot.left().radius_m) /
+      robot.def().wheel_base_m;
+  EXPECT_NEAR(from_wheels, 2.0, 0.05);
+  EXPECT_NEAR(robot.pose().theta, from_wheels, 2e-3 * from_wheels);
+  EXPECT_LT(robot.pose().position().norm(), 1e-3);  // turned on the spot
+}
+
+TEST(DiffDrive, UnequalWheelRadiiCurveAStraightCommand) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - wheel_base_m: 0.35
+    wheel_radius_m: 0.05
+    wheel_radius_left_m: 0.051
+    start: {x: 0, y: 0}
+)");
+  drive_for(sim, 10.0, 0.3, 0.0);
+  const DiffDriveRobot& robot = sim.robot(0);
+  // Both wheels turn alike; the larger left one rolls further, so the robot veers right.
+  const double expected = (robot.right().angle_rad * 0.05 - robot.left().angle_rad * 0.051) / 0.35;
+  EXPECT_LT(robot.pose().theta, -0.1);
+  EXPECT_NEAR(robot.pose().theta, expected, 0.01 * std::abs(expected));
+}
+
+TEST(DiffDrive, IceWithHardAccelerationSlips) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 0.05}
+robots:
+  - start: {x: 0, y: 0}
+)");
+  drive_for(sim, 2.0, 1.0, 0.0);
+  const double ground = sim.robot(0).pose().x;
+  const double wheels = rim_travel(sim.robot(0));
+  EXPECT_GT(ground, 0.1);  // it does move
+  EXPECT_LT(ground, 0.6 * wheels) << "ground " << ground << " m, wheels " << wheels << " m";
+  EXPECT_GT(sim.stats(0).slip_time_s, 1.0);
+}
+
+TEST(DiffDrive, SameCommandOnCarpetDoesNotSlip) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+)");
+  drive_for(sim, 2.0, 1.0, 0.0);
+  EXPECT_NEAR(sim.robot(0).pose().x, rim_travel(sim.robot(0)), 1e-3);
+  EXPECT_EQ(sim.stats(0).slip_time_s, 0.0);
+}
+
+TEST(DiffDrive, FrictionRegionAndFrictionEventApply) {
+  // The robot starts on an icy region; an event turns the ice into carpet at t = 2 s.
+  Simulation sim = make_sim(R"(
+floor:
+  friction: 1.0
+  regions:
+    - {name: ice, friction: 0.02, box: {min: [-5, -5], max: [5, 5]}}
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  events:
+    - {at_s: 2.0, friction: {region: ice, friction: 1.0}}
+)");
+  drive_for(sim, 2.0, 1.0, 0.0);
+  EXPECT_LT(sim.robot(0).pose().x, 0.5 * rim_travel(sim.robot(0)));
+  const double x0 = sim.robot(0).pose().x, rolled0 = rim_travel(sim.robot(0));
+  drive_for(sim, 1.0, 0.3, 0.0);  // settles to rolling on the new floor
+  const double x1 = sim.robot(0).pose().x, rolled1 = rim_travel(sim.robot(0));
+  drive_for(sim, 1.0, 0.3, 0.0);
+  EXPECT_NEAR(sim.robot(0).pose().x - x1, rim_travel(sim.robot(0)) - rolled1, 1e-3);
+  EXPECT_GT(x1, x0);
+  EXPECT_GT(rolled1, rolled0);
+}
+
+TEST(DiffDrive, WallStopsTheBodyWhileTheWheelsKeepTurning) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 0.8}
+walls:
+  - points: [[2, -5], [2, 5]]
+robots:
+  - footprint: {radius_m: 0.2}
+    start: {x: 0, y: 0}
+)");
+  drive_for(sim, 8.0, 0.5, 0.0);  // reaches the wall after ~3.6 s
+  const Pose2 against = sim.robot(0).pose();
+  EXPECT_NEAR(against.x, 1.8, 0.02);  // touching the wall, not through it
+  const double angle_before = sim.robot(0).left().angle_rad;
+  drive_for(sim, 2.0, 0.5, 0.0);
+  EXPECT_NEAR(sim.robot(0).pose().x, against.x, 1e-3);  // the body stays
+  EXPECT_NEAR(sim.robot(0).left().angle_rad - angle_before, 2.0 * 0.5 / 0.05, 0.5);  // wheels spin
+  EXPECT_TRUE(sim.robot(0).left().slipping);
+  EXPECT_EQ(sim.stats(0).collisions, 1);
+}
+
+TEST(DiffDrive, WeakMotorStallsAgainstAWall) {
+  // mu N r = 0.8 * (10 * 9.81 * 0.8 / 2) * 0.05 = 1.57 N m; a 0.5 N m motor cannot slip the wheel.
+  Simulation sim = make_sim(R"(
+floor: {friction: 0.8}
+walls:
+  - points: [[1, -5], [1, 5]]
+robots:
+  - max_wheel_torque_nm: 0.5
+    start: {x: 0, y: 0}
+)");
+  drive_for(sim, 5.0, 0.5, 0.0);
+  const double angle_before = sim.robot(0).left().angle_rad;
+  drive_for(sim, 2.0, 0.5, 0.0);
+  EXPECT_LT(sim.robot(0).left().angle_rad - angle_before, 0.5);  // vs 20 rad if free
+}
+
+TEST(Kidnap, MovesThePoseAndTheWheelsNeverNotice) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  events:
+    - at_s: 2.0
+      kidnap: {to: {x: 5, y: 3, theta_deg: 90}, carry_s: 1.0}
+)");
+  drive_for(sim, 2.0, 0.3, 0.0);
+  const Pose2 before = sim.robot(0).pose();
+  const double left = sim.robot(0).left().angle_rad, right = sim.robot(0).right().angle_rad;
+  drive_for(sim, 0.5, 0.3, 0.0);  // carried: commands change nothing
+  EXPECT_TRUE(sim.robot(0).carried());
+  EXPECT_EQ(sim.robot(0).left().angle_rad, left);
+  EXPECT_EQ(sim.robot(0).right().angle_rad, right);
+  drive_for(sim, 0.5, 0.0, 0.0);  // put down at t = 3 s
+  EXPECT_FALSE(sim.robot(0).carried());
+  EXPECT_EQ(sim.robot(0).left().angle_rad, left);
+  const Pose2 after = sim.robot(0).pose();
+  EXPECT_NEAR(after.x, 5.0, 1e-3);
+  EXPECT_NEAR(after.y, 3.0, 1e-3);
+  EXPECT_NEAR(after.theta, std::numbers::pi / 2, 1e-3);
+  EXPECT_GT((after.position() - before.position()).norm(), 5.0);
+  const auto events = sim.take_events();
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].kind, "kidnap");
+  EXPECT_EQ(events[1].kind, "put_down");
+  EXPECT_DOUBLE_EQ(events[1].t_s, 3.0);
+  EXPECT_EQ(sim.stats(0).kidnaps, 1);
+}
+
+TEST(Kidnap, RandomPoseIsFreeAndInsideTheGivenArea) {
+  const std::string world = R"(
+walls:
+  - points: [[0, 0], [6, 0], [6, 4], [0, 4]]
+    closed: true
+boxes:
+  - {center: [3, 2], size: [2, 2]}
+robots:
+  - start: {x: 1, y: 1}
+scenario:
+  events:
+    - {at_s: 0.5, kidnap: {to: random}}
+)";
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    Simulation sim = make_sim(world, seed);
+    drive_for(sim, 0.6, 0.0, 0.0);
+    const Pose2 pose = sim.robot(0).pose();
+    EXPECT_GT(pose.x, 0.2);
+    EXPECT_LT(pose.x, 5.8);
+    EXPECT_GT(pose.y, 0.2);
+    EXPECT_LT(pose.y, 3.8);
+    const bool in_box = std::abs(pose.x - 3) < 1.2 && std::abs(pose.y - 2) < 1.2;
+    EXPECT_FALSE(in_box) << "seed " << seed << " put the robot into the box";
+  }
+}
+
+TEST(Collisions, PersonWalkingIntoTheRobotCollidesAndPushesIt) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 0.8}
+movers:
+  - name: alice
+    path: [[-3, 0], [3, 0]]
+    speed_mps: 1.0
+    loop: false
+robots:
+  - name: r
+    start: {x: 0, y: 0.1}
+)");
+  drive_for(sim, 4.0, 0.0, 0.0);
+  const auto events = sim.take_events();
+  const auto collision = std::find_if(events.begin(), events.end(), [](const SimEvent& e) {
+    return e.kind == "collision" && e.details.find("with=alice") != std::string::npos;
+  });
+  ASSERT_NE(collision, events.end());
+  EXPECT_NEAR(collision->t_s, 2.55, 0.05);  // 3 m - (0.25 + 0.2 m radii) at 1 m/s
+  EXPECT_GT(sim.robot(0).pose().position().norm(), 0.1);  // shoved aside
+}
+
+TEST(Collisions, RobotsCollideWithEachOther) {
+  Simulation sim = make_sim(R"(
+robots:
+  - {name: a, start: {x: 0, y: 0, theta: 0}}
+  - {name: b, start: {x: 2, y: 0, theta_deg: 180}}
+)");
+  for (int i = 0; i < 600; ++i) {
+    sim.robot(0).command(0.4, 0.0);
+    sim.robot(1).command(0.4, 0.0);
+    sim.step();
+  }
+  EXPECT_EQ(sim.stats(0).collisions, 1);
+  EXPECT_EQ(sim.stats(1).collisions, 1);
+  EXPECT_LT(sim.robot(0).pose().x, sim.robot(1).pose().x - 0.39);  // never interpenetrate
+}
+
+TEST(Collisions, PushMovesTheRobot) {
+  Simulation sim = make_sim(R"(
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  events:
+    - {at_s: 0.1, push: {impulse_ns: [0, 20]}}
+)");
+  drive_for(sim, 1.0, 0.0, 0.0);
+  EXPECT_GT(sim.robot(0).pose().y, 0.05);  // sideways: the wheels' lateral grip slows it
+  EXPECT_EQ(sim.robot(0).left().angle_rad, 0.0);
+}
+
+TEST(Drivers, WaypointsAreVisitedInOrder) {
+  Simulation sim = make_sim(R"(
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  duration_s: 40
+  drive: {mode: waypoints, path: [[2, 0], [2, 2], [0, 2]], loop: false, speed_mps: 0.5}
+)");
+  double closest[3] = {1e9, 1e9, 1e9};
+  const Vec2 targets[3] = {{2, 0}, {2, 2}, {0, 2}};
+  while (!sim.done()) {
+    sim.step();
+    for (int i = 0; i < 3; ++i) {
+      closest[i] = std::min(closest[i], (sim.robot(0).pose().position() - targets[i]).norm());
+    }
+  }
+  for (const double d : closest) EXPECT_LT(d, 0.06);
+  EXPECT_LT((sim.robot(0).pose().position() - targets[2]).norm(), 0.06);  // stopped at the end
+}
+
+TEST(Drivers, WanderNeverLeavesAClosedRoom) {
+  Simulation sim = make_sim(R"(
+walls:
+  - points: [[0, 0], [4, 0], [4, 4], [0, 4]]
+    closed: true
+robots:
+  - start: {x: 2, y: 2}
+scenario:
+  duration_s: 60
+  drive: {mode: wander, speed_mps: 0.5}
+)");
+  while (!sim.done()) sim.step();
+  const Pose2 pose = sim.robot(0).pose();
+  EXPECT_GT(sim.stats(0).ground_distance_m, 10.0);
+  EXPECT_TRUE(pose.x > 0 && pose.x < 4 && pose.y > 0 && pose.y < 4);
+}
+
+}  // namespace
+}  // namespace locsim

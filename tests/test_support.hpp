@@ -1,0 +1,57 @@
+// Helpers shared by the tests: worlds from inline YAML, and driving a simulation.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "sim/common/yaml_node.hpp"
+#include "sim/run/simulation.hpp"
+#include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace locsim::testing {
+
+inline WorldDef world_from_yaml(const std::string& text) {
+  return parse_world(YamlNode::load_string(text, "test.yaml"), ".");
+}
+
+/// A simulation of `world_yaml`, using its scenario section (or idle defaults).
+inline Simulation make_sim(const std::string& world_yaml, std::uint64_t seed = 1) {
+  WorldDef world = world_from_yaml(world_yaml);
+  ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
+  bind_scenario(scenario, world);
+  return Simulation(world, scenario, seed);
+}
+
+/// Steps `sim` for `seconds`, commanding (v, w) to robot 0 before every step.
+inline void drive_for(Simulation& sim, double seconds, double v_mps, double w_radps) {
+  const auto steps = static_cast<long>(std::llround(seconds / sim.dt_s()));
+  for (long i = 0; i < steps; ++i) {
+    sim.robot(0).command(v_mps, w_radps);
+    sim.step();
+  }
+}
+
+inline std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream out;
+  out << in.rdbuf();
+  return out.str();
+}
+
+/// A fresh, empty temporary folder named after the running test and `name`.
+inline std::filesystem::path temp_dir(const std::string& name) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "locsim_tests" /
+                                    (std::string(info->test_suite_name()) + "." + info->name()) / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace locsim::testing
