@@ -3,6 +3,8 @@
 #include <sys/wait.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
 
 #include "test_support.hpp"
 
@@ -60,9 +62,11 @@ TEST(Cli, MissingWorldFileExitsWithTwoAndWritesNothing) {
 TEST(Cli, MalformedWorldNamesFileLineColumnAndKeyAndWritesNothing) {
   const fs::path dir = testing::temp_dir("cli");
   std::ofstream(dir / "bad.yaml") << "robots:\n  - start: {x: 0, y: 0}\n    wheel_radius_m: -1\n";
-  const Outcome o = locsim("run " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
+  const Outcome o =
+      locsim("run " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_EQ(o.exit_code, 2);
-  EXPECT_NE(o.output.find("bad.yaml:3:21: 'robots[0].wheel_radius_m': must be > 0"), std::string::npos)
+  EXPECT_NE(o.output.find("bad.yaml:3:21: 'robots[0].wheel_radius_m': must be > 0"),
+            std::string::npos)
       << o.output;
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
@@ -87,7 +91,8 @@ TEST(Cli, RefusesToOverwriteANonEmptyFolder) {
   EXPECT_NE(o.output.find("--overwrite"), std::string::npos);
   EXPECT_EQ(testing::read_file(out / "precious.txt"), "keep me");
   EXPECT_FALSE(fs::exists(out / "run.json"));
-  EXPECT_EQ(locsim("run " + kDemo + " --duration 1 --overwrite -q --out " + out.string()).exit_code, 0);
+  EXPECT_EQ(locsim("run " + kDemo + " --duration 1 --overwrite -q --out " + out.string()).exit_code,
+            0);
   EXPECT_TRUE(fs::exists(out / "run.json"));
 }
 
@@ -102,6 +107,34 @@ TEST(Cli, MultiRobotWorldsWriteOneFolderPerRobot) {
   EXPECT_TRUE(fs::exists(dir / "out/b/groundtruth.tum"));
   EXPECT_TRUE(fs::exists(dir / "out/events.csv"));
   EXPECT_FALSE(fs::exists(dir / "out/groundtruth.tum"));
+}
+
+TEST(Cli, CtrlCKeepsWhatWasWrittenAndSaysInterrupted) {
+  const fs::path out = testing::temp_dir("cli") / "out";
+  // SIGINT after 0.5 s of a run that would take minutes.
+  const std::string command = "timeout --preserve-status -s INT 0.5 " + std::string(LOCSIM_BINARY) +
+                              " run " + kDemo + " --duration 1000000 -q --out " + out.string();
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  const auto run = nlohmann::json::parse(testing::read_file(out / "run.json"));
+  EXPECT_EQ(run["status"], "interrupted");
+  const double simulated = run["simulated_s"].get<double>();
+  EXPECT_GT(simulated, 10.0);
+  // Every row up to the interruption is there: the last one is at the last multiple of 20 ms.
+  const std::string groundtruth = testing::read_file(out / "groundtruth.tum");
+  const std::size_t last_line = groundtruth.rfind('\n', groundtruth.size() - 2) + 1;
+  EXPECT_NEAR(std::stod(groundtruth.substr(last_line)), simulated, 0.0201);
+}
+
+TEST(Cli, RealtimePacesToTheWallClock) {
+  const fs::path out = testing::temp_dir("cli") / "out";
+  EXPECT_EQ(
+      locsim("run " + kDemo + " --realtime --duration 0.5 -q --out " + out.string()).exit_code, 0);
+  const auto run = nlohmann::json::parse(testing::read_file(out / "run.json"));
+  EXPECT_GE(run["timing"]["wall_s"].get<double>(), 0.49);
+  EXPECT_LT(run["timing"]["wall_s"].get<double>(), 2.0);
+  EXPECT_EQ(run["timing"]["realtime_paced"], true);
 }
 
 TEST(Cli, ValidateChecksWithoutRunning) {

@@ -46,7 +46,8 @@ TEST(Determinism, DifferentSeedsDiffer) {
   const RunResult a = run_demo(base / "a", 7);
   const RunResult b = run_demo(base / "b", 8);
   EXPECT_NE(a.state_hash, b.state_hash);
-  EXPECT_NE(testing::read_file(base / "a/groundtruth.tum"), testing::read_file(base / "b/groundtruth.tum"));
+  EXPECT_NE(testing::read_file(base / "a/groundtruth.tum"),
+            testing::read_file(base / "b/groundtruth.tum"));
   EXPECT_NE(testing::read_file(base / "a/events.csv"), testing::read_file(base / "b/events.csv"));
 }
 
@@ -112,7 +113,8 @@ TEST(RunFolder, HoldsTumGroundTruthEventsAndResolvedConfig) {
   const std::string events = testing::read_file(out / "events.csv");
   EXPECT_TRUE(events.starts_with("t_s,kind,robot,details\n"));
   EXPECT_NE(events.find("20.0000,kidnap,robot,"), std::string::npos);
-  EXPECT_NE(events.find("22.0000,put_down,robot,\"to=(1.2000,5.0000,-1.5708)\""), std::string::npos);
+  EXPECT_NE(events.find("22.0000,put_down,robot,\"to=(1.2000,5.0000,-1.5708)\""),
+            std::string::npos);
   EXPECT_NE(events.find("45.0000,end,,"), std::string::npos);
 }
 

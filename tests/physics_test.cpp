@@ -33,7 +33,7 @@ TEST(DiffDrive, StraightDriveMatchesKinematicsOnHighFriction) {
   drive_for(sim, 1.0, 0.0, 0.0);  // and stop
   const Pose2 pose = sim.robot(0).pose();
   const double rolled = rim_travel(sim.robot(0));
-  EXPECT_NEAR(rolled, 0.3 * 5.0, 0.05);  // the ramp takes a little
+  EXPECT_NEAR(rolled, 0.3 * 5.0, 0.05);        // the ramp takes a little
   EXPECT_NEAR(pose.x, rolled, 1e-3 * rolled);  // no slip: ground = wheel distance within 0.1 %
   EXPECT_NEAR(pose.y, 0.0, 1e-4);
   EXPECT_NEAR(pose.theta, 0.0, 1e-4);
@@ -46,9 +46,9 @@ TEST(DiffDrive, TurnInPlaceMatchesKinematicsOnHighFriction) {
   drive_for(sim, 1.0, 0.0, 0.0);
   const DiffDriveRobot& robot = sim.robot(0);
   // Heading change from the wheels: (right rim - left rim) / wheel base.
-  const double from_wheels =
-      (robot.right().angle_rad * robot.right().radius_m - robot.left().angle_rad * robot.left().radius_m) /
-      robot.def().wheel_base_m;
+  const double from_wheels = (robot.right().angle_rad * robot.right().radius_m -
+                              robot.left().angle_rad * robot.left().radius_m) /
+                             robot.def().wheel_base_m;
   EXPECT_NEAR(from_wheels, 2.0, 0.05);
   EXPECT_NEAR(robot.pose().theta, from_wheels, 2e-3 * from_wheels);
   EXPECT_LT(robot.pose().position().norm(), 1e-3);  // turned on the spot
@@ -233,7 +233,7 @@ robots:
     return e.kind == "collision" && e.details.find("with=alice") != std::string::npos;
   });
   ASSERT_NE(collision, events.end());
-  EXPECT_NEAR(collision->t_s, 2.55, 0.05);  // 3 m - (0.25 + 0.2 m radii) at 1 m/s
+  EXPECT_NEAR(collision->t_s, 2.55, 0.05);                // 3 m - (0.25 + 0.2 m radii) at 1 m/s
   EXPECT_GT(sim.robot(0).pose().position().norm(), 0.1);  // shoved aside
 }
 
@@ -264,6 +264,29 @@ scenario:
   drive_for(sim, 1.0, 0.0, 0.0);
   EXPECT_GT(sim.robot(0).pose().y, 0.05);  // sideways: the wheels' lateral grip slows it
   EXPECT_EQ(sim.robot(0).left().angle_rad, 0.0);
+}
+
+TEST(Movers, WalkTheirPathAtTheirSpeedAndObeyStopAndStart) {
+  Simulation sim = make_sim(R"(
+movers:
+  - {name: bob, path: [[0, 5], [4, 5], [4, 7]], speed_mps: 0.5, loop: false}
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  events:
+    - {at_s: 2, obstacle: {name: bob, action: stop}}
+    - {at_s: 4, obstacle: {name: bob, action: start}}
+)");
+  const auto bob = [&] { return from_b2(sim.world().movers()[0].body->GetPosition()); };
+  drive_for(sim, 2.0, 0.0, 0.0);
+  EXPECT_NEAR(bob().x(), 1.0, 1e-4);
+  drive_for(sim, 2.0, 0.0, 0.0);  // stopped
+  EXPECT_NEAR(bob().x(), 1.0, 1e-4);
+  drive_for(sim, 7.0, 0.0, 0.0);  // 3 m to the corner, then 0.5 m up
+  EXPECT_NEAR(bob().x(), 4.0, 1e-4);
+  EXPECT_NEAR(bob().y(), 5.5, 1e-3);
+  drive_for(sim, 10.0, 0.0, 0.0);  // stays at the end of an open path
+  EXPECT_NEAR(bob().y(), 7.0, 1e-4);
 }
 
 TEST(Drivers, WaypointsAreVisitedInOrder) {

@@ -1,8 +1,8 @@
+#include "sim/common/random.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "sim/common/random.hpp"
 
 namespace locsim {
 namespace {
@@ -33,7 +33,7 @@ TEST(Random, NormalHasUnitMomentsAndUniformStaysInRange) {
     ASSERT_GE(u, 0.0);
     ASSERT_LT(u, 1.0);
   }
-  EXPECT_NEAR(sum / n, 0.0, 0.01);            // 4.5 standard errors
+  EXPECT_NEAR(sum / n, 0.0, 0.01);  // 4.5 standard errors
   EXPECT_NEAR(sum_sq / n, 1.0, 0.015);
 }
 

@@ -1,13 +1,13 @@
 // Helpers shared by the tests: worlds from inline YAML, and driving a simulation.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <sstream>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "sim/common/yaml_node.hpp"
 #include "sim/run/simulation.hpp"
@@ -48,7 +48,8 @@ inline std::string read_file(const std::filesystem::path& path) {
 inline std::filesystem::path temp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "locsim_tests" /
-                                    (std::string(info->test_suite_name()) + "." + info->name()) / name;
+                                    (std::string(info->test_suite_name()) + "." + info->name()) /
+                                    name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

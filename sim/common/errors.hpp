@@ -8,8 +8,8 @@ namespace locsim {
 
 enum ExitCode : int {
   kExitOk = 0,
-  kExitFailure = 1,    // anything not caused by the user's input
-  kExitBadInput = 2,   // bad command line, or a world/scenario/map file that cannot be used
+  kExitFailure = 1,        // anything not caused by the user's input
+  kExitBadInput = 2,       // bad command line, or a world/scenario/map file that cannot be used
   kExitInterrupted = 130,  // SIGINT; the run folder holds everything written so far
 };
 

@@ -16,8 +16,12 @@ inline double wrap_angle(double angle_rad) {
   return wrapped;
 }
 
-inline constexpr double deg_to_rad(double deg) { return deg * std::numbers::pi / 180.0; }
-inline constexpr double rad_to_deg(double rad) { return rad * 180.0 / std::numbers::pi; }
+inline constexpr double deg_to_rad(double deg) {
+  return deg * std::numbers::pi / 180.0;
+}
+inline constexpr double rad_to_deg(double rad) {
+  return rad * 180.0 / std::numbers::pi;
+}
 
 /// Planar pose: position [m] and heading [rad] of a body frame in the world frame.
 struct Pose2 {
@@ -35,6 +39,8 @@ struct Pose2 {
 };
 
 /// 2D cross product (z component of the 3D one).
-inline double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+inline double cross(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 }  // namespace locsim

@@ -40,8 +40,7 @@ YamlNode YamlNode::load_file(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) {
     throw InputError(SourceLocation{file.string()}, "",
-                     std::filesystem::exists(file) ? "cannot read the file"
-                                                   : "no such file");
+                     std::filesystem::exists(file) ? "cannot read the file" : "no such file");
   }
   std::ostringstream text;
   text << in.rdbuf();
@@ -148,8 +147,8 @@ long long YamlNode::as_int(long long min_value, long long max_value) const {
     fail("expected an integer, got " + describe(node_));
   }
   if (value < min_value || value > max_value) {
-    fail("must be in [" + std::to_string(min_value) + ", " + std::to_string(max_value) +
-         "], got " + node_.Scalar());
+    fail("must be in [" + std::to_string(min_value) + ", " + std::to_string(max_value) + "], got " +
+         node_.Scalar());
   }
   return value;
 }
@@ -216,8 +215,8 @@ double YamlNode::get_angle(std::string_view key, double fallback_rad) const {
   const std::string deg_key = std::string(key) + "_deg";
   const auto rad = find(key);
   const auto deg = find(deg_key);
-  if (rad && deg) deg->fail("give either '" + std::string(key) + "' [rad] or '" + deg_key +
-                            "' [deg], not both");
+  if (rad && deg)
+    deg->fail("give either '" + std::string(key) + "' [rad] or '" + deg_key + "' [deg], not both");
   if (rad) return rad->as_double();
   if (deg) return deg_to_rad(deg->as_double());
   return fallback_rad;

@@ -43,9 +43,8 @@ DiffDriveRobot::DiffDriveRobot(const RobotDef& def, PhysicsWorld& world, int ind
 }
 
 const b2Shape& DiffDriveRobot::shape() const {
-  return def_.footprint.kind == FootprintDef::Kind::kCircle
-             ? static_cast<const b2Shape&>(circle_)
-             : static_cast<const b2Shape&>(polygon_);
+  return def_.footprint.kind == FootprintDef::Kind::kCircle ? static_cast<const b2Shape&>(circle_)
+                                                            : static_cast<const b2Shape&>(polygon_);
 }
 
 void DiffDriveRobot::command(double v_mps, double w_radps) {
@@ -153,9 +152,13 @@ Pose2 DiffDriveRobot::pose() const {
   return Pose2{position.x, position.y, wrap_angle(body_->GetAngle())};
 }
 
-Vec2 DiffDriveRobot::velocity_mps() const { return from_b2(body_->GetLinearVelocity()); }
+Vec2 DiffDriveRobot::velocity_mps() const {
+  return from_b2(body_->GetLinearVelocity());
+}
 
-double DiffDriveRobot::yaw_rate_radps() const { return body_->GetAngularVelocity(); }
+double DiffDriveRobot::yaw_rate_radps() const {
+  return body_->GetAngularVelocity();
+}
 
 void DiffDriveRobot::lift() {
   carried_ = true;

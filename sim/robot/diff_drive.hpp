@@ -17,11 +17,11 @@
 namespace locsim {
 
 struct WheelState {
-  double radius_m = 0.05;        // true radius [m]
-  double angle_rad = 0.0;        // cumulative rotation, what an ideal encoder counts [rad]
-  double speed_radps = 0.0;      // [rad/s]
-  double traction_n = 0.0;       // last longitudinal floor force on the robot [N]
-  bool slipping = false;         // the friction cap bound in the last step
+  double radius_m = 0.05;    // true radius [m]
+  double angle_rad = 0.0;    // cumulative rotation, what an ideal encoder counts [rad]
+  double speed_radps = 0.0;  // [rad/s]
+  double traction_n = 0.0;   // last longitudinal floor force on the robot [N]
+  bool slipping = false;     // the friction cap bound in the last step
 };
 
 class DiffDriveRobot {

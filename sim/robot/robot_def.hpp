@@ -15,9 +15,9 @@ namespace locsim {
 struct FootprintDef {
   enum class Kind { kCircle, kBox, kPolygon };
   Kind kind = Kind::kCircle;
-  double radius_m = 0.2;             // kCircle [m]
-  Vec2 size_m{0.4, 0.3};             // kBox: length along x, width along y [m]
-  std::vector<Vec2> points_m;        // kPolygon: convex, counter-clockwise, <= 8 vertices [m]
+  double radius_m = 0.2;       // kCircle [m]
+  Vec2 size_m{0.4, 0.3};       // kBox: length along x, width along y [m]
+  std::vector<Vec2> points_m;  // kPolygon: convex, counter-clockwise, <= 8 vertices [m]
 };
 
 /// Radius of the smallest circle about the body origin that holds the footprint. [m]

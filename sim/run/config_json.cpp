@@ -5,13 +5,17 @@ namespace locsim {
 using json = nlohmann::ordered_json;
 
 namespace {
-json point(const Vec2& p) { return json::array({p.x(), p.y()}); }
+json point(const Vec2& p) {
+  return json::array({p.x(), p.y()});
+}
 json points(const std::vector<Vec2>& ps) {
   json out = json::array();
   for (const Vec2& p : ps) out.push_back(point(p));
   return out;
 }
-json pose(const Pose2& p) { return json{{"x", p.x}, {"y", p.y}, {"theta", p.theta}}; }
+json pose(const Pose2& p) {
+  return json{{"x", p.x}, {"y", p.y}, {"theta", p.theta}};
+}
 json footprint(const FootprintDef& f) {
   switch (f.kind) {
     case FootprintDef::Kind::kCircle:
@@ -25,10 +29,14 @@ json footprint(const FootprintDef& f) {
 }
 const char* mode_name(DriveDef::Mode mode) {
   switch (mode) {
-    case DriveDef::Mode::kIdle: return "idle";
-    case DriveDef::Mode::kWaypoints: return "waypoints";
-    case DriveDef::Mode::kVelocity: return "velocity";
-    case DriveDef::Mode::kWander: return "wander";
+    case DriveDef::Mode::kIdle:
+      return "idle";
+    case DriveDef::Mode::kWaypoints:
+      return "waypoints";
+    case DriveDef::Mode::kVelocity:
+      return "velocity";
+    case DriveDef::Mode::kWander:
+      return "wander";
   }
   return "?";
 }
@@ -44,18 +52,21 @@ json to_json(const WorldDef& w) {
                     {"gravity_mps2", w.physics.gravity_mps2}};
   json regions = json::array();
   for (const FloorRegionDef& r : w.floor.regions) {
-    regions.push_back({{"name", r.name}, {"friction", r.friction}, {"polygon", points(r.polygon_m)}});
+    regions.push_back(
+        {{"name", r.name}, {"friction", r.friction}, {"polygon", points(r.polygon_m)}});
   }
   out["floor"] = {{"friction", w.floor.friction}, {"regions", regions}};
   json walls = json::array();
   for (const WallDef& wall : w.walls) {
-    walls.push_back({{"points", points(wall.points_m)}, {"closed", wall.closed},
+    walls.push_back({{"points", points(wall.points_m)},
+                     {"closed", wall.closed},
                      {"thickness_m", wall.thickness_m}});
   }
   out["walls"] = walls;
   json boxes = json::array();
   for (const BoxDef& b : w.boxes) {
-    boxes.push_back({{"center", point(b.center_m)}, {"size", point(b.size_m)}, {"angle", b.angle_rad}});
+    boxes.push_back(
+        {{"center", point(b.center_m)}, {"size", point(b.size_m)}, {"angle", b.angle_rad}});
   }
   out["boxes"] = boxes;
   json circles = json::array();
@@ -80,8 +91,11 @@ json to_json(const WorldDef& w) {
   for (const LandmarkDef& l : w.landmarks) {
     json color = l.color_name.empty() ? json::array({l.color[0], l.color[1], l.color[2]})
                                       : json(l.color_name);
-    landmarks.push_back({{"id", l.id}, {"position", point(l.position_m)}, {"color", color},
-                         {"radius_m", l.radius_m}, {"height_m", l.height_m}});
+    landmarks.push_back({{"id", l.id},
+                         {"position", point(l.position_m)},
+                         {"color", color},
+                         {"radius_m", l.radius_m},
+                         {"height_m", l.height_m}});
   }
   out["landmarks"] = landmarks;
   json beacons = json::array();
@@ -91,8 +105,12 @@ json to_json(const WorldDef& w) {
   out["beacons"] = beacons;
   json movers = json::array();
   for (const MoverDef& m : w.movers) {
-    movers.push_back({{"name", m.name}, {"kind", m.kind}, {"footprint", footprint(m.footprint)},
-                      {"path", points(m.path_m)}, {"speed_mps", m.speed_mps}, {"loop", m.loop},
+    movers.push_back({{"name", m.name},
+                      {"kind", m.kind},
+                      {"footprint", footprint(m.footprint)},
+                      {"path", points(m.path_m)},
+                      {"speed_mps", m.speed_mps},
+                      {"loop", m.loop},
                       {"moving", m.moving}});
   }
   out["movers"] = movers;
@@ -171,7 +189,8 @@ json to_json(const ScenarioDef& s) {
         break;
       }
       case EventDef::Kind::kPush:
-        event["push"] = {{"robot", e.robot}, {"impulse_ns", point(e.impulse_ns)},
+        event["push"] = {{"robot", e.robot},
+                         {"impulse_ns", point(e.impulse_ns)},
                          {"angular_impulse_nms", e.angular_impulse_nms}};
         break;
       case EventDef::Kind::kFriction:

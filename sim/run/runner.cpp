@@ -20,7 +20,9 @@
 
 namespace locsim {
 
-const char* locsim_version() { return LOCSIM_VERSION_STRING; }
+const char* locsim_version() {
+  return LOCSIM_VERSION_STRING;
+}
 
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
@@ -58,7 +60,8 @@ class RunWriter {
       fs::create_directories(robot_dir);
       robot_dirs_.push_back(robot_dir);
       auto& file = groundtruth_.emplace_back(robot_dir / "groundtruth.tum", std::ios::binary);
-      if (!file) throw std::runtime_error("cannot write " + (robot_dir / "groundtruth.tum").string());
+      if (!file)
+        throw std::runtime_error("cannot write " + (robot_dir / "groundtruth.tum").string());
       file << "# timestamp tx ty tz qx qy qz qw  (true pose of robot '" << sim.robot(i).name()
            << "', TUM format, z = 0)\n";
     }
@@ -118,8 +121,8 @@ fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
   const std::time_t now = std::time(nullptr);
   char stamp[32];
   std::strftime(stamp, sizeof(stamp), "%Y%m%d-%H%M%S", std::localtime(&now));
-  const std::string base = inputs.world.name + "-" + inputs.scenario.name + "-seed" +
-                           std::to_string(seed) + "-" + stamp;
+  const std::string base =
+      inputs.world.name + "-" + inputs.scenario.name + "-seed" + std::to_string(seed) + "-" + stamp;
   fs::path dir = fs::path("runs") / base;
   for (int suffix = 2; fs::exists(dir); ++suffix) {
     dir = fs::path("runs") / (base + "-" + std::to_string(suffix));
@@ -145,7 +148,8 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   Simulation sim(inputs.world, inputs.scenario, options.seed);
 
   RunResult result;
-  result.out_dir = options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;
+  result.out_dir =
+      options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;
   if (fs::exists(result.out_dir) && !fs::is_directory(result.out_dir)) {
     throw InputError("--out: '" + result.out_dir.string() + "' exists and is not a folder");
   }
@@ -178,10 +182,11 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
         const auto now = std::chrono::steady_clock::now();
         if (now >= next_progress) {
           const double wall = std::chrono::duration<double>(now - wall_start).count();
-          std::fprintf(stderr, "\r  t = %.1f / %.1f s (%3.0f%%), %.0fx real time   ", sim.time_s(),
-                       inputs.scenario.duration_s,
-                       100.0 * static_cast<double>(sim.step_index()) / static_cast<double>(sim.end_step()),
-                       sim.time_s() / wall);
+          std::fprintf(
+              stderr, "\r  t = %.1f / %.1f s (%3.0f%%), %.0fx real time   ", sim.time_s(),
+              inputs.scenario.duration_s,
+              100.0 * static_cast<double>(sim.step_index()) / static_cast<double>(sim.end_step()),
+              sim.time_s() / wall);
           next_progress = now + std::chrono::milliseconds(500);
           progress_shown = true;
         }
@@ -229,9 +234,10 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   run["config"] = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};
   // Wall-clock figures vary from run to run; they are kept last, in this one block, so that
   // everything else in the run folder is byte-identical for the same inputs and seed.
-  run["timing"] = {{"wall_s", result.wall_s},
-                   {"real_time_factor", result.wall_s > 0.0 ? result.simulated_s / result.wall_s : 0.0},
-                   {"realtime_paced", options.realtime}};
+  run["timing"] = {
+      {"wall_s", result.wall_s},
+      {"real_time_factor", result.wall_s > 0.0 ? result.simulated_s / result.wall_s : 0.0},
+      {"realtime_paced", options.realtime}};
   write_json_atomically(result.out_dir / "run.json", run);
   if (failure) std::rethrow_exception(failure);
   return result;

@@ -55,7 +55,8 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
     slot.last_position = def.start.position();
     // A robot the scenario does not drive keeps whatever command its owner last gave it.
     for (const DriveDef& d : scenario_.drives) {
-      if (d.robot == def.name) slot.driver = make_driver(d, make_stream(seed, "driver/" + def.name));
+      if (d.robot == def.name)
+        slot.driver = make_driver(d, make_stream(seed, "driver/" + def.name));
     }
     robots_.push_back(std::move(slot));
   }
@@ -68,8 +69,8 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
 Simulation::~Simulation() = default;
 
 void Simulation::log(std::string kind, std::string robot, std::string details) {
-  events_.push_back(SimEvent{step_index_, time_s(), std::move(kind), std::move(robot),
-                             std::move(details)});
+  events_.push_back(
+      SimEvent{step_index_, time_s(), std::move(kind), std::move(robot), std::move(details)});
 }
 
 std::vector<SimEvent> Simulation::take_events() {
@@ -106,7 +107,7 @@ Pose2 Simulation::random_free_pose(RobotSlot& slot, const EventDef& event) {
                      slot.kidnap_rng.uniform(-std::numbers::pi, std::numbers::pi)};
     if (world_->is_free(slot.robot->shape(), pose, slot.robot->body())) return pose;
   }
-  throw InputError(event.where, "kidnap.to",
+  throw InputError(event.where, event.key_path + ".to",
                    "found no free pose for robot '" + slot.robot->name() + "' in 10000 tries");
 }
 
@@ -188,13 +189,15 @@ void Simulation::step() {
     const Vec2 position = robot.pose().position();
     slot.stats.ground_distance_m += (position - slot.last_position).norm();
     slot.last_position = position;
-    slot.stats.wheel_distance_left_m += std::abs(robot.left().speed_radps) * robot.left().radius_m * dt_s_;
+    slot.stats.wheel_distance_left_m +=
+        std::abs(robot.left().speed_radps) * robot.left().radius_m * dt_s_;
     slot.stats.wheel_distance_right_m +=
         std::abs(robot.right().speed_radps) * robot.right().radius_m * dt_s_;
     if (robot.left().slipping || robot.right().slipping) slot.stats.slip_time_s += dt_s_;
   }
   for (const ContactChange& change : world_->take_contact_changes()) {
-    for (const auto& [self, other] : {std::pair{change.a, change.b}, std::pair{change.b, change.a}}) {
+    for (const auto& [self, other] :
+         {std::pair{change.a, change.b}, std::pair{change.b, change.a}}) {
       if (self.kind != BodyKind::kRobot) continue;
       RobotSlot& slot = robots_[self.index];
       Touch& touch = slot.touching[encode_tag(other)];

@@ -33,7 +33,7 @@ struct RobotStats {
   double wheel_distance_left_m = 0.0;  // |rotation| x true radius, summed
   double wheel_distance_right_m = 0.0;
   double slip_time_s = 0.0;  // time with a wheel at its friction limit
-  int collisions = 0;  // contacts begun after 0.5 s without touching that body
+  int collisions = 0;        // contacts begun after 0.5 s without touching that body
   int kidnaps = 0;
 };
 

@@ -12,9 +12,9 @@
 namespace locsim {
 
 struct VelocityCommand {
-  double t_s = 0.0;       // when it starts [s]
-  double v_mps = 0.0;     // forward speed [m/s]
-  double w_radps = 0.0;   // turn rate, counter-clockwise [rad/s]
+  double t_s = 0.0;      // when it starts [s]
+  double v_mps = 0.0;    // forward speed [m/s]
+  double w_radps = 0.0;  // turn rate, counter-clockwise [rad/s]
 };
 
 /// The behaviour that drives one robot. It steers by the true pose: the scenario is the
@@ -26,29 +26,30 @@ struct DriveDef {
   // kWaypoints
   std::vector<Vec2> path_m;
   bool loop = true;
-  double speed_mps = 0.3;           // cruise speed (also kWander) [m/s]
-  double max_turn_rate_radps = 1.0; // (also kWander's turning rate) [rad/s]
-  double tolerance_m = 0.05;        // waypoint reached within this distance [m]
-  double heading_gain = 2.0;        // turn rate per heading error [1/s]
+  double speed_mps = 0.3;            // cruise speed (also kWander) [m/s]
+  double max_turn_rate_radps = 1.0;  // (also kWander's turning rate) [rad/s]
+  double tolerance_m = 0.05;         // waypoint reached within this distance [m]
+  double heading_gain = 2.0;         // turn rate per heading error [1/s]
   // kVelocity
   std::vector<VelocityCommand> commands;
   // kWander
-  double clearance_m = 0.6;         // turn away when something is this close ahead [m]
-  SourceLocation where;
+  double clearance_m = 0.6;  // turn away when something is this close ahead [m]
+  SourceLocation where;      // of the drive's entry, for messages
+  std::string key_path;      // e.g. "scenario.drive", for messages
 };
 
 struct EventDef {
   enum class Kind { kKidnap, kPush, kFriction, kObstacle, kEnd };
   Kind kind = Kind::kEnd;
-  double at_s = 0.0;   // [s]
-  std::string robot;   // kKidnap, kPush: which robot; may be empty when the world has one
+  double at_s = 0.0;  // [s]
+  std::string robot;  // kKidnap, kPush: which robot; may be empty when the world has one
   // kKidnap: a given pose, or a random free pose (inside `random_min_m`..`random_max_m` when
   // given, else the world's bounds).
   std::optional<Pose2> to;
   std::optional<Vec2> random_min_m, random_max_m;
   double carry_s = 0.0;  // how long the robot is off the floor, wheels still [s]
   // kPush
-  Vec2 impulse_ns{0.0, 0.0};     // world frame [N s]
+  Vec2 impulse_ns{0.0, 0.0};         // world frame [N s]
   double angular_impulse_nms = 0.0;  // [N m s]
   // kFriction
   std::string region;  // a floor region's name, or "floor" for the default
@@ -56,7 +57,8 @@ struct EventDef {
   // kObstacle
   std::string obstacle;
   bool start_moving = true;  // start (true) or stop (false)
-  SourceLocation where;
+  SourceLocation where;      // of the event's entry, for messages
+  std::string key_path;      // e.g. "scenario.events[2].kidnap", for messages
 };
 
 struct ScenarioDef {

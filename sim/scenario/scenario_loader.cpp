@@ -15,6 +15,7 @@ DriveDef parse_drive(const YamlNode& node) {
                    "tolerance_m", "heading_gain", "commands", "clearance_m"});
   DriveDef drive;
   drive.where = node.where();
+  drive.key_path = node.path();
   drive.robot = node.get_string("robot", "");
   const YamlNode mode = node["mode"];
   const std::string mode_name = mode.as_string();
@@ -72,10 +73,12 @@ EventDef parse_event(const YamlNode& node) {
   event.at_s = node["at_s"].as_double(Check::kNonNegative);
   int kinds_given = 0;
   for (const std::string_view kind : kKinds) kinds_given += node.has(kind) ? 1 : 0;
-  if (kinds_given != 1) node.fail("an event has 'at_s' and exactly one of: kidnap, push, friction, obstacle, end");
+  if (kinds_given != 1)
+    node.fail("an event has 'at_s' and exactly one of: kidnap, push, friction, obstacle, end");
 
   if (const auto kidnap = node.find("kidnap")) {
     event.kind = EventDef::Kind::kKidnap;
+    event.key_path = kidnap->path();
     kidnap->allow_keys({"robot", "to", "within", "carry_s"});
     event.robot = kidnap->get_string("robot", "");
     const YamlNode to = (*kidnap)["to"];
@@ -97,17 +100,20 @@ EventDef parse_event(const YamlNode& node) {
     event.carry_s = kidnap->get_double("carry_s", 0.0, Check::kNonNegative);
   } else if (const auto push = node.find("push")) {
     event.kind = EventDef::Kind::kPush;
+    event.key_path = push->path();
     push->allow_keys({"robot", "impulse_ns", "angular_impulse_nms"});
     event.robot = push->get_string("robot", "");
     if (const auto impulse = push->find("impulse_ns")) event.impulse_ns = impulse->as_vec2();
     event.angular_impulse_nms = push->get_double("angular_impulse_nms", 0.0);
   } else if (const auto friction = node.find("friction")) {
     event.kind = EventDef::Kind::kFriction;
+    event.key_path = friction->path();
     friction->allow_keys({"region", "friction"});
     event.region = (*friction)["region"].as_string();
     event.friction = (*friction)["friction"].as_double(Check::kNonNegative);
   } else if (const auto obstacle = node.find("obstacle")) {
     event.kind = EventDef::Kind::kObstacle;
+    event.key_path = obstacle->path();
     obstacle->allow_keys({"name", "action"});
     event.obstacle = (*obstacle)["name"].as_string();
     const YamlNode action = (*obstacle)["action"];
@@ -116,6 +122,7 @@ EventDef parse_event(const YamlNode& node) {
     event.start_moving = action_name == "start";
   } else {
     event.kind = EventDef::Kind::kEnd;
+    event.key_path = node.path() + ".end";
     const YamlNode end = node["end"];
     if (!end.is_null()) end.allow_keys({});
   }
@@ -154,24 +161,27 @@ ScenarioDef load_scenario(const std::filesystem::path& file) {
 
 void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
   const auto bind_robot = [&](std::string& robot, const SourceLocation& where,
-                              const std::string& what) {
+                              const std::string& parent_path, const std::string& what) {
+    const std::string key = parent_path + ".robot";
     if (robot.empty()) {
       if (world.robots.size() != 1) {
-        throw InputError(where, "robot", what + " must name its robot: the world has " +
-                                             std::to_string(world.robots.size()) + " robots");
+        throw InputError(where, key,
+                         what + " must name its robot: the world has " +
+                             std::to_string(world.robots.size()) + " robots");
       }
       robot = world.robots.front().name;
       return;
     }
     const bool known = std::any_of(world.robots.begin(), world.robots.end(),
                                    [&](const RobotDef& r) { return r.name == robot; });
-    if (!known) throw InputError(where, "robot", "no robot called '" + robot + "' in the world");
+    if (!known) throw InputError(where, key, "no robot called '" + robot + "' in the world");
   };
   std::vector<std::string> driven;
   for (DriveDef& drive : scenario.drives) {
-    bind_robot(drive.robot, drive.where, "a drive");
+    bind_robot(drive.robot, drive.where, drive.key_path, "a drive");
     if (std::find(driven.begin(), driven.end(), drive.robot) != driven.end()) {
-      throw InputError(drive.where, "robot", "robot '" + drive.robot + "' has two drives");
+      throw InputError(drive.where, drive.key_path + ".robot",
+                       "robot '" + drive.robot + "' has two drives");
     }
     driven.push_back(drive.robot);
   }
@@ -184,10 +194,10 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
   for (EventDef& event : scenario.events) {
     switch (event.kind) {
       case EventDef::Kind::kKidnap:
-        bind_robot(event.robot, event.where, "a kidnap");
+        bind_robot(event.robot, event.where, event.key_path, "a kidnap");
         break;
       case EventDef::Kind::kPush:
-        bind_robot(event.robot, event.where, "a push");
+        bind_robot(event.robot, event.where, event.key_path, "a push");
         break;
       case EventDef::Kind::kFriction: {
         const bool known =
@@ -195,7 +205,7 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
             std::any_of(world.floor.regions.begin(), world.floor.regions.end(),
                         [&](const FloorRegionDef& r) { return r.name == event.region; });
         if (!known) {
-          throw InputError(event.where, "friction.region",
+          throw InputError(event.where, event.key_path + ".region",
                            "no floor region called '" + event.region + "' (or use 'floor')");
         }
         break;
@@ -204,7 +214,7 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
         const bool known = std::any_of(world.movers.begin(), world.movers.end(),
                                        [&](const MoverDef& m) { return m.name == event.obstacle; });
         if (!known) {
-          throw InputError(event.where, "obstacle.name",
+          throw InputError(event.where, event.key_path + ".name",
                            "no mover called '" + event.obstacle + "' in the world");
         }
         break;

@@ -13,7 +13,8 @@ namespace {
 
 class Reader {
  public:
-  Reader(std::string data, std::filesystem::path file) : data_(std::move(data)), file_(std::move(file)) {}
+  Reader(std::string data, std::filesystem::path file)
+      : data_(std::move(data)), file_(std::move(file)) {}
 
   [[noreturn]] void fail(const std::string& problem) const {
     throw InputError(SourceLocation{file_.string()}, "", "not a readable PGM image: " + problem);

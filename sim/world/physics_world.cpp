@@ -15,7 +15,8 @@ BodyTag decode_tag(std::uintptr_t pointer) {
 // ---------------------------------------------------------------------------------------------
 FloorFriction::FloorFriction(const FloorDef& floor) : default_friction_(floor.friction) {
   for (const FloorRegionDef& def : floor.regions) {
-    Region region{def.name, def.friction, def.polygon_m, def.polygon_m.front(), def.polygon_m.front()};
+    Region region{def.name, def.friction, def.polygon_m, def.polygon_m.front(),
+                  def.polygon_m.front()};
     for (const Vec2& p : def.polygon_m) {
       region.lo = region.lo.cwiseMin(p);
       region.hi = region.hi.cwiseMax(p);
@@ -95,9 +96,9 @@ class PhysicsWorld::ContactRecorder : public b2ContactListener {
 
  private:
   void record(b2Contact* contact, bool begin) {
-    changes.push_back(ContactChange{
-        decode_tag(contact->GetFixtureA()->GetBody()->GetUserData().pointer),
-        decode_tag(contact->GetFixtureB()->GetBody()->GetUserData().pointer), begin});
+    changes.push_back(
+        ContactChange{decode_tag(contact->GetFixtureA()->GetBody()->GetUserData().pointer),
+                      decode_tag(contact->GetFixtureB()->GetBody()->GetUserData().pointer), begin});
   }
 };
 

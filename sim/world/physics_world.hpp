@@ -109,7 +109,11 @@ class PhysicsWorld {
   bool has_bounds_ = false;
 };
 
-inline b2Vec2 to_b2(const Vec2& v) { return {static_cast<float>(v.x()), static_cast<float>(v.y())}; }
-inline Vec2 from_b2(const b2Vec2& v) { return {v.x, v.y}; }
+inline b2Vec2 to_b2(const Vec2& v) {
+  return {static_cast<float>(v.x()), static_cast<float>(v.y())};
+}
+inline Vec2 from_b2(const b2Vec2& v) {
+  return {v.x, v.y};
+}
 
 }  // namespace locsim

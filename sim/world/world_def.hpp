@@ -16,10 +16,10 @@
 namespace locsim {
 
 struct PhysicsDef {
-  double step_hz = 200.0;        // fixed physics rate [Hz]
-  int velocity_iterations = 8;   // Box2D velocity solver iterations [-]
-  int position_iterations = 3;   // Box2D position solver iterations [-]
-  double gravity_mps2 = 9.81;    // sets the wheels' normal loads; the world is horizontal [m/s²]
+  double step_hz = 200.0;       // fixed physics rate [Hz]
+  int velocity_iterations = 8;  // Box2D velocity solver iterations [-]
+  int position_iterations = 3;  // Box2D position solver iterations [-]
+  double gravity_mps2 = 9.81;   // sets the wheels' normal loads; the world is horizontal [m/s²]
 };
 
 /// A wall: a segment (2 points) or a polyline; `closed` joins the last point to the first.
@@ -48,8 +48,8 @@ struct PolygonDef {
 /// regions overlap; outside every region the floor's default applies.
 struct FloorRegionDef {
   std::string name;
-  double friction = 0.8;       // Coulomb coefficient between wheel and floor [-]
-  std::vector<Vec2> polygon_m; // simple polygon, any number of vertices
+  double friction = 0.8;        // Coulomb coefficient between wheel and floor [-]
+  std::vector<Vec2> polygon_m;  // simple polygon, any number of vertices
 };
 
 struct FloorDef {

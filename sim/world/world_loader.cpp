@@ -32,8 +32,10 @@ double signed_area(const std::vector<Vec2>& points) {
 /// Box2D polygons: convex, 3..8 vertices. Accepts either winding and stores counter-clockwise.
 std::vector<Vec2> convex_polygon(const YamlNode& node) {
   std::vector<Vec2> points = node.as_points(3);
-  if (points.size() > 8) node.fail("a polygon has at most 8 vertices (Box2D's limit); split it "
-                                   "or use walls");
+  if (points.size() > 8)
+    node.fail(
+        "a polygon has at most 8 vertices (Box2D's limit); split it "
+        "or use walls");
   if (signed_area(points) < 0.0) std::reverse(points.begin(), points.end());
   if (!is_convex_ccw(points)) node.fail("polygon must be convex with no repeated points");
   return points;
@@ -41,10 +43,10 @@ std::vector<Vec2> convex_polygon(const YamlNode& node) {
 
 Rgb parse_color(const YamlNode& node, std::string& name_out) {
   static const std::map<std::string, Rgb> kNamed = {
-      {"red", {230, 25, 25}},      {"green", {20, 170, 40}},   {"blue", {30, 80, 230}},
-      {"yellow", {240, 210, 20}},  {"cyan", {20, 200, 220}},   {"magenta", {220, 40, 200}},
-      {"orange", {255, 130, 0}},   {"purple", {120, 40, 170}}, {"white", {245, 245, 245}},
-      {"black", {20, 20, 20}},     {"pink", {255, 140, 180}},  {"brown", {130, 80, 30}},
+      {"red", {230, 25, 25}},     {"green", {20, 170, 40}},   {"blue", {30, 80, 230}},
+      {"yellow", {240, 210, 20}}, {"cyan", {20, 200, 220}},   {"magenta", {220, 40, 200}},
+      {"orange", {255, 130, 0}},  {"purple", {120, 40, 170}}, {"white", {245, 245, 245}},
+      {"black", {20, 20, 20}},    {"pink", {255, 140, 180}},  {"brown", {130, 80, 30}},
   };
   if (node.is_scalar()) {
     name_out = node.as_string();
@@ -60,7 +62,8 @@ Rgb parse_color(const YamlNode& node, std::string& name_out) {
   if (channels.size() != 3) node.fail("expected a colour name or [r, g, b] with 0..255 each");
   name_out.clear();
   Rgb rgb{};
-  for (std::size_t i = 0; i < 3; ++i) rgb[i] = static_cast<unsigned char>(channels[i].as_int(0, 255));
+  for (std::size_t i = 0; i < 3; ++i)
+    rgb[i] = static_cast<unsigned char>(channels[i].as_int(0, 255));
   return rgb;
 }
 
@@ -94,7 +97,8 @@ FloorDef parse_floor(const YamlNode& node) {
       region.friction = item["friction"].as_double(Check::kNonNegative);
       const auto polygon = item.find("polygon");
       const auto box = item.find("box");
-      if (polygon.has_value() == box.has_value()) item.fail("give exactly one of 'polygon' or 'box'");
+      if (polygon.has_value() == box.has_value())
+        item.fail("give exactly one of 'polygon' or 'box'");
       if (polygon) {
         region.polygon_m = polygon->as_points(3);
         if (std::abs(signed_area(region.polygon_m)) < 1e-9) polygon->fail("polygon has no area");
@@ -137,8 +141,8 @@ FootprintDef parse_footprint(const YamlNode& node) {
 
 OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
   const YamlNode root = YamlNode::load_file(map_yaml);
-  root.allow_keys({"image", "resolution", "origin", "occupied_thresh", "free_thresh", "negate",
-                   "mode"});
+  root.allow_keys(
+      {"image", "resolution", "origin", "occupied_thresh", "free_thresh", "negate", "mode"});
   OccupancyMapDef map;
   map.yaml_file = map_yaml;
   map.image_file = map_yaml.parent_path() / root["image"].as_string();
@@ -146,7 +150,8 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
   const auto origin = root["origin"].items();
   if (origin.size() != 3) root["origin"].fail("expected [x, y, yaw]");
   map.origin = Pose2{origin[0].as_double(), origin[1].as_double(), origin[2].as_double()};
-  map.occupied_thresh = root.get_double("occupied_thresh", map.occupied_thresh, Check::kUnitInterval);
+  map.occupied_thresh =
+      root.get_double("occupied_thresh", map.occupied_thresh, Check::kUnitInterval);
   map.free_thresh = root.get_double("free_thresh", map.free_thresh, Check::kUnitInterval);
   if (map.free_thresh > map.occupied_thresh) {
     root["free_thresh"].fail("must not exceed occupied_thresh");
@@ -186,11 +191,13 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       WallDef wall;
       wall.points_m = item["points"].as_points(2);
       wall.closed = item.get_bool("closed", false);
-      if (wall.closed && wall.points_m.size() < 3) item["closed"].fail("a closed wall needs 3 points");
+      if (wall.closed && wall.points_m.size() < 3)
+        item["closed"].fail("a closed wall needs 3 points");
       wall.thickness_m = item.get_double("thickness_m", wall.thickness_m, Check::kPositive);
       for (std::size_t i = 0; i + 1 < wall.points_m.size(); ++i) {
         if ((wall.points_m[i + 1] - wall.points_m[i]).norm() < 0.01) {
-          item["points"].fail("consecutive points closer than 1 cm (point " + std::to_string(i + 1) + ")");
+          item["points"].fail("consecutive points closer than 1 cm (point " +
+                              std::to_string(i + 1) + ")");
         }
       }
       world.walls.push_back(std::move(wall));
@@ -222,7 +229,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   }
   if (const auto map = root.find("map")) {
     const std::filesystem::path map_file = base_dir / map->as_string();
-    if (!std::filesystem::exists(map_file)) map->fail("no such map file '" + map_file.string() + "'");
+    if (!std::filesystem::exists(map_file))
+      map->fail("no such map file '" + map_file.string() + "'");
     world.map = load_occupancy_map(map_file);
   }
 
@@ -234,7 +242,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       landmark.id = static_cast<int>(item["id"].as_int(0, 1'000'000));
       if (!ids.insert(landmark.id).second) item["id"].fail("landmark id used twice");
       landmark.position_m = item["position"].as_vec2();
-      if (const auto color = item.find("color")) landmark.color = parse_color(*color, landmark.color_name);
+      if (const auto color = item.find("color"))
+        landmark.color = parse_color(*color, landmark.color_name);
       landmark.radius_m = item.get_double("radius_m", landmark.radius_m, Check::kPositive);
       landmark.height_m = item.get_double("height_m", landmark.height_m, Check::kPositive);
       world.landmarks.push_back(landmark);
@@ -269,7 +278,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       } else {
         item["kind"].fail("expected 'person' or 'cart'");
       }
-      if (const auto footprint = item.find("footprint")) mover.footprint = parse_footprint(*footprint);
+      if (const auto footprint = item.find("footprint"))
+        mover.footprint = parse_footprint(*footprint);
       mover.path_m = item["path"].as_points(1);
       mover.speed_mps = item.get_double("speed_mps", mover.speed_mps, Check::kNonNegative);
       mover.loop = item.get_bool("loop", mover.loop);
@@ -291,10 +301,12 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       item["name"].fail("a robot name names its output folder: no spaces, dots or slashes");
     }
     if (!body_names.insert(robot.name).second) item.fail("name '" + robot.name + "' used twice");
-    if (const auto footprint = item.find("footprint")) robot.footprint = parse_footprint(*footprint);
+    if (const auto footprint = item.find("footprint"))
+      robot.footprint = parse_footprint(*footprint);
     robot.mass_kg = item.get_double("mass_kg", robot.mass_kg, Check::kPositive);
     robot.wheel_base_m = item.get_double("wheel_base_m", robot.wheel_base_m, Check::kPositive);
-    robot.wheel_radius_m = item.get_double("wheel_radius_m", robot.wheel_radius_m, Check::kPositive);
+    robot.wheel_radius_m =
+        item.get_double("wheel_radius_m", robot.wheel_radius_m, Check::kPositive);
     robot.wheel_radius_left_m =
         item.get_double("wheel_radius_left_m", robot.wheel_radius_m, Check::kPositive);
     robot.wheel_radius_right_m =
@@ -314,7 +326,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   }
   if (world.robots.empty()) robots.fail("a world needs at least one robot");
 
-  if (const auto scenario = root.find("scenario")) world.scenario = parse_scenario(*scenario, base_dir);
+  if (const auto scenario = root.find("scenario"))
+    world.scenario = parse_scenario(*scenario, base_dir);
   return world;
 }
 

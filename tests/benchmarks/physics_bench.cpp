@@ -2,7 +2,6 @@
 // real_time_factor (simulated seconds per wall second). Target: the demo world >= 2000x real
 // time on one core at 200 Hz.
 #include <benchmark/benchmark.h>
-
 #include <box2d/box2d.h>
 
 #include <filesystem>
@@ -18,7 +17,8 @@ namespace fs = std::filesystem;
 using namespace locsim;
 
 void report(benchmark::State& state, std::int64_t steps, double step_hz) {
-  state.counters["steps_per_s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+  state.counters["steps_per_s"] =
+      benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
   state.counters["real_time_factor"] =
       benchmark::Counter(static_cast<double>(steps) / step_hz, benchmark::Counter::kIsRate);
 }

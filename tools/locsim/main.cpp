@@ -15,7 +15,9 @@ namespace {
 
 std::atomic<bool> g_interrupted{false};
 
-extern "C" void on_sigint(int) { g_interrupted.store(true); }
+extern "C" void on_sigint(int) {
+  g_interrupted.store(true);
+}
 
 constexpr const char* kExitCodes = R"(Exit codes:
   0    success
@@ -25,16 +27,17 @@ constexpr const char* kExitCodes = R"(Exit codes:
 
 int validate(const std::string& world, const std::optional<std::string>& scenario) {
   const locsim::RunInputs inputs = locsim::load_run_inputs(
-      world, scenario ? std::optional<std::filesystem::path>(*scenario) : std::nullopt, std::nullopt);
+      world, scenario ? std::optional<std::filesystem::path>(*scenario) : std::nullopt,
+      std::nullopt);
   // Building the world checks what only the physics can: robots starting in collision.
   const locsim::Simulation sim(inputs.world, inputs.scenario, 1);
-  std::printf("%s: ok (%zu robot%s, %d static fixtures, %zu movers, %zu landmarks, %zu beacons, "
-              "scenario '%s' %.1f s, %zu events)\n",
-              world.c_str(), sim.robot_count(), sim.robot_count() == 1 ? "" : "s",
-              sim.world().static_fixture_count(), inputs.world.movers.size(),
-              inputs.world.landmarks.size(), inputs.world.beacons.size(),
-              inputs.scenario.name.c_str(), inputs.scenario.duration_s,
-              inputs.scenario.events.size());
+  std::printf(
+      "%s: ok (%zu robot%s, %d static fixtures, %zu movers, %zu landmarks, %zu beacons, "
+      "scenario '%s' %.1f s, %zu events)\n",
+      world.c_str(), sim.robot_count(), sim.robot_count() == 1 ? "" : "s",
+      sim.world().static_fixture_count(), inputs.world.movers.size(), inputs.world.landmarks.size(),
+      inputs.world.beacons.size(), inputs.scenario.name.c_str(), inputs.scenario.duration_s,
+      inputs.scenario.events.size());
   return locsim::kExitOk;
 }
 
@@ -66,7 +69,8 @@ int main(int argc, char** argv) {
   run->footer(
       "Writes run.json (resolved configuration, seed, version, timing), groundtruth.tum (true\n"
       "pose, TUM format) and events.csv (every scenario event). With several robots each has its\n"
-      "own sub-folder for groundtruth.tum.\n\n" + std::string(kExitCodes));
+      "own sub-folder for groundtruth.tum.\n\n" +
+      std::string(kExitCodes));
 
   std::string validate_world;
   std::optional<std::string> validate_scenario;
