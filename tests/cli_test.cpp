@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
@@ -80,6 +81,15 @@ TEST(Cli, RunWritesTheRunFolder) {
     EXPECT_TRUE(fs::exists(out / file)) << file;
   }
   EXPECT_FALSE(fs::exists(out / "run.json.tmp"));
+  // The demo robot carries every sensor: one stream each, with its header and rows.
+  for (const char* sensor :
+       {"encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser"}) {
+    const std::string stream =
+        testing::read_file(out / "readings" / (std::string(sensor) + ".csv"));
+    EXPECT_TRUE(stream.starts_with("t_s,")) << sensor;
+    EXPECT_GT(std::count(stream.begin(), stream.end(), '\n'), 10) << sensor;
+  }
+  EXPECT_TRUE(fs::exists(out / "readings/sensors.json"));
   EXPECT_NE(testing::read_file(out / "run.json").find("\"seed\": 5"), std::string::npos);
 }
 

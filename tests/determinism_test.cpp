@@ -33,7 +33,10 @@ TEST(Determinism, SameSeedGivesByteIdenticalOutputs) {
   const RunResult b = run_demo(base / "b", 7);
   EXPECT_EQ(a.status, "completed");
   EXPECT_EQ(a.state_hash, b.state_hash);
-  for (const char* file : {"groundtruth.tum", "events.csv"}) {
+  for (const char* file :
+       {"groundtruth.tum", "events.csv", "readings/encoders.csv", "readings/imu.csv",
+        "readings/ptz_camera.csv", "readings/omni_camera.csv", "readings/ultrasonic.csv",
+        "readings/laser.csv", "readings/sensors.json"}) {
     const std::string content = testing::read_file(base / "a" / file);
     EXPECT_GT(content.size(), 100u) << file;
     EXPECT_EQ(content, testing::read_file(base / "b" / file)) << file << " differs";
@@ -49,6 +52,8 @@ TEST(Determinism, DifferentSeedsDiffer) {
   EXPECT_NE(testing::read_file(base / "a/groundtruth.tum"),
             testing::read_file(base / "b/groundtruth.tum"));
   EXPECT_NE(testing::read_file(base / "a/events.csv"), testing::read_file(base / "b/events.csv"));
+  EXPECT_NE(testing::read_file(base / "a/readings/laser.csv"),
+            testing::read_file(base / "b/readings/laser.csv"));
 }
 
 TEST(Determinism, BusyWorldHashesEqualAcrossRuns) {
@@ -108,7 +113,7 @@ TEST(RunFolder, HoldsTumGroundTruthEventsAndResolvedConfig) {
   EXPECT_EQ(run["seed"], 1);
   EXPECT_DOUBLE_EQ(run["simulated_s"].get<double>(), 45.0);
   EXPECT_EQ(run["config"]["world"]["robots"][0]["wheel_radius_left_m"], 0.0502);
-  EXPECT_EQ(run["config"]["scenario"]["events"].size(), 2u);
+  EXPECT_EQ(run["config"]["scenario"]["events"].size(), 3u);
   EXPECT_GT(run["timing"]["real_time_factor"].get<double>(), 0.0);
   const std::string events = testing::read_file(out / "events.csv");
   EXPECT_TRUE(events.starts_with("t_s,kind,robot,details\n"));

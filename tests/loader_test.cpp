@@ -85,6 +85,25 @@ const Malformed kMalformedWorlds[] = {
      "'robots[0].name': a robot name names its output folder"},
     {"missing_map", "map: nowhere/map.yaml\nrobots:\n  - start: {x: 0, y: 0}\n",
      "test.yaml:1:6: 'map': no such map file"},
+    // Sensors.
+    {"unknown_sensor", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {lidar: {}}\n",
+     "'robots[0].sensors.lidar': unknown key; did you mean 'laser'?"},
+    {"unknown_sensor_key", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {laser: {beems: 10}}\n",
+     "'robots[0].sensors.laser.beems': unknown key; did you mean 'beams'?"},
+    {"sensor_rate", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {imu: {rate_hz: 30}}\n",
+     "test.yaml:3:30: 'robots[0].sensors.imu.rate_hz': rate 30.000000 Hz must divide the physics "
+     "rate"},
+    {"laser_mixture",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors: {laser: {p_max: 0.7, p_random: 0.5}}\n",
+     "p_short + p_max + p_random exceeds 1"},
+    {"fault_unknown_sensor",
+     "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  events:\n    - {at_s: 1, sensor_fault: "
+     "{sensor: gps, mode: dropout}}\n",
+     "'scenario.events[0].sensor_fault.sensor': unknown sensor"},
+    {"fault_encoder_bias",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors: {encoders: {}}\nscenario:\n  events:\n"
+     "    - {at_s: 1, sensor_fault: {sensor: encoders, mode: bias, bias: 1}}\n",
+     "encoders take dropout or stuck faults, not bias"},
     // Scenario problems, in the world's scenario section.
     {"unknown_drive_mode", "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  drive: {mode: fly}\n",
      "test.yaml:4:17: 'scenario.drive.mode': unknown mode"},
@@ -131,6 +150,12 @@ const Malformed kInconsistentWorlds[] = {
      "robots:\n  - {name: a, start: {x: 0, y: 0}}\n  - {name: b, start: {x: 2, y: 0}}\n"
      "scenario:\n  drive: {mode: wander}\n",
      "'scenario.drive.robot': a drive must name its robot: the world has 2 robots"},
+    {"fault_on_absent_sensor",
+     "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  events:\n    - {at_s: 1, sensor_fault: "
+     "{sensor: laser, mode: dropout}}\n",
+     "'scenario.events[0].sensor_fault.sensor': robot 'robot0' has no laser"},
+    {"ptz_without_camera", "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  ptz: {policy: sweep}\n",
+     "'scenario.ptz': robot 'robot0' has no ptz_camera"},
     {"unknown_obstacle",
      "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  events:\n    - {at_s: 1, obstacle: {name: "
      "carol, action: stop}}\n",

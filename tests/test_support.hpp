@@ -24,6 +24,7 @@ inline WorldDef world_from_yaml(const std::string& text) {
 inline Simulation make_sim(const std::string& world_yaml, std::uint64_t seed = 1) {
   WorldDef world = world_from_yaml(world_yaml);
   ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
+  if (!world.scenario) scenario.duration_s = 1e6;  // the test decides how long to step
   bind_scenario(scenario, world);
   return Simulation(world, scenario, seed);
 }

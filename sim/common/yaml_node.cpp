@@ -66,6 +66,10 @@ void YamlNode::require_map() const {
 }
 
 void YamlNode::allow_keys(std::initializer_list<std::string_view> allowed) const {
+  allow_keys(std::vector<std::string_view>(allowed));
+}
+
+void YamlNode::allow_keys(const std::vector<std::string_view>& allowed) const {
   require_map();
   std::set<std::string> seen;
   for (const auto& entry : node_) {

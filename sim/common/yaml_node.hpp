@@ -40,6 +40,7 @@ class YamlNode {
   // ---- maps
   /// Fails unless this is a map whose keys are all in `allowed` and none is repeated.
   void allow_keys(std::initializer_list<std::string_view> allowed) const;
+  void allow_keys(const std::vector<std::string_view>& allowed) const;
   bool has(std::string_view key) const;
   /// A required key; fails with "missing required key" when absent.
   YamlNode operator[](std::string_view key) const;

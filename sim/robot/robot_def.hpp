@@ -8,6 +8,7 @@
 
 #include "sim/common/errors.hpp"
 #include "sim/common/math.hpp"
+#include "sim/sensors/sensor_defs.hpp"
 
 namespace locsim {
 
@@ -49,7 +50,9 @@ struct RobotDef {
   double max_wheel_accel_radps2 = 30.0;  // speed controller's ramp limit [rad/s²]
   double max_wheel_torque_nm = 5.0;      // motor torque limit at the wheel [N m]
   double drive_load_fraction = 0.8;      // share of the weight on the two drive wheels [-]
+  double height_m = 0.4;                 // top of the body; blocks ultrasound below it [m]
   Pose2 start;                           // initial true pose in the world
+  SensorsDef sensors;                    // absent sensors are off
   SourceLocation where;                  // of the robot's entry, for messages
 };
 

@@ -13,6 +13,10 @@ json points(const std::vector<Vec2>& ps) {
   for (const Vec2& p : ps) out.push_back(point(p));
   return out;
 }
+/// Heights: "full" for floor-to-ceiling (JSON has no infinity).
+json height(double h) {
+  return h == kFullHeight ? json("full") : json(h);
+}
 json pose(const Pose2& p) {
   return json{{"x", p.x}, {"y", p.y}, {"theta", p.theta}};
 }
@@ -27,6 +31,91 @@ json footprint(const FootprintDef& f) {
   }
   return json{};
 }
+json common(const SensorCommon& c) {
+  return json{{"enabled", c.enabled}, {"rate_hz", c.rate_hz}, {"mount", pose(c.mount)}};
+}
+json sensors(const SensorsDef& s) {
+  json out = json::object();
+  if (s.encoders) {
+    const EncodersDef& d = *s.encoders;
+    out["encoders"] = common(d.common);
+    out["encoders"].update(
+        {{"ticks_per_rev", d.ticks_per_rev}, {"k_left", d.k_left}, {"k_right", d.k_right}});
+    if (d.odometry_wheel_base_m)
+      out["encoders"]["odometry_wheel_base_m"] = *d.odometry_wheel_base_m;
+  }
+  if (s.imu) {
+    const ImuDef& d = *s.imu;
+    out["imu"] = common(d.common);
+    out["imu"].update({{"gyro_noise_density", d.gyro_noise_density},
+                       {"gyro_bias_sigma", d.gyro_bias_sigma},
+                       {"gyro_bias_random_walk", d.gyro_bias_random_walk},
+                       {"gyro_range", d.gyro_range},
+                       {"accel_noise_density", d.accel_noise_density},
+                       {"accel_bias_sigma", d.accel_bias_sigma},
+                       {"accel_bias_random_walk", d.accel_bias_random_walk},
+                       {"accel_range", d.accel_range}});
+  }
+  if (s.ptz_camera) {
+    const PtzCameraDef& d = *s.ptz_camera;
+    out["ptz_camera"] = common(d.common);
+    out["ptz_camera"].update({{"height_m", d.height_m},
+                              {"width_px", d.width_px},
+                              {"height_px", d.height_px},
+                              {"hfov", d.hfov_rad},
+                              {"zoom_max", d.zoom_max},
+                              {"pan_min", d.pan_min_rad},
+                              {"pan_max", d.pan_max_rad},
+                              {"max_pan_rate", d.max_pan_rate_radps},
+                              {"tilt", d.tilt_rad},
+                              {"zoom", d.zoom},
+                              {"min_range_m", d.min_range_m},
+                              {"max_range_m", d.max_range_m},
+                              {"pixel_noise_px", d.pixel_noise_px},
+                              {"min_blob_px", d.min_blob_px},
+                              {"miss_probability", d.miss_probability},
+                              {"false_detections_per_frame", d.false_detections_per_frame},
+                              {"report_ids", d.report_ids}});
+  }
+  if (s.omni_camera) {
+    const OmniCameraDef& d = *s.omni_camera;
+    out["omni_camera"] = common(d.common);
+    out["omni_camera"].update({{"max_range_m", d.max_range_m},
+                               {"sigma_major_m", d.sigma_major_m},
+                               {"sigma_minor_m", d.sigma_minor_m},
+                               {"sigma_major_per_m", d.sigma_major_per_m},
+                               {"report_ids", d.report_ids}});
+  }
+  if (s.ultrasonic) {
+    const UltrasonicDef& d = *s.ultrasonic;
+    json receivers = json::array();
+    for (const auto& r : d.receivers)
+      receivers.push_back({{"position", point(r.position_m)}, {"height_m", r.height_m}});
+    out["ultrasonic"] = common(d.common);
+    out["ultrasonic"].update({{"receivers", receivers},
+                              {"sigma_m", d.sigma_m},
+                              {"max_range_m", d.max_range_m},
+                              {"dropout_probability", d.dropout_probability},
+                              {"nlos_probability", d.nlos_probability},
+                              {"nlos_bias_min_m", d.nlos_bias_min_m},
+                              {"nlos_bias_mean_m", d.nlos_bias_mean_m}});
+  }
+  if (s.laser) {
+    const LaserDef& d = *s.laser;
+    out["laser"] = common(d.common);
+    out["laser"].update({{"fov", d.fov_rad},
+                         {"beams", d.beams},
+                         {"min_range_m", d.min_range_m},
+                         {"max_range_m", d.max_range_m},
+                         {"sigma_m", d.sigma_m},
+                         {"p_short", d.p_short},
+                         {"lambda_short", d.lambda_short},
+                         {"p_max", d.p_max},
+                         {"p_random", d.p_random}});
+  }
+  return out;
+}
+
 const char* mode_name(DriveDef::Mode mode) {
   switch (mode) {
     case DriveDef::Mode::kIdle:
@@ -60,22 +149,28 @@ json to_json(const WorldDef& w) {
   for (const WallDef& wall : w.walls) {
     walls.push_back({{"points", points(wall.points_m)},
                      {"closed", wall.closed},
-                     {"thickness_m", wall.thickness_m}});
+                     {"thickness_m", wall.thickness_m},
+                     {"height_m", height(wall.height_m)}});
   }
   out["walls"] = walls;
   json boxes = json::array();
   for (const BoxDef& b : w.boxes) {
-    boxes.push_back(
-        {{"center", point(b.center_m)}, {"size", point(b.size_m)}, {"angle", b.angle_rad}});
+    boxes.push_back({{"center", point(b.center_m)},
+                     {"size", point(b.size_m)},
+                     {"angle", b.angle_rad},
+                     {"height_m", height(b.height_m)}});
   }
   out["boxes"] = boxes;
   json circles = json::array();
   for (const CircleDef& c : w.circles) {
-    circles.push_back({{"center", point(c.center_m)}, {"radius_m", c.radius_m}});
+    circles.push_back({{"center", point(c.center_m)},
+                       {"radius_m", c.radius_m},
+                       {"height_m", height(c.height_m)}});
   }
   out["circles"] = circles;
   json polygons = json::array();
-  for (const PolygonDef& p : w.polygons) polygons.push_back({{"points", points(p.points_m)}});
+  for (const PolygonDef& p : w.polygons)
+    polygons.push_back({{"points", points(p.points_m)}, {"height_m", height(p.height_m)}});
   out["polygons"] = polygons;
   if (w.map) {
     out["map"] = {{"yaml", w.map->yaml_file.string()},
@@ -111,7 +206,8 @@ json to_json(const WorldDef& w) {
                       {"path", points(m.path_m)},
                       {"speed_mps", m.speed_mps},
                       {"loop", m.loop},
-                      {"moving", m.moving}});
+                      {"moving", m.moving},
+                      {"height_m", m.height_m}});
   }
   out["movers"] = movers;
   json robots = json::array();
@@ -128,7 +224,9 @@ json to_json(const WorldDef& w) {
                       {"max_wheel_accel_radps2", r.max_wheel_accel_radps2},
                       {"max_wheel_torque_nm", r.max_wheel_torque_nm},
                       {"drive_load_fraction", r.drive_load_fraction},
-                      {"start", pose(r.start)}});
+                      {"height_m", r.height_m},
+                      {"start", pose(r.start)},
+                      {"sensors", sensors(r.sensors)}});
   }
   out["robots"] = robots;
   return out;
@@ -199,6 +297,15 @@ json to_json(const ScenarioDef& s) {
       case EventDef::Kind::kObstacle:
         event["obstacle"] = {{"name", e.obstacle}, {"action", e.start_moving ? "start" : "stop"}};
         break;
+      case EventDef::Kind::kSensorFault: {
+        const char* modes[] = {"dropout", "stuck", "bias"};
+        event["sensor_fault"] = {{"robot", e.robot},
+                                 {"sensor", e.sensor},
+                                 {"mode", modes[static_cast<int>(e.fault.mode)]},
+                                 {"duration_s", e.fault.duration_s},
+                                 {"bias", e.fault.bias}};
+        break;
+      }
       case EventDef::Kind::kEnd:
         event["end"] = json::object();
         break;
@@ -206,6 +313,17 @@ json to_json(const ScenarioDef& s) {
     events.push_back(event);
   }
   out["events"] = events;
+  json policies = json::array();
+  for (const PanPolicyDef& p : s.pan_policies) {
+    const char* modes[] = {"fixed", "sweep", "nearest_landmark"};
+    policies.push_back({{"robot", p.robot},
+                        {"policy", modes[static_cast<int>(p.mode)]},
+                        {"pan", p.pan_rad},
+                        {"sweep_min", p.sweep_min_rad},
+                        {"sweep_max", p.sweep_max_rad},
+                        {"sweep_rate", p.sweep_rate_radps}});
+  }
+  out["ptz"] = policies;
   return out;
 }
 

@@ -8,10 +8,13 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <type_traits>
+#include <variant>
 
 #include "sim/run/config_json.hpp"
 #include "sim/run/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
+#include "sim/sensors/models.hpp"
 #include "sim/world/world_loader.hpp"
 
 #ifndef LOCSIM_VERSION_STRING
@@ -65,13 +68,117 @@ class RunWriter {
       file << "# timestamp tx ty tz qx qy qz qw  (true pose of robot '" << sim.robot(i).name()
            << "', TUM format, z = 0)\n";
     }
+    for (std::size_t i = 0; i < n; ++i) open_readings(sim, i);
     events_.open(dir / "events.csv", std::ios::binary);
     if (!events_) throw std::runtime_error("cannot write " + (dir / "events.csv").string());
     events_ << "t_s,kind,robot,details\n";
   }
 
+  /// readings/ of robot `i`: one CSV per sensor, and sensors.json with their configuration.
+  void open_readings(const Simulation& sim, std::size_t i) {
+    const auto& sensors = sim.sensors(i);
+    readings_.emplace_back();
+    if (sensors.empty()) return;
+    const fs::path dir = robot_dirs_[i] / "readings";
+    fs::create_directories(dir);
+    static const char* kHeaders[] = {
+        "t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad",
+        "t_s,yaw_rate_radps,accel_x_mps2,accel_y_mps2",
+        "t_s,pan_rad,tilt_rad,zoom,detections,color,id,range_m,bearing_rad,truth_id",
+        "t_s,detections,color,id,range_m,bearing_rad,truth_id",
+        "t_s,receiver,beacon_id,range_m,truth_status",
+        "t_s,ranges_m",
+    };
+    for (const auto& sensor : sensors) {
+      const auto kind = static_cast<std::size_t>(sensor->kind());
+      auto& file = readings_.back()[kind];
+      const fs::path path = dir / (std::string(sensor_name(sensor->kind())) + ".csv");
+      file = std::make_unique<std::ofstream>(path, std::ios::binary);
+      if (!*file) throw std::runtime_error("cannot write " + path.string());
+      *file << kHeaders[kind] << '\n';
+    }
+    const json config = to_json(sim.world_def())["robots"][i]["sensors"];
+    json described = config;
+    if (described.contains("laser")) {
+      const LaserDef& laser = *sim.robot(i).def().sensors.laser;
+      json angles = json::array();
+      for (int b = 0; b < laser.beams; ++b)
+        angles.push_back(laser_beam_angle(b, laser.beams, laser.fov_rad));
+      described["laser"]["beam_angles_rad"] = angles;
+    }
+    std::ofstream(dir / "sensors.json", std::ios::binary) << described.dump(2) << '\n';
+  }
+
+  void write(const Reading& reading) {
+    auto& file = readings_[reading.robot][static_cast<std::size_t>(reading.kind)];
+    if (!file) return;
+    line_.clear();
+    const auto number = [&](double value, int decimals) {
+      line_ += ',';
+      append_fixed(line_, value, decimals);
+    };
+    const auto start_row = [&] { append_fixed(line_, reading.t_s, 4); };
+    std::visit(
+        [&](const auto& data) {
+          using T = std::decay_t<decltype(data)>;
+          if constexpr (std::is_same_v<T, EncoderReading>) {
+            start_row();
+            line_ += ',' + std::to_string(data.left_ticks) + ',' + std::to_string(data.right_ticks);
+            number(data.odometry.x, 6);
+            number(data.odometry.y, 6);
+            number(data.odometry.theta, 6);
+            line_ += '\n';
+          } else if constexpr (std::is_same_v<T, ImuReading>) {
+            start_row();
+            number(data.yaw_rate_radps, 6);
+            number(data.accel_mps2.x(), 5);
+            number(data.accel_mps2.y(), 5);
+            line_ += '\n';
+          } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
+            std::string prefix;
+            append_fixed(prefix, reading.t_s, 4);
+            if constexpr (std::is_same_v<T, PtzReading>) {
+              prefix += ',';
+              append_fixed(prefix, data.pan_rad, 6);
+              prefix += ',';
+              append_fixed(prefix, data.tilt_rad, 6);
+              prefix += ',';
+              append_fixed(prefix, data.zoom, 3);
+            }
+            prefix += ',' + std::to_string(data.detections.size());
+            if (data.detections.empty()) line_ += prefix + ",,,,,\n";
+            for (const Detection& d : data.detections) {
+              line_ += prefix + ',' + d.color + ',' + std::to_string(d.id);
+              number(d.range_m, 4);
+              number(d.bearing_rad, 6);
+              line_ += ',' + std::to_string(d.truth_id) + '\n';
+            }
+          } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
+            for (const BeaconRange& r : data.ranges) {
+              start_row();
+              line_ += ',' + std::to_string(r.receiver) + ',' + std::to_string(r.beacon_id);
+              number(r.range_m, 4);
+              line_ += ',';
+              line_ += range_status_name(r.truth_status);
+              line_ += '\n';
+            }
+          } else if constexpr (std::is_same_v<T, LaserScan>) {
+            start_row();
+            line_ += ',';
+            for (std::size_t b = 0; b < data.ranges_m.size(); ++b) {
+              if (b > 0) line_ += ' ';
+              append_fixed(line_, data.ranges_m[b], 3);
+            }
+            line_ += '\n';
+          }
+        },
+        reading.data);
+    *file << line_;
+  }
+
   /// Called after every step (and once before the first).
   void record(Simulation& sim) {
+    for (const Reading& reading : sim.take_readings()) write(reading);
     for (const SimEvent& event : sim.take_events()) {
       line_.clear();
       append_fixed(line_, event.t_s, 4);
@@ -102,6 +209,11 @@ class RunWriter {
 
   void flush() {
     for (auto& file : groundtruth_) file.flush();
+    for (auto& robot : readings_) {
+      for (auto& file : robot) {
+        if (file) file->flush();
+      }
+    }
     events_.flush();
   }
 
@@ -114,6 +226,7 @@ class RunWriter {
   std::vector<fs::path> robot_dirs_;
   std::vector<std::ofstream> groundtruth_;
   std::ofstream events_;
+  std::vector<std::array<std::unique_ptr<std::ofstream>, 6>> readings_;  // by robot, SensorKind
   std::string line_;
 };
 

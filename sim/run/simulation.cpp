@@ -63,7 +63,54 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
   for (const EventDef& event : scenario_.events) {
     event_steps_.push_back(std::llround(event.at_s * world_def_.physics.step_hz));
   }
+
+  // Sensors: the static geometry is copied once into the grid the rays traverse; everything that
+  // moves is looked up in Box2D at each query.
+  static_rays_ = std::make_unique<StaticRaycaster>(StaticRaycaster::from_world(*world_));
+  std::vector<DynamicOccluder> dynamics;
+  for (const Mover& mover : world_->movers()) {
+    dynamics.push_back({mover.body, mover.def.height_m, bounding_radius(mover.def.footprint)});
+  }
+  for (const RobotSlot& slot : robots_) {
+    dynamics.push_back({slot.robot->body(), slot.robot->def().height_m,
+                        bounding_radius(slot.robot->def().footprint)});
+  }
+  rays_ = std::make_unique<SceneRays>(*static_rays_, std::move(dynamics));
+  for (RobotSlot& slot : robots_) {
+    const PanPolicyDef* policy = nullptr;
+    for (const PanPolicyDef& p : scenario_.pan_policies) {
+      if (p.robot == slot.robot->name()) policy = &p;
+    }
+    slot.sensors = make_sensors(slot.robot->def(), seed, policy);
+    for (const auto& sensor : slot.sensors) {
+      slot.sensor_strides.push_back(
+          std::llround(world_def_.physics.step_hz / sensor->common().rate_hz));
+    }
+  }
   fire_due_events();  // those at t = 0
+  run_sensors(false);
+}
+
+void Simulation::run_sensors(bool physics_stepped) {
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    RobotSlot& slot = robots_[i];
+    const SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
+    for (std::size_t k = 0; k < slot.sensors.size(); ++k) {
+      Sensor& sensor = *slot.sensors[k];
+      if (physics_stepped) sensor.on_physics_step(context);
+      if (step_index_ % slot.sensor_strides[k] != 0) continue;
+      if (std::optional<ReadingData> data = sensor.sample(context)) {
+        readings_.push_back(
+            Reading{time_s(), static_cast<int>(i), sensor.kind(), std::move(*data)});
+      }
+    }
+  }
+}
+
+std::vector<Reading> Simulation::take_readings() {
+  std::vector<Reading> out;
+  out.swap(readings_);
+  return out;
 }
 
 Simulation::~Simulation() = default;
@@ -153,6 +200,18 @@ void Simulation::fire(const EventDef& event) {
       }
       log(event.start_moving ? "obstacle_start" : "obstacle_stop", "", "name=" + event.obstacle);
       break;
+    case EventDef::Kind::kSensorFault: {
+      RobotSlot& slot = slot_of(event.robot);
+      for (const auto& sensor : slot.sensors) {
+        if (event.sensor == sensor_name(sensor->kind())) sensor->inject(event.fault, time_s());
+      }
+      const char* modes[] = {"dropout", "stuck", "bias"};
+      log("sensor_fault", event.robot,
+          "sensor=" + event.sensor + " mode=" + modes[static_cast<int>(event.fault.mode)] +
+              " duration_s=" + fixed(event.fault.duration_s, 3) +
+              " bias=" + fixed(event.fault.bias, 6));
+      break;
+    }
     case EventDef::Kind::kEnd:
       done_ = true;
       break;
@@ -216,6 +275,7 @@ void Simulation::step() {
     }
   }
   fire_due_events();
+  run_sensors(true);
 }
 
 std::uint64_t Simulation::state_hash() const {

@@ -13,6 +13,9 @@
 #include "sim/robot/diff_drive.hpp"
 #include "sim/scenario/drivers.hpp"
 #include "sim/scenario/scenario_def.hpp"
+#include "sim/sensors/readings.hpp"
+#include "sim/sensors/scene_rays.hpp"
+#include "sim/sensors/sensor.hpp"
 #include "sim/world/physics_world.hpp"
 #include "sim/world/world_def.hpp"
 
@@ -66,6 +69,13 @@ class Simulation {
 
   /// Events since the last call, in order.
   std::vector<SimEvent> take_events();
+  /// Sensor readings since the last call, in time order (robots, then sensors, in file order).
+  std::vector<Reading> take_readings();
+  /// The enabled sensors of robot `i`.
+  const std::vector<std::unique_ptr<Sensor>>& sensors(std::size_t i) const {
+    return robots_[i].sensors;
+  }
+  const SceneRays& rays() const { return *rays_; }
   /// FNV-1a hash of every body's state and every wheel's rotation: equal hashes, equal runs.
   std::uint64_t state_hash() const;
 
@@ -83,10 +93,13 @@ class Simulation {
     Vec2 last_position{0.0, 0.0};
     RobotStats stats;
     std::map<std::uintptr_t, Touch> touching;  // by the other body's tag
+    std::vector<std::unique_ptr<Sensor>> sensors;
+    std::vector<std::int64_t> sensor_strides;  // physics steps per sample
   };
   static constexpr double kCollisionQuietS = 0.5;  // see step() [s]
 
   void fire_due_events();
+  void run_sensors(bool physics_stepped);
   void fire(const EventDef& event);
   void put_down(RobotSlot& slot);
   Pose2 random_free_pose(RobotSlot& slot, const EventDef& event);
@@ -107,6 +120,9 @@ class Simulation {
   std::unique_ptr<PhysicsWorld> world_;
   std::vector<RobotSlot> robots_;
   std::vector<SimEvent> events_;
+  std::unique_ptr<StaticRaycaster> static_rays_;
+  std::unique_ptr<SceneRays> rays_;
+  std::vector<Reading> readings_;
 };
 
 /// Fixed-precision decimal text, independent of the C locale. Appends to `out`.

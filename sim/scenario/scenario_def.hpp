@@ -38,8 +38,28 @@ struct DriveDef {
   std::string key_path;      // e.g. "scenario.drive", for messages
 };
 
+/// How the scenario points a PTZ camera.
+struct PanPolicyDef {
+  enum class Mode { kFixed, kSweep, kNearestLandmark };
+  Mode mode = Mode::kFixed;
+  std::string robot;
+  double pan_rad = 0.0;  // kFixed [rad]
+  double sweep_min_rad = deg_to_rad(-90.0);
+  double sweep_max_rad = deg_to_rad(90.0);
+  double sweep_rate_radps = deg_to_rad(30.0);
+  SourceLocation where;
+  std::string key_path;
+};
+
+struct SensorFaultDef {
+  enum class Mode { kDropout, kStuck, kBias };
+  Mode mode = Mode::kDropout;
+  double duration_s = 0.0;  // 0: until the end of the run
+  double bias = 0.0;        // kBias: added to the main quantity (see docs/sensors.md)
+};
+
 struct EventDef {
-  enum class Kind { kKidnap, kPush, kFriction, kObstacle, kEnd };
+  enum class Kind { kKidnap, kPush, kFriction, kObstacle, kSensorFault, kEnd };
   Kind kind = Kind::kEnd;
   double at_s = 0.0;  // [s]
   std::string robot;  // kKidnap, kPush: which robot; may be empty when the world has one
@@ -57,8 +77,11 @@ struct EventDef {
   // kObstacle
   std::string obstacle;
   bool start_moving = true;  // start (true) or stop (false)
-  SourceLocation where;      // of the event's entry, for messages
-  std::string key_path;      // e.g. "scenario.events[2].kidnap", for messages
+  // kSensorFault (robot as above)
+  std::string sensor;  // encoders, imu, ptz_camera, omni_camera, ultrasonic, laser
+  SensorFaultDef fault;
+  SourceLocation where;  // of the event's entry, for messages
+  std::string key_path;  // e.g. "scenario.events[2].kidnap", for messages
 };
 
 struct ScenarioDef {
@@ -67,7 +90,8 @@ struct ScenarioDef {
   double duration_s = 60.0;      // simulated time of the run [s]
   double groundtruth_hz = 50.0;  // rate of groundtruth.tum; divides the physics rate [Hz]
   std::vector<DriveDef> drives;
-  std::vector<EventDef> events;  // sorted by time; ties keep file order
+  std::vector<EventDef> events;            // sorted by time; ties keep file order
+  std::vector<PanPolicyDef> pan_policies;  // one per robot with a PTZ camera, at most
 };
 
 }  // namespace locsim

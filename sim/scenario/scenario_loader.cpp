@@ -65,16 +65,18 @@ DriveDef parse_drive(const YamlNode& node) {
 }
 
 EventDef parse_event(const YamlNode& node) {
-  static constexpr std::array<std::string_view, 5> kKinds = {"kidnap", "push", "friction",
-                                                             "obstacle", "end"};
-  node.allow_keys({"at_s", "kidnap", "push", "friction", "obstacle", "end"});
+  static constexpr std::array<std::string_view, 6> kKinds = {"kidnap",   "push",         "friction",
+                                                             "obstacle", "sensor_fault", "end"};
+  node.allow_keys({"at_s", "kidnap", "push", "friction", "obstacle", "sensor_fault", "end"});
   EventDef event;
   event.where = node.where();
   event.at_s = node["at_s"].as_double(Check::kNonNegative);
   int kinds_given = 0;
   for (const std::string_view kind : kKinds) kinds_given += node.has(kind) ? 1 : 0;
   if (kinds_given != 1)
-    node.fail("an event has 'at_s' and exactly one of: kidnap, push, friction, obstacle, end");
+    node.fail(
+        "an event has 'at_s' and exactly one of: kidnap, push, friction, obstacle, sensor_fault, "
+        "end");
 
   if (const auto kidnap = node.find("kidnap")) {
     event.kind = EventDef::Kind::kKidnap;
@@ -120,6 +122,36 @@ EventDef parse_event(const YamlNode& node) {
     const std::string action_name = action.as_string();
     if (action_name != "start" && action_name != "stop") action.fail("expected 'start' or 'stop'");
     event.start_moving = action_name == "start";
+  } else if (const auto fault = node.find("sensor_fault")) {
+    event.kind = EventDef::Kind::kSensorFault;
+    event.key_path = fault->path();
+    fault->allow_keys({"robot", "sensor", "mode", "duration_s", "bias"});
+    event.robot = fault->get_string("robot", "");
+    const YamlNode sensor = (*fault)["sensor"];
+    event.sensor = sensor.as_string();
+    static const std::array<std::string_view, 6> kSensors = {
+        "encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser"};
+    if (std::find(kSensors.begin(), kSensors.end(), event.sensor) == kSensors.end()) {
+      sensor.fail(
+          "unknown sensor (known: encoders, imu, ptz_camera, omni_camera, ultrasonic, laser)");
+    }
+    const YamlNode mode = (*fault)["mode"];
+    const std::string mode_name = mode.as_string();
+    if (mode_name == "dropout") {
+      event.fault.mode = SensorFaultDef::Mode::kDropout;
+    } else if (mode_name == "stuck") {
+      event.fault.mode = SensorFaultDef::Mode::kStuck;
+    } else if (mode_name == "bias") {
+      event.fault.mode = SensorFaultDef::Mode::kBias;
+      event.fault.bias = (*fault)["bias"].as_double();
+      if (event.sensor == "encoders") mode.fail("encoders take dropout or stuck faults, not bias");
+    } else {
+      mode.fail("expected dropout, stuck or bias");
+    }
+    if (event.fault.mode != SensorFaultDef::Mode::kBias && fault->has("bias")) {
+      (*fault)["bias"].fail("only with mode: bias");
+    }
+    event.fault.duration_s = fault->get_double("duration_s", 0.0, Check::kNonNegative);
   } else {
     event.kind = EventDef::Kind::kEnd;
     event.key_path = node.path() + ".end";
@@ -129,10 +161,37 @@ EventDef parse_event(const YamlNode& node) {
   return event;
 }
 
+PanPolicyDef parse_pan_policy(const YamlNode& node) {
+  node.allow_keys({"robot", "policy", "pan", "pan_deg", "sweep_min", "sweep_min_deg", "sweep_max",
+                   "sweep_max_deg", "sweep_rate", "sweep_rate_deg"});
+  PanPolicyDef policy;
+  policy.where = node.where();
+  policy.key_path = node.path();
+  policy.robot = node.get_string("robot", "");
+  const YamlNode mode = node["policy"];
+  const std::string name = mode.as_string();
+  if (name == "fixed") {
+    policy.mode = PanPolicyDef::Mode::kFixed;
+  } else if (name == "sweep") {
+    policy.mode = PanPolicyDef::Mode::kSweep;
+  } else if (name == "nearest_landmark") {
+    policy.mode = PanPolicyDef::Mode::kNearestLandmark;
+  } else {
+    mode.fail("expected fixed, sweep or nearest_landmark");
+  }
+  policy.pan_rad = node.get_angle("pan", policy.pan_rad);
+  policy.sweep_min_rad = node.get_angle("sweep_min", policy.sweep_min_rad);
+  policy.sweep_max_rad = node.get_angle("sweep_max", policy.sweep_max_rad);
+  if (policy.sweep_min_rad > policy.sweep_max_rad) node.fail("sweep_min exceeds sweep_max");
+  policy.sweep_rate_radps = node.get_angle("sweep_rate", policy.sweep_rate_radps);
+  if (!(policy.sweep_rate_radps > 0.0)) node.fail("sweep_rate must be > 0");
+  return policy;
+}
+
 }  // namespace
 
 ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*base_dir*/) {
-  node.allow_keys({"name", "duration_s", "groundtruth_hz", "drive", "events"});
+  node.allow_keys({"name", "duration_s", "groundtruth_hz", "drive", "ptz", "events"});
   ScenarioDef scenario;
   scenario.name = node.get_string("name", scenario.name);
   scenario.duration_s = node.get_double("duration_s", scenario.duration_s, Check::kPositive);
@@ -143,6 +202,14 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
       for (const YamlNode& item : drive->items()) scenario.drives.push_back(parse_drive(item));
     } else {
       scenario.drives.push_back(parse_drive(*drive));
+    }
+  }
+  if (const auto ptz = node.find("ptz")) {
+    if (ptz->is_sequence()) {
+      for (const YamlNode& item : ptz->items())
+        scenario.pan_policies.push_back(parse_pan_policy(item));
+    } else {
+      scenario.pan_policies.push_back(parse_pan_policy(*ptz));
     }
   }
   if (const auto events = node.find("events")) {
@@ -185,6 +252,15 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
     }
     driven.push_back(drive.robot);
   }
+  for (PanPolicyDef& policy : scenario.pan_policies) {
+    bind_robot(policy.robot, policy.where, policy.key_path, "a ptz policy");
+    const auto robot = std::find_if(world.robots.begin(), world.robots.end(),
+                                    [&](const RobotDef& r) { return r.name == policy.robot; });
+    if (!robot->sensors.ptz_camera) {
+      throw InputError(policy.where, policy.key_path,
+                       "robot '" + policy.robot + "' has no ptz_camera");
+    }
+  }
   const double step_hz = world.physics.step_hz;
   const double ratio = step_hz / scenario.groundtruth_hz;
   if (scenario.groundtruth_hz > step_hz || std::abs(ratio - std::round(ratio)) > 1e-9) {
@@ -216,6 +292,23 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
         if (!known) {
           throw InputError(event.where, event.key_path + ".name",
                            "no mover called '" + event.obstacle + "' in the world");
+        }
+        break;
+      }
+      case EventDef::Kind::kSensorFault: {
+        bind_robot(event.robot, event.where, event.key_path, "a sensor fault");
+        const RobotDef& robot =
+            *std::find_if(world.robots.begin(), world.robots.end(),
+                          [&](const RobotDef& r) { return r.name == event.robot; });
+        const SensorsDef& s = robot.sensors;
+        const bool present =
+            (event.sensor == "encoders" && s.encoders) || (event.sensor == "imu" && s.imu) ||
+            (event.sensor == "ptz_camera" && s.ptz_camera) ||
+            (event.sensor == "omni_camera" && s.omni_camera) ||
+            (event.sensor == "ultrasonic" && s.ultrasonic) || (event.sensor == "laser" && s.laser);
+        if (!present) {
+          throw InputError(event.where, event.key_path + ".sensor",
+                           "robot '" + event.robot + "' has no " + event.sensor);
         }
         break;
       }

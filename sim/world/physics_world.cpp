@@ -163,7 +163,7 @@ void PhysicsWorld::add_static_geometry(const WorldDef& world) {
       b2EdgeShape edge;
       edge.SetTwoSided(to_b2(wall.points_m[i]), to_b2(wall.points_m[(i + 1) % n]));
       fixture.shape = &edge;
-      static_body_->CreateFixture(&fixture);
+      add_static(fixture, wall.height_m);
     }
   }
   for (const BoxDef& box : world.boxes) {
@@ -172,7 +172,7 @@ void PhysicsWorld::add_static_geometry(const WorldDef& world) {
                    to_b2(box.center_m), static_cast<float>(box.angle_rad));
     for (int i = 0; i < shape.m_count; ++i) extend_bounds(from_b2(shape.m_vertices[i]));
     fixture.shape = &shape;
-    static_body_->CreateFixture(&fixture);
+    add_static(fixture, box.height_m);
   }
   for (const CircleDef& circle : world.circles) {
     b2CircleShape shape;
@@ -181,7 +181,7 @@ void PhysicsWorld::add_static_geometry(const WorldDef& world) {
     extend_bounds(circle.center_m - Vec2::Constant(circle.radius_m));
     extend_bounds(circle.center_m + Vec2::Constant(circle.radius_m));
     fixture.shape = &shape;
-    static_body_->CreateFixture(&fixture);
+    add_static(fixture, circle.height_m);
   }
   for (const PolygonDef& polygon : world.polygons) {
     std::vector<b2Vec2> points;
@@ -192,7 +192,7 @@ void PhysicsWorld::add_static_geometry(const WorldDef& world) {
     b2PolygonShape shape;
     shape.Set(points.data(), static_cast<int32>(points.size()));
     fixture.shape = &shape;
-    static_body_->CreateFixture(&fixture);
+    add_static(fixture, polygon.height_m);
   }
 }
 
@@ -240,6 +240,16 @@ void PhysicsWorld::add_map(const OccupancyMapDef& map) {
       col = end_col;
     }
   }
+}
+
+void PhysicsWorld::add_static(const b2FixtureDef& fixture, double height_m) {
+  const b2Fixture* created = static_body_->CreateFixture(&fixture);
+  if (height_m != kFullHeight) static_heights_[created] = height_m;
+}
+
+double PhysicsWorld::static_height_m(const b2Fixture* fixture) const {
+  const auto it = static_heights_.find(fixture);
+  return it == static_heights_.end() ? kFullHeight : it->second;
 }
 
 int PhysicsWorld::static_fixture_count() const {

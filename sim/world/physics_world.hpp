@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "sim/world/world_def.hpp"
@@ -90,6 +91,10 @@ class PhysicsWorld {
   /// Axis-aligned bounds of the static geometry (walls, shapes, map); the robot starts if none.
   Vec2 bounds_min() const { return bounds_min_; }
   Vec2 bounds_max() const { return bounds_max_; }
+  /// The one body that holds all static geometry.
+  const b2Body* static_body() const { return static_body_; }
+  /// Height of a static fixture's obstacle (kFullHeight unless the world gives one). [m]
+  double static_height_m(const b2Fixture* fixture) const;
   /// Number of static fixtures (a map turns into merged boxes).
   int static_fixture_count() const;
 
@@ -98,11 +103,13 @@ class PhysicsWorld {
   void add_static_geometry(const WorldDef& world);
   void add_map(const OccupancyMapDef& map);
   void extend_bounds(const Vec2& point);
+  void add_static(const b2FixtureDef& fixture, double height_m);
 
   PhysicsDef physics_;
   std::unique_ptr<b2World> world_;
   std::unique_ptr<ContactRecorder> contacts_;
   b2Body* static_body_ = nullptr;
+  std::unordered_map<const b2Fixture*, double> static_heights_;  // only those below the ceiling
   FloorFriction floor_;
   std::vector<Mover> movers_;
   Vec2 bounds_min_{0.0, 0.0}, bounds_max_{0.0, 0.0};

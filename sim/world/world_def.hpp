@@ -4,6 +4,7 @@
 
 #include <array>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,6 +15,9 @@
 #include "sim/scenario/scenario_def.hpp"
 
 namespace locsim {
+
+/// Height of static geometry that reaches the ceiling (the default): blocks every line of sight.
+inline constexpr double kFullHeight = std::numeric_limits<double>::infinity();
 
 struct PhysicsDef {
   double step_hz = 200.0;       // fixed physics rate [Hz]
@@ -26,22 +30,26 @@ struct PhysicsDef {
 struct WallDef {
   std::vector<Vec2> points_m;
   bool closed = false;
-  double thickness_m = 0.05;  // drawn thickness; collisions use the centre line [m]
+  double thickness_m = 0.05;      // drawn thickness; collisions use the centre line [m]
+  double height_m = kFullHeight;  // top above the floor, for ultrasound line of sight [m]
 };
 
 struct BoxDef {
   Vec2 center_m{0.0, 0.0};
   Vec2 size_m{1.0, 1.0};  // full extents along the box's own x and y [m]
   double angle_rad = 0.0;
+  double height_m = kFullHeight;  // [m]
 };
 
 struct CircleDef {
   Vec2 center_m{0.0, 0.0};
   double radius_m = 0.5;
+  double height_m = kFullHeight;  // [m]
 };
 
 struct PolygonDef {
-  std::vector<Vec2> points_m;  // convex, <= 8 vertices (Box2D's limit)
+  std::vector<Vec2> points_m;     // convex, <= 8 vertices (Box2D's limit)
+  double height_m = kFullHeight;  // [m]
 };
 
 /// A floor area with its own friction coefficient: carpet, tiles, ice. Later regions win where
@@ -84,6 +92,7 @@ struct MoverDef {
   double speed_mps = 1.0;       // walking speed [m/s]
   bool loop = true;             // after the last waypoint go back to the first; else stop there
   bool moving = true;           // false: stands still until an `obstacle: start` event
+  double height_m = 1.7;        // blocks ultrasound below it; default 1.7 (person), 1.0 (cart)
 };
 
 /// A ROS map_server map: `map.yaml` plus image. Occupied cells become static boxes.

@@ -4,6 +4,7 @@
 #include <set>
 
 #include "sim/scenario/scenario_loader.hpp"
+#include "sim/sensors/sensor_loader.hpp"
 #include "sim/world/pgm.hpp"
 
 namespace locsim {
@@ -187,13 +188,14 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
 
   if (const auto walls = root.find("walls")) {
     for (const YamlNode& item : walls->items()) {
-      item.allow_keys({"points", "closed", "thickness_m"});
+      item.allow_keys({"points", "closed", "thickness_m", "height_m"});
       WallDef wall;
       wall.points_m = item["points"].as_points(2);
       wall.closed = item.get_bool("closed", false);
       if (wall.closed && wall.points_m.size() < 3)
         item["closed"].fail("a closed wall needs 3 points");
       wall.thickness_m = item.get_double("thickness_m", wall.thickness_m, Check::kPositive);
+      wall.height_m = item.get_double("height_m", wall.height_m, Check::kPositive);
       for (std::size_t i = 0; i + 1 < wall.points_m.size(); ++i) {
         if ((wall.points_m[i + 1] - wall.points_m[i]).norm() < 0.01) {
           item["points"].fail("consecutive points closer than 1 cm (point " +
@@ -205,26 +207,30 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   }
   if (const auto boxes = root.find("boxes")) {
     for (const YamlNode& item : boxes->items()) {
-      item.allow_keys({"center", "size", "angle", "angle_deg"});
+      item.allow_keys({"center", "size", "angle", "angle_deg", "height_m"});
       BoxDef box;
       box.center_m = item["center"].as_vec2();
       box.size_m = item["size"].as_vec2();
       if (!(box.size_m.x() > 0.0 && box.size_m.y() > 0.0)) item["size"].fail("sizes must be > 0");
       box.angle_rad = item.get_angle("angle", 0.0);
+      box.height_m = item.get_double("height_m", box.height_m, Check::kPositive);
       world.boxes.push_back(box);
     }
   }
   if (const auto circles = root.find("circles")) {
     for (const YamlNode& item : circles->items()) {
-      item.allow_keys({"center", "radius_m"});
+      item.allow_keys({"center", "radius_m", "height_m"});
       world.circles.push_back(
-          CircleDef{item["center"].as_vec2(), item["radius_m"].as_double(Check::kPositive)});
+          CircleDef{item["center"].as_vec2(), item["radius_m"].as_double(Check::kPositive),
+                    item.get_double("height_m", kFullHeight, Check::kPositive)});
     }
   }
   if (const auto polygons = root.find("polygons")) {
     for (const YamlNode& item : polygons->items()) {
-      item.allow_keys({"points"});
-      world.polygons.push_back(PolygonDef{convex_polygon(item["points"])});
+      item.allow_keys({"points", "height_m"});
+      world.polygons.push_back(
+          PolygonDef{convex_polygon(item["points"]),
+                     item.get_double("height_m", kFullHeight, Check::kPositive)});
     }
   }
   if (const auto map = root.find("map")) {
@@ -264,7 +270,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   std::set<std::string> body_names;
   if (const auto movers = root.find("movers")) {
     for (const YamlNode& item : movers->items()) {
-      item.allow_keys({"name", "kind", "footprint", "path", "speed_mps", "loop", "moving"});
+      item.allow_keys(
+          {"name", "kind", "footprint", "path", "speed_mps", "loop", "moving", "height_m"});
       MoverDef mover;
       mover.name = item["name"].as_string();
       if (!body_names.insert(mover.name).second) item["name"].fail("name used twice");
@@ -275,6 +282,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       } else if (mover.kind == "cart") {
         mover.footprint.kind = FootprintDef::Kind::kBox;
         mover.footprint.size_m = {0.8, 0.5};
+        mover.height_m = 1.0;
       } else {
         item["kind"].fail("expected 'person' or 'cart'");
       }
@@ -284,6 +292,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       mover.speed_mps = item.get_double("speed_mps", mover.speed_mps, Check::kNonNegative);
       mover.loop = item.get_bool("loop", mover.loop);
       mover.moving = item.get_bool("moving", mover.moving);
+      mover.height_m = item.get_double("height_m", mover.height_m, Check::kPositive);
       world.movers.push_back(std::move(mover));
     }
   }
@@ -293,7 +302,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     item.allow_keys({"name", "footprint", "mass_kg", "wheel_base_m", "wheel_radius_m",
                      "wheel_radius_left_m", "wheel_radius_right_m", "wheel_inertia_kgm2",
                      "max_wheel_speed_radps", "max_wheel_accel_radps2", "max_wheel_torque_nm",
-                     "drive_load_fraction", "start"});
+                     "drive_load_fraction", "height_m", "start", "sensors"});
     RobotDef robot;
     robot.where = item.where();
     robot.name = item.get_string("name", "robot" + std::to_string(world.robots.size()));
@@ -321,7 +330,11 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
         item.get_double("max_wheel_torque_nm", robot.max_wheel_torque_nm, Check::kPositive);
     robot.drive_load_fraction =
         item.get_double("drive_load_fraction", robot.drive_load_fraction, Check::kUnitInterval);
+    robot.height_m = item.get_double("height_m", robot.height_m, Check::kPositive);
     robot.start = item["start"].as_pose();
+    if (const auto sensors = item.find("sensors")) {
+      robot.sensors = parse_sensors(*sensors, world.physics.step_hz);
+    }
     world.robots.push_back(std::move(robot));
   }
   if (world.robots.empty()) robots.fail("a world needs at least one robot");

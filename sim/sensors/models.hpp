@@ -1,0 +1,123 @@
+// The sensor models. docs/sensors.md states each one's equations and parameters.
+#pragma once
+
+#include "sim/sensors/sensor.hpp"
+
+namespace locsim {
+
+/// Counts wheel rotation (slip, collisions and kidnaps show as on a real robot) with paper 002's
+/// distance-proportional random error, and dead-reckons the odometry pose from the counts.
+class EncoderSensor final : public Sensor {
+ public:
+  EncoderSensor(const EncodersDef& def, const RobotDef& robot, RandomStream rng);
+  bool supports_bias() const override { return false; }
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData&, double) const override {}
+
+ private:
+  EncodersDef def_;
+  double nominal_radius_m_;
+  double wheel_base_m_;
+  double true_angle_rad_[2] = {0.0, 0.0};     // wheel rotation at the last sample
+  double counted_angle_rad_[2] = {0.0, 0.0};  // what the encoder has counted, with its error
+  std::int64_t ticks_[2] = {0, 0};
+  Pose2 odometry_;
+};
+
+/// Yaw rate and specific force at the mount, averaged over each sample interval (the IMU's
+/// anti-alias filter), with white noise, a random-walk bias and saturation.
+class ImuSensor final : public Sensor {
+ public:
+  ImuSensor(const ImuDef& def, RandomStream rng);
+  void on_physics_step(const SensorContext& context) override;
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  ImuDef def_;
+  bool initialised_ = false;
+  bool was_carried_ = false;
+  Vec2 previous_velocity_{0.0, 0.0};  // of the mount point, world frame [m/s]
+  double sum_yaw_rate_ = 0.0;
+  Vec2 sum_accel_{0.0, 0.0};
+  int steps_ = 0;
+  double gyro_bias_ = 0.0;
+  Vec2 accel_bias_{0.0, 0.0};
+};
+
+/// Landmark detections from a pinhole colour camera on a pan unit: bearing from the blob's
+/// column centre, distance from its height in rows (the landmark's height is known), both from
+/// pixel-quantised, noisy edges; occluded columns are cut out of the blob.
+class PtzCameraSensor final : public Sensor {
+ public:
+  PtzCameraSensor(const PtzCameraDef& def, const PanPolicyDef& policy, RandomStream rng);
+  double pan_rad() const { return pan_rad_; }
+  double focal_px() const;
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  void steer(const SensorContext& context);
+  std::optional<Detection> look_at(const SensorContext& context, const Pose2& camera,
+                                   const LandmarkDef& landmark);
+
+  PtzCameraDef def_;
+  PanPolicyDef policy_;
+  double pan_rad_ = 0.0;
+  double last_steer_s_ = 0.0;
+  int sweep_direction_ = 1;
+};
+
+/// 360 deg range-bearing to landmarks with a Gaussian in the local frame (paper 002).
+class OmniCameraSensor final : public Sensor {
+ public:
+  OmniCameraSensor(const OmniCameraDef& def, RandomStream rng)
+      : Sensor(SensorKind::kOmniCamera, def.common, rng), def_(def) {}
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  OmniCameraDef def_;
+};
+
+/// Time-of-flight ranges from each receiver to each fixed beacon; blocked lines of sight give a
+/// longer non-line-of-sight range or nothing (paper 003's multi-path effect).
+class UltrasonicSensor final : public Sensor {
+ public:
+  UltrasonicSensor(const UltrasonicDef& def, RandomStream rng)
+      : Sensor(SensorKind::kUltrasonic, def.common, rng), def_(def) {}
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  UltrasonicDef def_;
+};
+
+/// Beams against everything (people included) with the beam-model mixture.
+class LaserSensor final : public Sensor {
+ public:
+  LaserSensor(const LaserDef& def, RandomStream rng);
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  LaserDef def_;
+  std::vector<Vec2> directions_;  // unit beam directions in the mount frame
+};
+
+/// Angle of beam `i` of `beams` over `fov_rad`, centred on 0.
+double laser_beam_angle(int i, int beams, double fov_rad);
+
+}  // namespace locsim

@@ -1,0 +1,107 @@
+#include "sim/sensors/sensor.hpp"
+
+#include <algorithm>
+
+#include "sim/sensors/models.hpp"
+
+namespace locsim {
+
+const char* sensor_name(SensorKind kind) {
+  switch (kind) {
+    case SensorKind::kEncoders:
+      return "encoders";
+    case SensorKind::kImu:
+      return "imu";
+    case SensorKind::kPtzCamera:
+      return "ptz_camera";
+    case SensorKind::kOmniCamera:
+      return "omni_camera";
+    case SensorKind::kUltrasonic:
+      return "ultrasonic";
+    case SensorKind::kLaser:
+      return "laser";
+  }
+  return "?";
+}
+
+const char* range_status_name(RangeStatus status) {
+  switch (status) {
+    case RangeStatus::kLineOfSight:
+      return "los";
+    case RangeStatus::kNonLineOfSight:
+      return "nlos";
+    case RangeStatus::kDropped:
+      return "dropped";
+    case RangeStatus::kOutOfRange:
+      return "out_of_range";
+  }
+  return "?";
+}
+
+std::optional<ReadingData> Sensor::sample(const SensorContext& context) {
+  // Measuring even during a fault keeps the sensor's internal state (integrators, bias walks,
+  // its random stream) on the same course as without the fault.
+  std::optional<ReadingData> data = measure(context);
+  std::erase_if(faults_, [&](const ActiveFault& f) { return context.t_s >= f.until_s; });
+  bool dropout = false, stuck = false;
+  double bias = 0.0;
+  for (const ActiveFault& fault : faults_) {
+    switch (fault.def.mode) {
+      case SensorFaultDef::Mode::kDropout:
+        dropout = true;
+        break;
+      case SensorFaultDef::Mode::kStuck:
+        stuck = true;
+        break;
+      case SensorFaultDef::Mode::kBias:
+        bias += fault.def.bias;
+        break;
+    }
+  }
+  if (stuck) return last_;
+  if (data && bias != 0.0) apply_bias(*data, bias);
+  if (data) last_ = data;
+  if (dropout) return std::nullopt;
+  return data;
+}
+
+void Sensor::inject(const SensorFaultDef& fault, double now_s) {
+  const double until =
+      fault.duration_s > 0.0 ? now_s + fault.duration_s : std::numeric_limits<double>::infinity();
+  faults_.push_back({fault, until});
+}
+
+std::vector<std::unique_ptr<Sensor>> make_sensors(const RobotDef& robot, std::uint64_t seed,
+                                                  const PanPolicyDef* pan_policy) {
+  std::vector<std::unique_ptr<Sensor>> sensors;
+  const SensorsDef& defs = robot.sensors;
+  const auto stream = [&](SensorKind kind) {
+    return make_stream(seed, "sensor/" + robot.name + "/" + sensor_name(kind));
+  };
+  if (defs.encoders && defs.encoders->common.enabled) {
+    sensors.push_back(
+        std::make_unique<EncoderSensor>(*defs.encoders, robot, stream(SensorKind::kEncoders)));
+  }
+  if (defs.imu && defs.imu->common.enabled) {
+    sensors.push_back(std::make_unique<ImuSensor>(*defs.imu, stream(SensorKind::kImu)));
+  }
+  if (defs.ptz_camera && defs.ptz_camera->common.enabled) {
+    sensors.push_back(std::make_unique<PtzCameraSensor>(*defs.ptz_camera,
+                                                        pan_policy ? *pan_policy : PanPolicyDef{},
+                                                        stream(SensorKind::kPtzCamera)));
+  }
+  if (defs.omni_camera && defs.omni_camera->common.enabled) {
+    sensors.push_back(
+        std::make_unique<OmniCameraSensor>(*defs.omni_camera, stream(SensorKind::kOmniCamera)));
+  }
+  if (defs.ultrasonic && defs.ultrasonic->common.enabled) {
+    sensors.push_back(
+        std::make_unique<UltrasonicSensor>(*defs.ultrasonic, stream(SensorKind::kUltrasonic)));
+  }
+  if (defs.laser && defs.laser->common.enabled) {
+    sensors.push_back(std::make_unique<LaserSensor>(*defs.laser, stream(SensorKind::kLaser)));
+  }
+  return sensors;
+}
+
+}  // namespace locsim

@@ -1,0 +1,122 @@
+// What each synthetic sensor is: rate, mounting, and its noise model, with defaults that
+// reproduce the papers' set-ups (../shared/SPEC.md). Every field's unit is in its comment.
+// Angles in the robot frame are counter-clockwise positive (x forward, y left).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/common/math.hpp"
+
+namespace locsim {
+
+/// Shared by every sensor.
+struct SensorCommon {
+  bool enabled = true;
+  double rate_hz = 10.0;  // must divide the physics rate [Hz]
+  Pose2 mount;            // pose of the sensor frame in the robot frame
+};
+
+/// Quadrature wheel encoders, and the odometry pose a base integrates from them.
+struct EncodersDef {
+  SensorCommon common{true, 50.0, {}};
+  int ticks_per_rev = 4096;  // counts per wheel revolution (after quadrature) [-]
+  // Paper 002's non-systematic error: after a wheel rolls d metres its count has drifted by a
+  // random walk of variance K^2 |d| (UMBmark values of the paper). [m^1/2]
+  double k_left = 0.0013;
+  double k_right = 0.0012;
+  std::optional<double> odometry_wheel_base_m;  // the base's belief; default: the true one [m]
+};
+
+/// Planar IMU: yaw rate and body-frame accelerations at the mount point.
+struct ImuDef {
+  SensorCommon common{true, 100.0, {}};
+  double gyro_noise_density = 1.7e-4;    // white noise [rad/s/sqrt(Hz)]
+  double gyro_bias_sigma = 1e-3;         // spread of the initial bias [rad/s]
+  double gyro_bias_random_walk = 2e-5;   // bias drift [rad/s^2/sqrt(Hz)]
+  double gyro_range = 8.7;               // saturation, +-500 deg/s [rad/s]
+  double accel_noise_density = 2e-3;     // [m/s^2/sqrt(Hz)]
+  double accel_bias_sigma = 0.02;        // [m/s^2]
+  double accel_bias_random_walk = 3e-4;  // [m/s^3/sqrt(Hz)]
+  double accel_range = 39.24;            // saturation, +-4 g [m/s^2]
+};
+
+/// Pan-tilt-zoom colour camera that detects landmarks (paper 004: Sony EVI-D100P, 160 x 120).
+struct PtzCameraDef {
+  SensorCommon common{true, 10.0, {}};
+  double height_m = 0.4;  // optical centre above the floor [m]
+  int width_px = 160;
+  int height_px = 120;
+  double hfov_rad = deg_to_rad(65.0);  // horizontal field of view at zoom 1 [rad]
+  double zoom_max = 10.0;              // optical zoom range 1..zoom_max [-]
+  double pan_min_rad = deg_to_rad(-100.0);
+  double pan_max_rad = deg_to_rad(100.0);
+  double max_pan_rate_radps = deg_to_rad(100.0);  // pan servo speed [rad/s]
+  double tilt_rad = 0.0;                          // up positive [rad]
+  double zoom = 1.0;                              // initial zoom [-]
+  double min_range_m = 0.3;                       // closer landmarks are not recognised [m]
+  double max_range_m = 8.0;                       // farther landmarks are not recognised [m]
+  double pixel_noise_px = 0.5;     // edge localisation noise, before rounding to pixels [px]
+  int min_blob_px = 2;             // fewer visible columns or rows: not detected [px]
+  double miss_probability = 0.02;  // a visible landmark is not reported [-]
+  double false_detections_per_frame = 0.01;  // Poisson mean of phantom detections [-]
+  bool report_ids = false;  // false: only colours (association is the filter's job)
+};
+
+/// Omnidirectional camera: 360 deg range-bearing to landmarks (paper 002).
+struct OmniCameraDef {
+  SensorCommon common{true, 10.0, {}};
+  double max_range_m = 6.0;  // [m]
+  // Gaussian in the local frame: sigma_major along the ray, sigma_minor across it (paper 002's
+  // C_L); single frames are poor, up to ~0.8 m. sigma_major grows by sigma_major_per_m. [m]
+  double sigma_major_m = 0.25;
+  double sigma_minor_m = 0.08;
+  double sigma_major_per_m = 0.0;  // [m/m]
+  bool report_ids = true;
+};
+
+/// Receivers on the robot ranging to the world's fixed ultrasonic beacons (paper 003).
+struct UltrasonicDef {
+  SensorCommon common{true, 20.0, {}};
+  struct Receiver {
+    Vec2 position_m{0.0, 0.0};  // in the robot frame [m]
+    double height_m = 0.4;      // above the floor [m]
+  };
+  // Two receivers (left A1, right A2) give the yaw as in the paper.
+  std::vector<Receiver> receivers{{{0.0, 0.15}, 0.4}, {{0.0, -0.15}, 0.4}};
+  double sigma_m = 0.02;              // time-of-flight noise, "+-5 cm" class [m]
+  double max_range_m = 30.0;          // [m]
+  double dropout_probability = 0.01;  // a line-of-sight reading lost anyway [-]
+  // When the line of sight is blocked: a non-line-of-sight reading (longer by a reflected-path
+  // bias) with this probability, else no reading.
+  double nlos_probability = 0.5;  // [-]
+  double nlos_bias_min_m = 0.1;   // shortest extra path [m]
+  double nlos_bias_mean_m = 0.6;  // mean extra path (min + exponential) [m]
+};
+
+/// 2D laser scanner with the beam-model mixture (Thrun et al., Probabilistic Robotics 6.3).
+struct LaserDef {
+  SensorCommon common{true, 10.0, {}};
+  double fov_rad = deg_to_rad(270.0);  // [rad], centred on the mount's x axis
+  int beams = 271;
+  double min_range_m = 0.05;  // [m]
+  double max_range_m = 8.0;   // readings at max range mean "nothing" [m]
+  double sigma_m = 0.01;      // Gaussian on true hits [m]
+  double p_short = 0.01;      // phantom short reading, exponential with rate lambda_short [-]
+  double lambda_short = 1.0;  // [1/m]
+  double p_max = 0.005;       // spurious max-range reading [-]
+  double p_random = 0.005;    // uniform in [0, max_range] [-]
+};
+
+/// The sensors of one robot. Absent ones are off.
+struct SensorsDef {
+  std::optional<EncodersDef> encoders;
+  std::optional<ImuDef> imu;
+  std::optional<PtzCameraDef> ptz_camera;
+  std::optional<OmniCameraDef> omni_camera;
+  std::optional<UltrasonicDef> ultrasonic;
+  std::optional<LaserDef> laser;
+};
+
+}  // namespace locsim

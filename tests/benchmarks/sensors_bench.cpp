@@ -1,0 +1,97 @@
+// Sensor costs: each sensor alone on the demo world (real-time factor of the whole step), and the
+// static ray caster against Box2D's general ray cast.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+#include "sim/run/simulation.hpp"
+#include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace locsim;
+
+const fs::path kDemo = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+
+/// The demo world with only the sensor `kind` on.
+void BM_SensorAlone(benchmark::State& state, SensorKind kind) {
+  WorldDef world = load_world(kDemo);
+  SensorsDef& all = world.robots[0].sensors;
+  SensorsDef only;
+  switch (kind) {
+    case SensorKind::kEncoders:
+      only.encoders = all.encoders;
+      break;
+    case SensorKind::kImu:
+      only.imu = all.imu;
+      break;
+    case SensorKind::kPtzCamera:
+      only.ptz_camera = all.ptz_camera;
+      break;
+    case SensorKind::kOmniCamera:
+      only.omni_camera = all.omni_camera;
+      break;
+    case SensorKind::kUltrasonic:
+      only.ultrasonic = all.ultrasonic;
+      break;
+    case SensorKind::kLaser:
+      only.laser = all.laser;
+      break;
+  }
+  all = only;
+  ScenarioDef scenario = *world.scenario;
+  scenario.duration_s = 1e9;
+  scenario.events.clear();
+  if (kind != SensorKind::kPtzCamera) scenario.pan_policies.clear();
+  bind_scenario(scenario, world);
+  Simulation sim(world, scenario, 1);
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    sim.step();
+    benchmark::DoNotOptimize(sim.take_readings());
+    ++steps;
+  }
+  state.counters["real_time_factor"] =
+      benchmark::Counter(static_cast<double>(steps) / 200.0, benchmark::Counter::kIsRate);
+}
+BENCHMARK_CAPTURE(BM_SensorAlone, encoders, SensorKind::kEncoders);
+BENCHMARK_CAPTURE(BM_SensorAlone, imu, SensorKind::kImu);
+BENCHMARK_CAPTURE(BM_SensorAlone, ptz_camera, SensorKind::kPtzCamera);
+BENCHMARK_CAPTURE(BM_SensorAlone, omni_camera, SensorKind::kOmniCamera);
+BENCHMARK_CAPTURE(BM_SensorAlone, ultrasonic, SensorKind::kUltrasonic);
+BENCHMARK_CAPTURE(BM_SensorAlone, laser, SensorKind::kLaser);
+
+/// One 360-beam sweep from the middle of a world: the static grid vs Box2D's broad-phase cast.
+void BM_RaySweep(benchmark::State& state, const char* world_file, bool box2d) {
+  WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / world_file);
+  ScenarioDef scenario;
+  bind_scenario(scenario, world);
+  const Simulation sim(world, scenario, 1);
+  const StaticRaycaster statics = StaticRaycaster::from_world(sim.world());
+  const Vec2 origin = world.robots[0].start.position();
+  double sum = 0.0;
+  std::int64_t rays = 0;
+  for (auto _ : state) {
+    for (int i = 0; i < 360; ++i) {
+      const double angle = deg_to_rad(i);
+      const Vec2 direction{std::cos(angle), std::sin(angle)};
+      if (box2d) {
+        sum += sim.world().ray_cast(origin, origin + 8.0 * direction, nullptr).value_or(8.0);
+      } else {
+        sum += std::min(statics.cast(origin, direction, 8.0), 8.0);
+      }
+    }
+    rays += 360;
+  }
+  benchmark::DoNotOptimize(sum);
+  state.counters["rays_per_s"] =
+      benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
+}
+BENCHMARK_CAPTURE(BM_RaySweep, demo_grid, "worlds/demo/demo.yaml", false);
+BENCHMARK_CAPTURE(BM_RaySweep, demo_box2d, "worlds/demo/demo.yaml", true);
+BENCHMARK_CAPTURE(BM_RaySweep, office_map_grid, "worlds/maps/office_world.yaml", false);
+BENCHMARK_CAPTURE(BM_RaySweep, office_map_box2d, "worlds/maps/office_world.yaml", true);
+
+}  // namespace

@@ -1,0 +1,553 @@
+// Each sensor's noise model against its specification, from many seeded samples; occlusion,
+// field of view, pan limits, slip and kidnapping as the sensors see them; faults.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "sim/sensors/models.hpp"
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+using testing::drive_for;
+using testing::make_sim;
+
+template <class T>
+struct Sample {
+  double t_s;
+  T data;
+};
+
+/// Steps `sim` for `seconds` commanding (v, w) and returns the readings of `kind` of robot 0.
+template <class T>
+std::vector<Sample<T>> collect(Simulation& sim, SensorKind kind, double seconds, double v = 0.0,
+                               double w = 0.0) {
+  std::vector<Sample<T>> out;
+  for (const Reading& r : sim.take_readings()) {
+    if (r.kind == kind && r.robot == 0) out.push_back({r.t_s, std::get<T>(r.data)});
+  }
+  const auto steps = std::llround(seconds / sim.dt_s());
+  for (long long i = 0; i < steps; ++i) {
+    sim.robot(0).command(v, w);
+    sim.step();
+    for (const Reading& r : sim.take_readings()) {
+      if (r.kind == kind && r.robot == 0) out.push_back({r.t_s, std::get<T>(r.data)});
+    }
+  }
+  return out;
+}
+
+struct Stats {
+  double mean = 0.0, stddev = 0.0;
+  std::size_t n = 0;
+};
+Stats stats(const std::vector<double>& values) {
+  Stats s;
+  s.n = values.size();
+  if (values.empty()) return s;
+  s.mean = std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(s.n);
+  double sq = 0.0;
+  for (const double v : values) sq += (v - s.mean) * (v - s.mean);
+  s.stddev = std::sqrt(sq / static_cast<double>(std::max<std::size_t>(s.n - 1, 1)));
+  return s;
+}
+
+// ----------------------------------------------------------------------------------- encoders
+TEST(Encoders, CountRotationAndOdometryMatchesTruthWithoutNoise) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 1, y: 2, theta: 0.5}
+    sensors:
+      encoders: {k_left: 0, k_right: 0, ticks_per_rev: 4096}
+)");
+  const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 6.0, 0.4, 0.3);
+  ASSERT_EQ(readings.size(), 6u * 50u + 1u);  // 50 Hz including t = 0
+  const EncoderReading& last = readings.back().data;
+  const double ticks_per_rad = 4096 / (2 * std::numbers::pi);
+  EXPECT_NEAR(static_cast<double>(last.left_ticks), sim.robot(0).left().angle_rad * ticks_per_rad,
+              1.0);
+  EXPECT_NEAR(static_cast<double>(last.right_ticks), sim.robot(0).right().angle_rad * ticks_per_rad,
+              1.0);
+  const Pose2 truth = sim.robot(0).pose();
+  EXPECT_NEAR(last.odometry.x, truth.x, 5e-3);
+  EXPECT_NEAR(last.odometry.y, truth.y, 5e-3);
+  EXPECT_NEAR(wrap_angle(last.odometry.theta - truth.theta), 0.0, 5e-3);
+}
+
+TEST(Encoders, RandomErrorVarianceGrowsAsKSquaredTimesDistance) {
+  // Paper 002: after rolling d metres, the counted distance has variance K^2 d.
+  const double k = 0.004, distance = 1.0;
+  std::vector<double> errors;
+  for (std::uint64_t seed = 1; seed <= 300; ++seed) {
+    Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      encoders: {k_left: 0.004, k_right: 0.004, ticks_per_rev: 1000000}
+)",
+                              seed);
+    const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 3.0, 0.4, 0.0);
+    const double radians_per_tick = 2 * std::numbers::pi / 1000000;
+    const double counted =
+        static_cast<double>(readings.back().data.left_ticks) * radians_per_tick * 0.05;
+    const double rolled = sim.robot(0).left().angle_rad * 0.05;
+    ASSERT_NEAR(rolled, 1.1, 0.1);
+    errors.push_back((counted - rolled) / std::sqrt(rolled / distance));
+  }
+  const Stats s = stats(errors);
+  EXPECT_NEAR(s.mean, 0.0, 4.0 * k / std::sqrt(300.0));
+  EXPECT_NEAR(s.stddev, k, 0.15 * k);  // the sample spread of 300 draws is within ~4 %
+}
+
+TEST(Encoders, CountSlipOnIceThatTheGroundNeverSaw) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 0.05}
+robots:
+  - start: {x: 0, y: 0}
+    sensors: {encoders: {k_left: 0, k_right: 0}}
+)");
+  const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 2.0, 1.0, 0.0);
+  const double odometry_distance = readings.back().data.odometry.x;
+  const double ground_distance = sim.robot(0).pose().x;
+  EXPECT_GT(odometry_distance, 1.5 * ground_distance);
+}
+
+TEST(Encoders, NeverSeeAKidnapAndUnequalRadiiFoolTheOdometry) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+    wheel_radius_left_m: 0.0505
+    sensors: {encoders: {k_left: 0, k_right: 0}}
+scenario:
+  events:
+    - {at_s: 5, kidnap: {to: {x: 4, y: 4, theta: 2}}}
+)");
+  auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 4.99, 0.3, 0.0);
+  const EncoderReading before = readings.back().data;
+  EXPECT_NEAR(before.odometry.theta, 0.0, 1e-3);  // the base believes it drove straight
+  EXPECT_LT(sim.robot(0).pose().theta, -0.03);    // it veered right
+  readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 0.02, 0.0, 0.0);
+  ASSERT_FALSE(readings.empty());
+  const EncoderReading after = readings.back().data;
+  EXPECT_NEAR(sim.robot(0).pose().x, 4.0, 1e-3);
+  // 10 ms of driving before the carry (~80 ticks), nothing of the 5.7 m jump.
+  EXPECT_LE(std::abs(after.left_ticks - before.left_ticks), 100);
+  EXPECT_NEAR(after.odometry.x, before.odometry.x, 0.01);
+  EXPECT_NEAR(after.odometry.y, before.odometry.y, 0.01);
+}
+
+// ---------------------------------------------------------------------------------------- imu
+TEST(Imu, GyroWhiteNoiseMatchesItsDensity) {
+  Simulation sim = make_sim(R"(
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      imu: {gyro_noise_density: 0.001, gyro_bias_sigma: 0, gyro_bias_random_walk: 0,
+            accel_noise_density: 0.01, accel_bias_sigma: 0, accel_bias_random_walk: 0}
+)");
+  const auto readings = collect<ImuReading>(sim, SensorKind::kImu, 60.0);
+  std::vector<double> gyro, accel;
+  for (const auto& r : readings) {
+    gyro.push_back(r.data.yaw_rate_radps);
+    accel.push_back(r.data.accel_mps2.x());
+  }
+  const Stats g = stats(gyro), a = stats(accel);
+  EXPECT_EQ(g.n, 6001u);
+  EXPECT_NEAR(g.mean, 0.0, 4.0 * 0.01 / std::sqrt(6001.0));
+  EXPECT_NEAR(g.stddev, 0.001 * std::sqrt(100.0), 0.05 * 0.01);  // density * sqrt(rate)
+  EXPECT_NEAR(a.stddev, 0.01 * std::sqrt(100.0), 0.05 * 0.1);
+}
+
+TEST(Imu, IntegratedGyroFollowsTheTrueHeading) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+    sensors: {imu: {gyro_bias_sigma: 0}}
+)");
+  const auto readings = collect<ImuReading>(sim, SensorKind::kImu, 10.0, 0.2, 0.25);
+  double heading = 0.0;
+  for (std::size_t i = 1; i < readings.size(); ++i)
+    heading += readings[i].data.yaw_rate_radps * 0.01;
+  // True heading change: 10 s at 0.25 rad/s less the ramp; wrap-free below pi.
+  const double truth = sim.robot(0).pose().theta;
+  EXPECT_GT(truth, 2.3);
+  EXPECT_NEAR(heading, truth, 0.01);
+}
+
+TEST(Imu, SeesAccelerationAndTheCollisionSpikeAndSaturates) {
+  const auto run = [](double range) {
+    Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+walls:
+  - points: [[1.5, -3], [1.5, 3]]
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      imu: {accel_noise_density: 0, accel_bias_sigma: 0, accel_bias_random_walk: 0, accel_range: )" +
+                              std::to_string(range) + "}\n");
+    return collect<ImuReading>(sim, SensorKind::kImu, 5.0, 0.8, 0.0);
+  };
+  const auto readings = run(40.0);
+  // The wheel ramp (30 rad/s^2 x 0.05 m) accelerates the body at 1.5 m/s^2.
+  EXPECT_NEAR(readings[20].data.accel_mps2.x(), 1.5, 0.05);
+  double lowest = 0.0;
+  for (const auto& r : readings) lowest = std::min(lowest, r.data.accel_mps2.x());
+  EXPECT_LT(lowest, -5.0);  // hitting the wall at 0.8 m/s
+  for (const auto& r : run(2.0)) EXPECT_LE(std::abs(r.data.accel_mps2.x()), 2.0);
+}
+
+// -------------------------------------------------------------------------------- ptz camera
+/// A robot at the origin facing +x and one landmark at `landmark` (x, y).
+std::string camera_world(const std::string& landmark, const std::string& camera,
+                         const std::string& extra = "") {
+  return "landmarks:\n  - {id: 7, position: " + landmark + ", color: red, height_m: 0.6}\n" +
+         extra + "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      ptz_camera: " + camera +
+         "\n";
+}
+
+std::vector<Detection> detections(const std::string& world, double seconds = 0.0,
+                                  std::uint64_t seed = 1) {
+  Simulation sim = make_sim(world, seed);
+  std::vector<Detection> out;
+  for (const auto& r : collect<PtzReading>(sim, SensorKind::kPtzCamera, seconds)) {
+    out.insert(out.end(), r.data.detections.begin(), r.data.detections.end());
+  }
+  return out;
+}
+
+TEST(PtzCamera, FieldOfViewAndPanDecideWhatIsSeen) {
+  const std::string quiet = "{miss_probability: 0, false_detections_per_frame: 0}";
+  // hfov 65 deg: 20 deg off-axis is inside, 40 deg is outside.
+  EXPECT_EQ(detections(camera_world("[2.819, 1.026]", quiet)).size(), 1u);  // 20 deg
+  EXPECT_EQ(detections(camera_world("[2.298, 1.928]", quiet)).size(), 0u);  // 40 deg
+  EXPECT_EQ(detections(camera_world("[-2.0, 0.5]", quiet)).size(), 0u);     // behind
+  // Panned 30 deg left, the 40 deg landmark is 10 deg off-axis.
+  const std::string panned =
+      camera_world("[2.298, 1.928]", quiet) + "scenario:\n  ptz: {policy: fixed, pan_deg: 30}\n";
+  const auto seen = detections(panned, 1.0);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_NEAR(seen.back().bearing_rad, deg_to_rad(40.0), deg_to_rad(1.5));
+  EXPECT_NEAR(seen.back().range_m, 3.0, 0.3);
+}
+
+TEST(PtzCamera, PanStaysWithinItsLimitsAndSweeps) {
+  Simulation fixed =
+      make_sim(camera_world("[3, 0]", "{}") + "scenario:\n  ptz: {policy: fixed, pan_deg: 150}\n");
+  auto frames = collect<PtzReading>(fixed, SensorKind::kPtzCamera, 3.0);
+  EXPECT_NEAR(frames.back().data.pan_rad, deg_to_rad(100.0), 1e-9);
+  Simulation sweep = make_sim(camera_world("[3, 0]", "{}") +
+                              "scenario:\n  ptz: {policy: sweep, sweep_min_deg: -60, "
+                              "sweep_max_deg: 60, sweep_rate_deg: 40}\n");
+  frames = collect<PtzReading>(sweep, SensorKind::kPtzCamera, 12.0);
+  double lo = 1e9, hi = -1e9;
+  for (const auto& f : frames) {
+    lo = std::min(lo, f.data.pan_rad);
+    hi = std::max(hi, f.data.pan_rad);
+    EXPECT_LE(std::abs(f.data.pan_rad), deg_to_rad(60.0) + 1e-9);
+  }
+  EXPECT_NEAR(lo, deg_to_rad(-60.0), 1e-6);
+  EXPECT_NEAR(hi, deg_to_rad(60.0), 1e-6);
+  EXPECT_NEAR(frames[5].data.pan_rad, deg_to_rad(40.0 * 0.5), 1e-6);  // 0.5 s at 40 deg/s
+}
+
+TEST(PtzCamera, ErrorsFollowPixelQuantisationAndGrowWithDistance) {
+  const auto errors = [](double distance) {
+    std::vector<double> range_errors, bearing_errors;
+    const std::string world =
+        camera_world("[" + std::to_string(distance) + ", 0.3]",
+                     "{miss_probability: 0, false_detections_per_frame: 0, pixel_noise_px: 0.5}");
+    for (const Detection& d : detections(world, 30.0)) {
+      range_errors.push_back(d.range_m - std::hypot(distance, 0.3));
+      bearing_errors.push_back(wrap_angle(d.bearing_rad - std::atan2(0.3, distance)));
+    }
+    return std::pair{stats(range_errors), stats(bearing_errors)};
+  };
+  const auto [near_range, near_bearing] = errors(1.5);
+  const auto [far_range, far_bearing] = errors(5.0);
+  EXPECT_EQ(near_range.n, 301u);
+  EXPECT_LT(std::abs(near_range.mean), 0.03);  // unbiased within 2 %
+  EXPECT_LT(std::abs(far_range.mean), 0.15);
+  EXPECT_GT(far_range.stddev, 3.0 * near_range.stddev);  // height in pixels shrinks as 1/d
+  // Bearing: a pixel is 0.5 deg at zoom 1; the blob centre is good to about half a pixel.
+  EXPECT_LT(near_bearing.stddev, deg_to_rad(0.5));
+  EXPECT_LT(std::abs(near_bearing.mean), deg_to_rad(0.3));
+}
+
+TEST(PtzCamera, WallsAndPeopleOcclude) {
+  const std::string quiet = "{miss_probability: 0, false_detections_per_frame: 0}";
+  EXPECT_EQ(detections(camera_world("[3, 0]", quiet, "walls:\n  - points: [[1.5, -1], [1.5, 1]]\n"))
+                .size(),
+            0u);
+  const std::string person = "movers:\n  - {name: p, path: [[1.5, 0]], speed_mps: 0}\n";
+  EXPECT_EQ(detections(camera_world("[3, 0]", quiet, person)).size(), 0u);
+  // A person covering part of a wide landmark leaves a narrower blob, still detected.
+  const std::string half =
+      "movers:\n  - {name: p, path: [[1.5, 0.62]], footprint: {radius_m: 0.1}, speed_mps: 0}\n";
+  const auto partial =
+      detections(camera_world("[3, 0]", quiet, half)
+                     .replace(camera_world("[3, 0]", quiet, half).find("height_m: 0.6"), 13,
+                              "height_m: 0.6, radius_m: 0.5"));
+  ASSERT_EQ(partial.size(), 1u);
+}
+
+TEST(PtzCamera, MissAndFalseDetectionRatesHold) {
+  const auto seen = detections(
+      camera_world("[3, 0]", "{miss_probability: 0.3, false_detections_per_frame: 0.5}"), 100.0);
+  int real = 0, phantom = 0;
+  for (const Detection& d : seen) (d.truth_id == 7 ? real : phantom)++;
+  EXPECT_NEAR(real / 1001.0, 0.7, 0.05);
+  EXPECT_NEAR(phantom / 1001.0, 0.5, 0.07);
+  for (const Detection& d : seen) {
+    EXPECT_EQ(d.id, -1);  // colours only by default
+    EXPECT_EQ(d.color, "red");
+  }
+}
+
+// ------------------------------------------------------------------------------ omni camera
+TEST(OmniCamera, LocalFrameGaussianHasTheGivenPrincipalDeviations) {
+  Simulation sim = make_sim(R"(
+landmarks:
+  - {id: 1, position: [0, 3]}
+robots:
+  - start: {x: 0, y: 0}
+    sensors: {omni_camera: {sigma_major_m: 0.2, sigma_minor_m: 0.05}}
+)");
+  std::vector<double> along, across;
+  for (const auto& r : collect<OmniReading>(sim, SensorKind::kOmniCamera, 200.0)) {
+    ASSERT_EQ(r.data.detections.size(), 1u);
+    const Detection& d = r.data.detections[0];
+    EXPECT_EQ(d.id, 1);
+    // The landmark is straight left: along the ray is y, across is -x.
+    along.push_back(d.range_m * std::sin(d.bearing_rad) - 3.0);
+    across.push_back(-d.range_m * std::cos(d.bearing_rad));
+  }
+  const Stats a = stats(along), c = stats(across);
+  EXPECT_NEAR(a.mean, 0.0, 0.02);
+  EXPECT_NEAR(c.mean, 0.0, 0.005);
+  EXPECT_NEAR(a.stddev, 0.2, 0.012);
+  EXPECT_NEAR(c.stddev, 0.05, 0.003);
+}
+
+// ------------------------------------------------------------------------------- ultrasonic
+std::vector<BeaconRange> ranges(const std::string& world, double seconds, std::uint64_t seed = 1) {
+  Simulation sim = make_sim(world, seed);
+  std::vector<BeaconRange> out;
+  for (const auto& r : collect<UltrasonicReading>(sim, SensorKind::kUltrasonic, seconds)) {
+    out.insert(out.end(), r.data.ranges.begin(), r.data.ranges.end());
+  }
+  return out;
+}
+
+const char* kBeaconRobot = R"(
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      ultrasonic:
+        receivers: [{position: [0, 0], height_m: 0.5}]
+        sigma_m: 0.03
+)";
+
+TEST(Ultrasonic, LineOfSightRangesAreTheThreeDimensionalDistanceWithNoise) {
+  const auto all = ranges(
+      std::string("beacons:\n  - {id: 4, position: [4, 0], height_m: 3.5}\n") + kBeaconRobot, 50.0);
+  std::vector<double> errors;
+  int dropped = 0;
+  for (const BeaconRange& r : all) {
+    if (std::isnan(r.range_m)) {
+      ++dropped;
+      continue;
+    }
+    EXPECT_EQ(r.truth_status, RangeStatus::kLineOfSight);
+    errors.push_back(r.range_m - 5.0);  // sqrt(4^2 + 3^2)
+  }
+  const Stats s = stats(errors);
+  EXPECT_NEAR(s.mean, 0.0, 0.005);
+  EXPECT_NEAR(s.stddev, 0.03, 0.003);
+  EXPECT_NEAR(dropped / static_cast<double>(all.size()), 0.01, 0.01);
+}
+
+TEST(Ultrasonic, AWallBetweenGivesLongerRangesOrNothing) {
+  const auto all = ranges(
+      std::string(
+          "beacons:\n  - {id: 1, position: [4, 0]}\nwalls:\n  - points: [[2, -1], [2, 1]]\n") +
+          kBeaconRobot,
+      50.0);
+  const double truth = std::hypot(4.0, 2.0);
+  int nlos = 0;
+  for (const BeaconRange& r : all) {
+    ASSERT_NE(r.truth_status, RangeStatus::kLineOfSight);
+    if (r.truth_status == RangeStatus::kNonLineOfSight) {
+      ++nlos;
+      EXPECT_GT(r.range_m, truth + 0.1 - 0.15);  // bias_min less 5 sigma of noise
+    } else {
+      EXPECT_TRUE(std::isnan(r.range_m));
+    }
+  }
+  EXPECT_NEAR(nlos / static_cast<double>(all.size()), 0.5, 0.06);
+}
+
+TEST(Ultrasonic, LowObstaclesAreOverlookedAndOutOfRangeIsReported) {
+  // A 0.3 m box between a receiver at 0.5 m and a beacon at 2.5 m does not block.
+  auto all = ranges(std::string("beacons:\n  - {id: 1, position: [4, 0]}\nboxes:\n  - {center: [2, "
+                                "0], size: [0.4, 2], height_m: 0.3}\n") +
+                        kBeaconRobot,
+                    5.0);
+  for (const BeaconRange& r : all) EXPECT_NE(r.truth_status, RangeStatus::kNonLineOfSight);
+  all = ranges(std::string("beacons:\n  - {id: 1, position: [40, 0]}\n") + kBeaconRobot, 1.0);
+  for (const BeaconRange& r : all) EXPECT_EQ(r.truth_status, RangeStatus::kOutOfRange);
+}
+
+TEST(Ultrasonic, APersonWalkingThroughTheBeamCausesABurstOfBadReadings) {
+  Simulation sim = make_sim(std::string(R"(
+beacons:
+  - {id: 1, position: [6, 0], height_m: 1.0}
+movers:
+  - {name: walker, path: [[3, -4], [3, 4]], speed_mps: 1.0, loop: false}
+)") + kBeaconRobot);
+  const auto readings = collect<UltrasonicReading>(sim, SensorKind::kUltrasonic, 8.0);
+  int bad_before = 0, bad_during = 0, bad_after = 0, during = 0;
+  for (const auto& r : readings) {
+    const bool bad = r.data.ranges[0].truth_status != RangeStatus::kLineOfSight &&
+                     r.data.ranges[0].truth_status != RangeStatus::kDropped;
+    const bool blocked = r.data.ranges[0].truth_status == RangeStatus::kNonLineOfSight ||
+                         (r.data.ranges[0].truth_status == RangeStatus::kDropped);
+    (void)bad;
+    // The walker (radius 0.25) crosses the line y = 0 between t = 3.75 s and 4.25 s.
+    if (r.t_s < 3.6)
+      bad_before += blocked;
+    else if (r.t_s > 4.4)
+      bad_after += blocked;
+    else if (r.t_s > 3.8 && r.t_s < 4.2)
+      bad_during += blocked, ++during;
+  }
+  EXPECT_EQ(bad_during, during);  // every reading while the walker stands in the beam
+  EXPECT_LE(bad_before, 3);       // ~1 % random dropouts only
+  EXPECT_LE(bad_after, 3);
+}
+
+// ------------------------------------------------------------------------------------ laser
+TEST(Laser, RangesToAWallAreGaussianAroundTheTruth) {
+  Simulation sim = make_sim(R"(
+walls:
+  - points: [[3, -10], [3, 10]]
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      laser: {beams: 181, fov_deg: 180, sigma_m: 0.02, p_short: 0, p_max: 0, p_random: 0, max_range_m: 10}
+)");
+  std::vector<double> centre_errors;
+  for (const auto& scan : collect<LaserScan>(sim, SensorKind::kLaser, 50.0)) {
+    ASSERT_EQ(scan.data.ranges_m.size(), 181u);
+    centre_errors.push_back(scan.data.ranges_m[90] - 3.0);
+    // Beam 60 is 30 deg right of the axis: it meets the wall at 3 / cos(30 deg).
+    EXPECT_NEAR(scan.data.ranges_m[60], 3.0 / std::cos(deg_to_rad(30.0)), 0.12);
+    EXPECT_FLOAT_EQ(scan.data.ranges_m[0], 10.0f);  // parallel to the wall: nothing
+  }
+  const Stats s = stats(centre_errors);
+  EXPECT_NEAR(s.mean, 0.0, 0.004);
+  EXPECT_NEAR(s.stddev, 0.02, 0.003);
+}
+
+TEST(Laser, MixtureProducesMaxRandomAndShortReadingsAtTheirRates) {
+  Simulation sim = make_sim(R"(
+walls:
+  - points: [[5, -10], [5, 10]]
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      laser: {beams: 100, fov_deg: 20, sigma_m: 0.0, p_short: 0.1, lambda_short: 1.0, p_max: 0.05, p_random: 0.05, max_range_m: 8}
+)");
+  int max_readings = 0, short_readings = 0, total = 0;
+  for (const auto& scan : collect<LaserScan>(sim, SensorKind::kLaser, 20.0)) {
+    for (const float r : scan.data.ranges_m) {
+      ++total;
+      if (r == 8.0f) ++max_readings;
+      if (r < 4.9f) ++short_readings;
+    }
+  }
+  EXPECT_NEAR(max_readings / double(total), 0.05, 0.01);
+  // Short: p_short (all phantoms fall below 5 m with prob 1 - e^-5) + p_random x 4.9 / 8.
+  EXPECT_NEAR(short_readings / double(total), 0.1 * (1 - std::exp(-4.9)) + 0.05 * 4.9 / 8, 0.015);
+}
+
+TEST(Laser, SeesPeopleAndOtherRobotsButNotItself) {
+  Simulation sim = make_sim(R"(
+movers:
+  - {name: p, path: [[2, 0]], speed_mps: 0}
+robots:
+  - name: a
+    start: {x: 0, y: 0}
+    sensors: {laser: {beams: 360, fov_deg: 360, sigma_m: 0, p_short: 0, p_max: 0, p_random: 0}}
+  - {name: b, start: {x: 0, y: -1.5}}
+)");
+  const auto scans = collect<LaserScan>(sim, SensorKind::kLaser, 0.0);
+  ASSERT_EQ(scans.size(), 1u);
+  const auto& ranges_m = scans[0].data.ranges_m;
+  // Full circle: beam i at -180 + i deg, so beam 180 looks ahead and beam 90 to the right.
+  EXPECT_NEAR(ranges_m[180], 2.0 - 0.25, 1e-3);  // the person's surface
+  EXPECT_NEAR(ranges_m[90], 1.5 - 0.2, 1e-3);    // robot b
+  EXPECT_FLOAT_EQ(ranges_m[0], 8.0f);            // behind: open space, not its own body
+}
+
+TEST(StaticRaycaster, AgreesWithBox2dOnTheOfficeMap) {
+  WorldDef world =
+      load_world(std::filesystem::path(LOCSIM_SOURCE_DIR) / "worlds/maps/office_world.yaml");
+  world.movers.clear();  // static geometry only: Box2D's cast would also see the visitor
+  ScenarioDef scenario;
+  bind_scenario(scenario, world);
+  const Simulation sim(world, scenario, 1);
+  const StaticRaycaster grid = StaticRaycaster::from_world(sim.world());
+  RandomStream rng = make_stream(1, "rays");
+  int compared = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec2 origin{rng.uniform(0.3, 11.7), rng.uniform(0.3, 8.7)};
+    const double angle = rng.uniform(-std::numbers::pi, std::numbers::pi);
+    const Vec2 direction{std::cos(angle), std::sin(angle)};
+    const double ours = grid.cast(origin, direction, 20.0);
+    // Box2D ignores shapes the ray starts inside; skip those origins.
+    const b2Body* robot = sim.robot(0).body();  // Box2D would see the robot too
+    if (!sim.world().is_free(b2CircleShape(), Pose2{origin.x(), origin.y(), 0}, robot)) continue;
+    const auto box2d = sim.world().ray_cast(origin, origin + 20.0 * direction, robot);
+    ASSERT_EQ(box2d.has_value(), std::isfinite(ours)) << origin.transpose() << " " << angle;
+    if (box2d) {
+      EXPECT_NEAR(ours, *box2d, 1e-4);
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, 2000);
+}
+
+// ----------------------------------------------------------------------------------- faults
+TEST(SensorFaults, DropoutStuckAndBiasStepApplyForTheirIntervals) {
+  Simulation sim = make_sim(R"(
+walls:
+  - points: [[3, -10], [3, 10]]
+robots:
+  - start: {x: 0, y: 0}
+    sensors:
+      laser: {beams: 1, sigma_m: 0.01, p_short: 0, p_max: 0, p_random: 0}
+scenario:
+  events:
+    - {at_s: 1, sensor_fault: {sensor: laser, mode: dropout, duration_s: 1}}
+    - {at_s: 3, sensor_fault: {sensor: laser, mode: stuck, duration_s: 1}}
+    - {at_s: 5, sensor_fault: {sensor: laser, mode: bias, bias: 0.5}}
+)");
+  const auto scans = collect<LaserScan>(sim, SensorKind::kLaser, 7.0);
+  std::map<int, std::vector<float>> by_second;
+  for (const auto& s : scans)
+    by_second[static_cast<int>(std::floor(s.t_s + 1e-9))].push_back(s.data.ranges_m[0]);
+  EXPECT_EQ(by_second.count(1), 0u);  // dropout [1, 2)
+  EXPECT_EQ(by_second[2].size(), 10u);
+  for (const float r : by_second[3]) EXPECT_EQ(r, by_second[2].back());  // stuck at the last value
+  EXPECT_NE(by_second[4][1], by_second[4][2]);                           // moving again
+  for (const float r : by_second[6]) EXPECT_NEAR(r, 3.5, 0.05);          // biased from t = 5 on
+}
+
+}  // namespace
+}  // namespace locsim
