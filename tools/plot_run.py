@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Plots a locsim run folder: the world from run.json, each robot's true path from
-groundtruth.tum (broken where it was kidnapped), kidnaps as arrows and collisions as crosses.
+groundtruth.tum (broken where it was kidnapped), its wheel odometry from readings/encoders.csv,
+kidnaps as arrows and collisions as crosses.
 
     tools/plot_run.py RUN_DIR [--out FILE.png]
 
@@ -141,6 +142,12 @@ def main():
         for k, segment in enumerate(segments):
             ax.plot([r[1] for r in segment], [r[2] for r in segment], color=color, linewidth=1.4,
                     label=f"{robot['name']} true path" if k == 0 else None)
+        encoders = os.path.join(args.run_dir, robot["folder"], "readings", "encoders.csv")
+        if os.path.exists(encoders):
+            with open(encoders, newline="") as f:
+                odometry = [(float(r["odom_x_m"]), float(r["odom_y_m"])) for r in csv.DictReader(f)]
+            ax.plot([p[0] for p in odometry], [p[1] for p in odometry], color=color, linewidth=1.0,
+                    linestyle=(0, (4, 2)), alpha=0.7, label=f"{robot['name']} wheel odometry")
         if rows:
             t, x, y, theta = rows[0]
             ax.plot(x, y, "o", color=color, markersize=7)

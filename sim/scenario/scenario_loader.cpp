@@ -256,6 +256,11 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
     bind_robot(policy.robot, policy.where, policy.key_path, "a ptz policy");
     const auto robot = std::find_if(world.robots.begin(), world.robots.end(),
                                     [&](const RobotDef& r) { return r.name == policy.robot; });
+    const auto same_robot = [&](const PanPolicyDef& other) { return other.robot == policy.robot; };
+    if (std::count_if(scenario.pan_policies.begin(), scenario.pan_policies.end(), same_robot) > 1) {
+      throw InputError(policy.where, policy.key_path,
+                       "robot '" + policy.robot + "' has two ptz policies");
+    }
     if (!robot->sensors.ptz_camera) {
       throw InputError(policy.where, policy.key_path,
                        "robot '" + policy.robot + "' has no ptz_camera");
