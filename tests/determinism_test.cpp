@@ -17,11 +17,12 @@ RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   options.seed = seed;
   options.duration_s = 45.0;  // past both kidnaps, the second to a random pose
   options.out_dir = out;
+  options.localizers = {"odometry", "ekf_landmarks"};
   return run_simulation(options);
 }
 
-std::string run_json_without_timing(const fs::path& dir) {
-  nlohmann::ordered_json run = nlohmann::ordered_json::parse(testing::read_file(dir / "run.json"));
+std::string json_without_timing(const fs::path& file) {
+  nlohmann::ordered_json run = nlohmann::ordered_json::parse(testing::read_file(file));
   EXPECT_TRUE(run.contains("timing"));
   run.erase("timing");
   return run.dump();
@@ -36,12 +37,14 @@ TEST(Determinism, SameSeedGivesByteIdenticalOutputs) {
   for (const char* file :
        {"groundtruth.tum", "events.csv", "readings/encoders.csv", "readings/imu.csv",
         "readings/ptz_camera.csv", "readings/omni_camera.csv", "readings/ultrasonic.csv",
-        "readings/laser.csv", "readings/sensors.json"}) {
+        "readings/laser.csv", "readings/sensors.json", "odometry.tum", "ekf_landmarks.tum"}) {
     const std::string content = testing::read_file(base / "a" / file);
     EXPECT_GT(content.size(), 100u) << file;
     EXPECT_EQ(content, testing::read_file(base / "b" / file)) << file << " differs";
   }
-  EXPECT_EQ(run_json_without_timing(base / "a"), run_json_without_timing(base / "b"));
+  EXPECT_EQ(json_without_timing(base / "a/run.json"), json_without_timing(base / "b/run.json"));
+  EXPECT_EQ(json_without_timing(base / "a/metrics.json"),
+            json_without_timing(base / "b/metrics.json"));
 }
 
 TEST(Determinism, DifferentSeedsDiffer) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -15,6 +16,12 @@
 #include "sim/world/world_loader.hpp"
 
 namespace locsim::testing {
+
+// The test binary is not next to build/plugins: tell the plugin search path where ours are.
+inline const bool kPluginPathSet = [] {
+  setenv("LOCSIM_PLUGIN_PATH", LOCSIM_BUILD_PLUGIN_DIR, 1);
+  return true;
+}();
 
 inline WorldDef world_from_yaml(const std::string& text) {
   return parse_world(YamlNode::load_string(text, "test.yaml"), ".");

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Plots a locsim run folder: the world from run.json, each robot's true path from
-groundtruth.tum (broken where it was kidnapped), its wheel odometry from readings/encoders.csv,
+groundtruth.tum (broken where it was kidnapped), its wheel odometry from readings/encoders.csv, each localizer's estimate (LABEL.tum),
 kidnaps as arrows and collisions as crosses.
 
     tools/plot_run.py RUN_DIR [--out FILE.png]
@@ -148,6 +148,16 @@ def main():
                 odometry = [(float(r["odom_x_m"]), float(r["odom_y_m"])) for r in csv.DictReader(f)]
             ax.plot([p[0] for p in odometry], [p[1] for p in odometry], color=color, linewidth=1.0,
                     linestyle=(0, (4, 2)), alpha=0.7, label=f"{robot['name']} wheel odometry")
+        estimate_styles = [("#ff7f0e", "-."), ("#2ca02c", "-"), ("#9467bd", ":"), ("#8c564b", "--")]
+        for k, localizer in enumerate(l for l in run.get("localizers", []) if l["robot"] == robot["name"]):
+            path = os.path.join(args.run_dir, robot["folder"], localizer["label"] + ".tum")
+            if not os.path.exists(path):
+                continue
+            estimate = read_tum(path)
+            style_color, style = estimate_styles[k % len(estimate_styles)]
+            ax.plot([r[1] for r in estimate], [r[2] for r in estimate], color=style_color,
+                    linestyle=style, linewidth=1.2, alpha=0.9,
+                    label=f"{localizer['label']} estimate ({localizer['status']})")
         if rows:
             t, x, y, theta = rows[0]
             ax.plot(x, y, "o", color=color, markersize=7)
@@ -185,7 +195,7 @@ def main():
     ax.grid(alpha=0.2)
     out = args.out or os.path.join(args.run_dir, "trajectory.png")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=110, bbox_inches="tight")
     print(f"plot_run: wrote {out}")
     return 0
 

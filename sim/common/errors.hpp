@@ -10,6 +10,7 @@ enum ExitCode : int {
   kExitOk = 0,
   kExitFailure = 1,        // anything not caused by the user's input
   kExitBadInput = 2,       // bad command line, or a world/scenario/map file that cannot be used
+  kExitPlugin = 3,         // a localizer plugin cannot be found, loaded or created
   kExitInterrupted = 130,  // SIGINT; the run folder holds everything written so far
 };
 
@@ -28,6 +29,13 @@ class InputError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
   InputError(const SourceLocation& where, const std::string& key, const std::string& problem);
+};
+
+/// A localizer plugin cannot be used: not found, not a plugin, wrong ABI, unresolved symbols,
+/// or its create call failed. The message names the plugin and the file.
+class PluginError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 }  // namespace locsim

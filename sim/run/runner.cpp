@@ -6,15 +6,18 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <thread>
 #include <type_traits>
 #include <variant>
 
+#include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/config_json.hpp"
 #include "sim/run/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/sensors/models.hpp"
+#include "sim/world/occupancy.hpp"
 #include "sim/world/world_loader.hpp"
 
 #ifndef LOCSIM_VERSION_STRING
@@ -51,11 +54,27 @@ RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::pa
 
 namespace {
 
+/// One TUM row: `t x y 0 0 0 qz qw` for a planar pose.
+void append_tum(std::string& line, double t_s, double x, double y, double theta) {
+  append_fixed(line, t_s, 4);
+  line += ' ';
+  append_fixed(line, x, 6);
+  line += ' ';
+  append_fixed(line, y, 6);
+  line += " 0 0 0 ";
+  append_fixed(line, std::sin(0.5 * theta), 9);
+  line += ' ';
+  append_fixed(line, std::cos(0.5 * theta), 9);
+  line += '\n';
+}
+
 /// Writes the files of one run as it goes, flushing often so that a crash or Ctrl-C keeps
 /// everything up to the last few steps.
 class RunWriter {
  public:
-  RunWriter(const fs::path& dir, const Simulation& sim) : dir_(dir) {
+  RunWriter(const fs::path& dir, const Simulation& sim,
+            std::vector<std::unique_ptr<LocalizerHost>>& hosts)
+      : dir_(dir), hosts_(hosts) {
     const std::size_t n = sim.robot_count();
     stride_ = std::llround(sim.world_def().physics.step_hz / sim.scenario().groundtruth_hz);
     for (std::size_t i = 0; i < n; ++i) {
@@ -69,6 +88,16 @@ class RunWriter {
            << "', TUM format, z = 0)\n";
     }
     for (std::size_t i = 0; i < n; ++i) open_readings(sim, i);
+    for (std::size_t i = 0; i < hosts_.size(); ++i) {
+      auto& files = estimates_.emplace_back();
+      for (const auto& instance : hosts_[i]->instances()) {
+        const fs::path path = robot_dirs_[i] / (instance->label() + ".tum");
+        auto& file = files.emplace_back(std::make_unique<std::ofstream>(path, std::ios::binary));
+        if (!*file) throw std::runtime_error("cannot write " + path.string());
+        *file << "# timestamp tx ty tz qx qy qz qw  (estimate of localizer '" << instance->label()
+              << "', plugin " << instance->table().name << ", TUM format)\n";
+      }
+    }
     events_.open(dir / "events.csv", std::ios::binary);
     if (!events_) throw std::runtime_error("cannot write " + (dir / "events.csv").string());
     events_ << "t_s,kind,robot,details\n";
@@ -176,39 +205,46 @@ class RunWriter {
     *file << line_;
   }
 
-  /// Called after every step (and once before the first).
-  void record(Simulation& sim) {
-    for (const Reading& reading : sim.take_readings()) write(reading);
+  /// Called after every step (and once before the first) with the step's readings, after the
+  /// localizers have had them.
+  void record(Simulation& sim, const std::vector<Reading>& readings) {
+    for (const Reading& reading : readings) write(reading);
     for (const SimEvent& event : sim.take_events()) {
       line_.clear();
       append_fixed(line_, event.t_s, 4);
       line_ += ',' + event.kind + ',' + event.robot + ",\"" + event.details + "\"\n";
       events_ << line_;
+      if (event.kind == "kidnap") kidnaps_[event.robot].push_back(event.t_s);
     }
     if (sim.step_index() % stride_ != 0 || sim.step_index() == last_step_) return;
     last_step_ = sim.step_index();
     for (std::size_t i = 0; i < sim.robot_count(); ++i) {
       const DiffDriveRobot& robot = sim.robot(i);
-      if (robot.carried()) continue;  // in the air: no floor pose to report
+      if (robot.carried()) continue;  // in the air: no floor pose to report or compare with
       const Pose2 pose = robot.pose();
       line_.clear();
-      append_fixed(line_, sim.time_s(), 4);
-      line_ += ' ';
-      append_fixed(line_, pose.x, 6);
-      line_ += ' ';
-      append_fixed(line_, pose.y, 6);
-      line_ += " 0 0 0 ";
-      append_fixed(line_, std::sin(0.5 * pose.theta), 9);
-      line_ += ' ';
-      append_fixed(line_, std::cos(0.5 * pose.theta), 9);
-      line_ += '\n';
+      append_tum(line_, sim.time_s(), pose.x, pose.y, pose.theta);
       groundtruth_[i] << line_;
+      if (i >= hosts_.size()) continue;
+      auto& instances = hosts_[i]->instances();
+      for (std::size_t k = 0; k < instances.size(); ++k) {
+        const std::optional<locsim_estimate> estimate = instances[k]->estimate(sim.time_s());
+        if (!estimate) continue;
+        line_.clear();
+        append_tum(line_, sim.time_s(), estimate->pose.x, estimate->pose.y, estimate->pose.theta);
+        *estimates_[i][k] << line_;
+        instances[k]->add_error({sim.time_s(), estimate->pose.x - pose.x, estimate->pose.y - pose.y,
+                                 wrap_angle(estimate->pose.theta - pose.theta)});
+      }
     }
     if (sim.step_index() % (stride_ * 50) == 0) flush();
   }
 
   void flush() {
     for (auto& file : groundtruth_) file.flush();
+    for (auto& robot : estimates_) {
+      for (auto& file : robot) file->flush();
+    }
     for (auto& robot : readings_) {
       for (auto& file : robot) {
         if (file) file->flush();
@@ -218,6 +254,11 @@ class RunWriter {
   }
 
   const std::vector<fs::path>& robot_dirs() const { return robot_dirs_; }
+  /// Kidnap times of a robot so far [s].
+  std::vector<double> kidnaps(const std::string& robot) const {
+    const auto it = kidnaps_.find(robot);
+    return it == kidnaps_.end() ? std::vector<double>{} : it->second;
+  }
 
  private:
   fs::path dir_;
@@ -227,6 +268,9 @@ class RunWriter {
   std::vector<std::ofstream> groundtruth_;
   std::ofstream events_;
   std::vector<std::array<std::unique_ptr<std::ofstream>, 6>> readings_;  // by robot, SensorKind
+  std::vector<std::unique_ptr<LocalizerHost>>& hosts_;                   // by robot
+  std::vector<std::vector<std::unique_ptr<std::ofstream>>> estimates_;   // by robot, localizer
+  std::map<std::string, std::vector<double>> kidnaps_;                   // by robot
   std::string line_;
 };
 
@@ -259,6 +303,27 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   // Everything that can be wrong with the input is found before the folder is made.
   RunInputs inputs = load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
   Simulation sim(inputs.world, inputs.scenario, options.seed);
+  // Plugins are loaded and created before anything is written too (exit 3 leaves no folder).
+  std::vector<std::unique_ptr<LocalizerHost>> hosts;
+  if (!options.localizers.empty()) {
+    std::vector<LocalizerSpec> specs;
+    for (const std::string& text : options.localizers) specs.push_back(parse_localizer_spec(text));
+    const OccupancyGrid grid =
+        rasterize_static_world(sim.world(), inputs.scenario.localization.grid_resolution_m);
+    for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+      hosts.push_back(std::make_unique<LocalizerHost>(specs, sim.world_def(), sim.robot(i).def(),
+                                                      inputs.scenario.localization, grid,
+                                                      options.seed));
+    }
+  }
+  const auto deliver_and_record = [&](RunWriter& writer) {
+    std::vector<Reading> readings = sim.take_readings();
+    for (const Reading& reading : readings) {
+      if (static_cast<std::size_t>(reading.robot) < hosts.size())
+        hosts[reading.robot]->deliver(reading);
+    }
+    writer.record(sim, readings);
+  };
 
   RunResult result;
   result.out_dir =
@@ -271,7 +336,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
                      "' is not empty; choose another or pass --overwrite");
   }
   fs::create_directories(result.out_dir);
-  RunWriter writer(result.out_dir, sim);
+  RunWriter writer(result.out_dir, sim, hosts);
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto next_progress = wall_start + std::chrono::seconds(1);
@@ -280,14 +345,14 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   std::exception_ptr failure;
   result.status = "completed";
   try {
-    writer.record(sim);
+    deliver_and_record(writer);
     while (!sim.done()) {
       if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
         result.status = "interrupted";
         break;
       }
       sim.step();
-      writer.record(sim);
+      deliver_and_record(writer);
       if (options.realtime) {
         std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(sim.time_s()));
       }
@@ -344,6 +409,41 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
                       {"kidnaps", stats.kidnaps}});
   }
   run["robots"] = robots;
+  // metrics.json per robot folder: what each localizer achieved; its wall-clock cost is kept in
+  // the last block, "timing", so that the rest is byte-identical for the same inputs and seed.
+  json localizers = json::array();
+  for (std::size_t i = 0; i < hosts.size(); ++i) {
+    json metrics;
+    metrics["robot"] = sim.robot(i).name();
+    json entries = json::array(), timing = json::object();
+    for (const auto& instance : hosts[i]->instances()) {
+      instance->diagnostics(sim.time_s());
+      json entry = instance->metrics(writer.kidnaps(sim.robot(i).name()));
+      entries.push_back(entry);
+      const CostSummary cost = summarize_costs(instance->update_seconds());
+      timing[instance->label()] = {
+          {"updates", cost.calls},
+          {"cost_per_update_us",
+           {{"mean", cost.mean_us}, {"p99", cost.p99_us}, {"max", cost.max_us}}}};
+      localizers.push_back({{"robot", sim.robot(i).name()},
+                            {"label", instance->label()},
+                            {"status", entry["status"]},
+                            {"position_rms_m", entry["position_error_m"]["rms"]}});
+      if (entry.contains("failure")) {
+        std::fprintf(
+            stderr,
+            "locsim: warning: localizer '%s' of robot '%s' failed at t = %.3f s in %s: %s\n",
+            instance->label().c_str(), sim.robot(i).name().c_str(),
+            entry["failure"]["t_s"].get<double>(),
+            entry["failure"]["call"].get<std::string>().c_str(),
+            entry["failure"]["message"].get<std::string>().c_str());
+      }
+    }
+    metrics["localizers"] = entries;
+    metrics["timing"] = timing;
+    write_json_atomically(writer.robot_dirs()[i] / "metrics.json", metrics);
+  }
+  if (!hosts.empty()) run["localizers"] = localizers;
   run["config"] = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};
   // Wall-clock figures vary from run to run; they are kept last, in this one block, so that
   // everything else in the run folder is byte-identical for the same inputs and seed.

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/world/world_def.hpp"
@@ -17,11 +18,12 @@ struct RunOptions {
   std::filesystem::path world_file;
   std::optional<std::filesystem::path> scenario_file;  // else the world's `scenario:` section
   std::uint64_t seed = 1;
-  std::optional<double> duration_s;  // overrides the scenario's duration [s]
-  std::filesystem::path out_dir;     // empty: a new folder under runs/
-  bool realtime = false;             // pace the simulation to the wall clock
-  bool progress = false;             // progress line on stderr
-  bool overwrite = false;            // allow writing into a non-empty folder
+  std::optional<double> duration_s;     // overrides the scenario's duration [s]
+  std::filesystem::path out_dir;        // empty: a new folder under runs/
+  bool realtime = false;                // pace the simulation to the wall clock
+  bool progress = false;                // progress line on stderr
+  bool overwrite = false;               // allow writing into a non-empty folder
+  std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each run on every robot
 };
 
 struct RunResult {

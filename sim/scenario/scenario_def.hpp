@@ -84,6 +84,14 @@ struct EventDef {
   std::string key_path;  // e.g. "scenario.events[2].kidnap", for messages
 };
 
+/// What localizers are told at the start.
+struct LocalizationDef {
+  bool initial_pose_known = true;  // false: global localization, no initial pose
+  double sigma_xy_m = 0.1;         // the initial guess is the truth plus N(0, sigma^2) [m]
+  double sigma_theta_rad = 0.08726646259971647;  // 5 deg [rad]
+  double grid_resolution_m = 0.05;               // of the occupancy grid given to localizers [m]
+};
+
 struct ScenarioDef {
   std::string name = "scenario";
   std::filesystem::path source;  // file it came from ("" when a section of the world file)
@@ -92,6 +100,7 @@ struct ScenarioDef {
   std::vector<DriveDef> drives;
   std::vector<EventDef> events;            // sorted by time; ties keep file order
   std::vector<PanPolicyDef> pan_policies;  // one per robot with a PTZ camera, at most
+  LocalizationDef localization;
 };
 
 }  // namespace locsim

@@ -191,7 +191,8 @@ PanPolicyDef parse_pan_policy(const YamlNode& node) {
 }  // namespace
 
 ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*base_dir*/) {
-  node.allow_keys({"name", "duration_s", "groundtruth_hz", "drive", "ptz", "events"});
+  node.allow_keys(
+      {"name", "duration_s", "groundtruth_hz", "drive", "ptz", "localization", "events"});
   ScenarioDef scenario;
   scenario.name = node.get_string("name", scenario.name);
   scenario.duration_s = node.get_double("duration_s", scenario.duration_s, Check::kPositive);
@@ -203,6 +204,21 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
     } else {
       scenario.drives.push_back(parse_drive(*drive));
     }
+  }
+  if (const auto localization = node.find("localization")) {
+    localization->allow_keys(
+        {"initial_pose", "sigma_xy_m", "sigma_theta", "sigma_theta_deg", "grid_resolution_m"});
+    LocalizationDef& l = scenario.localization;
+    if (const auto initial = localization->find("initial_pose")) {
+      const std::string value = initial->as_string();
+      if (value != "known" && value != "unknown") initial->fail("expected 'known' or 'unknown'");
+      l.initial_pose_known = value == "known";
+    }
+    l.sigma_xy_m = localization->get_double("sigma_xy_m", l.sigma_xy_m, Check::kNonNegative);
+    l.sigma_theta_rad = localization->get_angle("sigma_theta", l.sigma_theta_rad);
+    if (l.sigma_theta_rad < 0.0) localization->fail("sigma_theta must be >= 0");
+    l.grid_resolution_m =
+        localization->get_double("grid_resolution_m", l.grid_resolution_m, Check::kPositive);
   }
   if (const auto ptz = node.find("ptz")) {
     if (ptz->is_sequence()) {

@@ -95,3 +95,39 @@ BENCHMARK_CAPTURE(BM_RaySweep, office_map_grid, "worlds/maps/office_world.yaml",
 BENCHMARK_CAPTURE(BM_RaySweep, office_map_box2d, "worlds/maps/office_world.yaml", true);
 
 }  // namespace
+
+// ------------------------------------------------------------------------------------------------
+#include "sim/plugin_host/localizer_host.hpp"
+
+namespace {
+
+/// Host overhead per reading delivered to a no-op plugin: translation to the C structs, the call
+/// through the table, the timing around it. Target: < 1 us.
+void BM_DeliverToNoopPlugin(benchmark::State& state, SensorKind kind) {
+  WorldDef world = load_world(kDemo);
+  const RobotDef& robot = world.robots[0];
+  const OccupancyGrid grid;
+  LocalizerHost host({parse_localizer_spec(LOCSIM_TEST_PLUGIN_DIR "/locsim_test_noop.so")}, world,
+                     robot, LocalizationDef{}, grid, 1);
+  Reading reading;
+  reading.kind = kind;
+  if (kind == SensorKind::kLaser) {
+    reading.data =
+        LaserScan{std::vector<float>(static_cast<std::size_t>(robot.sensors.laser->beams), 3.0f)};
+  } else if (kind == SensorKind::kPtzCamera) {
+    reading.data =
+        PtzReading{0.1, 0.0, 1.0, {{"red", -1, 3.0, 0.2, 1}, {"green", -1, 4.0, -0.3, 2}}};
+  } else {
+    reading.data = EncoderReading{100, 120, {1, 2, 0.3}};
+  }
+  for (auto _ : state) {
+    reading.t_s += 0.01;
+    host.deliver(reading);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK_CAPTURE(BM_DeliverToNoopPlugin, encoders, SensorKind::kEncoders);
+BENCHMARK_CAPTURE(BM_DeliverToNoopPlugin, ptz_camera, SensorKind::kPtzCamera);
+BENCHMARK_CAPTURE(BM_DeliverToNoopPlugin, laser_271_beams, SensorKind::kLaser);
+
+}  // namespace

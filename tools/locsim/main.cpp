@@ -2,12 +2,17 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 
+#include "plugin_template.hpp"
 #include "sim/common/errors.hpp"
+#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/plugin_host/plugin_library.hpp"
 #include "sim/run/runner.hpp"
 #include "sim/run/simulation.hpp"
 
@@ -22,7 +27,10 @@ extern "C" void on_sigint(int) {
 constexpr const char* kExitCodes = R"(Exit codes:
   0    success
   1    failure not caused by the input (I/O error, internal error)
-  2    bad input: command line, world, scenario or map file (the message names file:line:col and key)
+  2    bad input: command line, world, scenario or map file (the message names file:line:col and key),
+       or a localizer parameter the plugin does not declare or accept
+  3    a localizer plugin not found, not a locsim plugin, of another ABI version, with unresolved
+       symbols, or whose create call failed (the message says which and where it looked)
   130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted")";
 
 int validate(const std::string& world, const std::optional<std::string>& scenario) {
@@ -38,6 +46,79 @@ int validate(const std::string& world, const std::optional<std::string>& scenari
       sim.world().static_fixture_count(), inputs.world.movers.size(), inputs.world.landmarks.size(),
       inputs.world.beacons.size(), inputs.scenario.name.c_str(), inputs.scenario.duration_s,
       inputs.scenario.events.size());
+  return locsim::kExitOk;
+}
+
+const char* type_name(int type) {
+  switch (type) {
+    case LOCSIM_PARAM_DOUBLE:
+      return "double";
+    case LOCSIM_PARAM_INT:
+      return "int";
+    case LOCSIM_PARAM_BOOL:
+      return "bool";
+    case LOCSIM_PARAM_STRING:
+      return "string";
+  }
+  return "?";
+}
+
+/// `locsim plugins`: every plugin found, loaded, with its parameters; failures reported each.
+int list_plugins() {
+  std::printf(
+      "Search path (LOCSIM_PLUGIN_PATH, then the build's and the install's plugin folders):\n");
+  for (const auto& folder : locsim::plugin_search_path()) std::printf("  %s\n", folder.c_str());
+  const auto files = locsim::list_plugin_files();
+  if (files.empty()) std::printf("\nNo plugins found.\n");
+  int failures = 0;
+  for (const auto& file : files) {
+    try {
+      const locsim::PluginLibrary library(file);
+      const locsim_localizer& t = library.table();
+      std::printf("\n%s  %s\n  %s\n", t.name, t.description, file.c_str());
+      for (std::size_t i = 0; i < t.param_count; ++i) {
+        const locsim_param_decl& p = t.params[i];
+        std::printf("    %-20s %-6s ", p.name, type_name(p.type));
+        if (p.type == LOCSIM_PARAM_STRING) {
+          std::printf("default '%s'", p.default_string != nullptr ? p.default_string : "");
+        } else if (p.type == LOCSIM_PARAM_BOOL) {
+          std::printf("default %s", p.default_number != 0.0 ? "true" : "false");
+        } else {
+          std::printf("default %g in [%g, %g]", p.default_number, p.min_number, p.max_number);
+        }
+        std::printf("  %s\n", p.doc != nullptr ? p.doc : "");
+      }
+    } catch (const locsim::PluginError& e) {
+      ++failures;
+      std::printf("\n(failed) %s\n  %s\n", file.c_str(), e.what());
+    }
+  }
+  return failures > 0 ? locsim::kExitPlugin : locsim::kExitOk;
+}
+
+/// `locsim new-plugin NAME DIR`: a buildable out-of-tree skeleton.
+int new_plugin(const std::string& name, const std::filesystem::path& dir) {
+  const bool valid = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+  }) && !(name[0] >= '0' && name[0] <= '9');
+  if (!valid) throw locsim::InputError("new-plugin: name '" + name + "' must be [a-z_][a-z0-9_]*");
+  if (std::filesystem::exists(dir) && !std::filesystem::is_empty(dir)) {
+    throw locsim::InputError("new-plugin: folder '" + dir.string() + "' exists and is not empty");
+  }
+  const auto fill = [&](std::string text) {
+    for (std::size_t at = text.find("{{name}}"); at != std::string::npos;
+         at = text.find("{{name}}", at)) {
+      text.replace(at, 8, name);
+    }
+    return text;
+  };
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "CMakeLists.txt") << fill(locsim::cli::kTemplateCMakeLists);
+  std::ofstream(dir / (name + ".cpp")) << fill(locsim::cli::kTemplateSource);
+  std::printf(
+      "wrote %s/CMakeLists.txt and %s/%s.cpp\nbuild: cmake -S %s -B %s/build "
+      "-DCMAKE_PREFIX_PATH=<locsim prefix> && cmake --build %s/build\n",
+      dir.c_str(), dir.c_str(), name.c_str(), dir.c_str(), dir.c_str(), dir.c_str());
   return locsim::kExitOk;
 }
 
@@ -66,6 +147,10 @@ int main(int argc, char** argv) {
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
   run->add_flag("--overwrite", options.overwrite, "Allow writing into a non-empty folder");
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
+  run->add_option(
+      "--localizer", options.localizers,
+      "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
+      "several (all get the same readings)");
   run->footer(
       "Writes run.json (resolved configuration, seed, version, timing), groundtruth.tum (true\n"
       "pose, TUM format) and events.csv (every scenario event). With several robots each has its\n"
@@ -78,6 +163,14 @@ int main(int argc, char** argv) {
   check->add_option("world", validate_world, "World file (YAML)")->required();
   check->add_option("--scenario", validate_scenario, "Scenario file (YAML)");
 
+  CLI::App* plugins =
+      app.add_subcommand("plugins", "List the localizer plugins found, with their parameters");
+  std::string plugin_name, plugin_dir;
+  CLI::App* new_plugin_cmd =
+      app.add_subcommand("new-plugin", "Write a buildable out-of-tree localizer skeleton");
+  new_plugin_cmd->add_option("name", plugin_name, "Plugin name, [a-z_][a-z0-9_]*")->required();
+  new_plugin_cmd->add_option("dir", plugin_dir, "Folder to create")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -87,6 +180,8 @@ int main(int argc, char** argv) {
 
   try {
     if (*check) return validate(validate_world, validate_scenario);
+    if (*plugins) return list_plugins();
+    if (*new_plugin_cmd) return new_plugin(plugin_name, plugin_dir);
 
     options.world_file = world_file;
     if (scenario_file) options.scenario_file = *scenario_file;
@@ -101,6 +196,9 @@ int main(int argc, char** argv) {
                   result.out_dir.c_str());
     }
     return result.status == "interrupted" ? locsim::kExitInterrupted : locsim::kExitOk;
+  } catch (const locsim::PluginError& e) {
+    std::fprintf(stderr, "locsim: plugin error: %s\n", e.what());
+    return locsim::kExitPlugin;
   } catch (const locsim::InputError& e) {
     std::fprintf(stderr, "locsim: error: %s\n", e.what());
     return locsim::kExitBadInput;

@@ -1,0 +1,134 @@
+// ekf_landmarks: an extended Kalman filter over (x, y, theta) on the known landmark map.
+// Predict with the wheel encoders' travel (paper 002's noise model); update with each camera
+// detection's range and bearing. Detections are associated by id when the camera gives ids, else
+// by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis distance; a
+// chi-square gate rejects false detections and wrong associations.
+#include <cmath>
+#include <locsim/localizer.hpp>
+#include <locsim/models.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace {
+
+using locsim::sdk::Pose;
+
+class EkfLandmarks final : public locsim::sdk::Localizer {
+ public:
+  explicit EkfLandmarks(const locsim_init& init) {
+    const locsim::sdk::Params params(init);
+    k_left_ = params.number("k_left");
+    k_right_ = params.number("k_right");
+    sigma_range_m_ = params.number("sigma_range_m");
+    sigma_range_per_m_ = params.number("sigma_range_per_m");
+    sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
+    gate_ = params.number("gate_chi2");
+    use_ptz_ = params.flag("use_ptz");
+    use_omni_ = params.flag("use_omni");
+    wheel_base_m_ = init.robot->wheel_base_m;
+    for (size_t i = 0; i < init.map->landmark_count; ++i) {
+      const locsim_landmark& l = init.map->landmarks[i];
+      landmarks_.push_back({l.id, l.color, {l.x, l.y}});
+    }
+    if (!init.initial_pose_known) {
+      throw std::invalid_argument(
+          "ekf_landmarks tracks a known initial pose; it cannot localize globally");
+    }
+    x_ = {init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta};
+    P_ = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(init.initial_covariance);
+  }
+
+  void on_odometry(double, const locsim_odometry& odometry) override {
+    if (const auto travel = wheels_.update(odometry)) {
+      locsim::sdk::predict_by_wheels(x_, P_, travel->first, travel->second, wheel_base_m_, k_left_,
+                                     k_right_);
+    }
+  }
+
+  void on_landmarks(double, const locsim_landmarks& reading) override {
+    if ((reading.camera == LOCSIM_CAMERA_PTZ && !use_ptz_) ||
+        (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_)) {
+      return;
+    }
+    for (size_t i = 0; i < reading.count; ++i) correct(reading.detections[i]);
+  }
+
+  locsim::sdk::Estimate estimate() const override { return {{x_(0), x_(1), x_(2)}, P_}; }
+
+  std::vector<std::pair<std::string, double>> diagnostics() const override {
+    return {{"updates_accepted", accepted_}, {"updates_rejected", rejected_}};
+  }
+
+ private:
+  struct Landmark {
+    int id;
+    std::string color;
+    Eigen::Vector2d position;
+  };
+
+  void correct(const locsim_detection& detection) {
+    const Eigen::Vector2d z(detection.range_m, detection.bearing_rad);
+    const double sigma_r = sigma_range_m_ + sigma_range_per_m_ * detection.range_m;
+    const Eigen::Matrix2d R =
+        Eigen::Vector2d(sigma_r * sigma_r, sigma_bearing_rad_ * sigma_bearing_rad_).asDiagonal();
+    // Association: the candidate with the smallest Mahalanobis distance of the innovation.
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Vector2d best_innovation;
+    Eigen::Matrix<double, 2, 3> best_H;
+    Eigen::Matrix2d best_S;
+    for (const Landmark& landmark : landmarks_) {
+      const bool candidate =
+          detection.id >= 0 ? landmark.id == detection.id
+                            : (detection.color != nullptr && landmark.color == detection.color);
+      if (!candidate) continue;
+      Eigen::Matrix<double, 2, 3> H;
+      const Eigen::Vector2d predicted = locsim::sdk::range_bearing(x_, landmark.position, &H);
+      Eigen::Vector2d innovation = z - predicted;
+      innovation(1) = locsim::sdk::wrap(innovation(1));
+      const Eigen::Matrix2d S = H * P_ * H.transpose() + R;
+      const double d2 = innovation.dot(S.ldlt().solve(innovation));
+      if (d2 < best) best = d2, best_innovation = innovation, best_H = H, best_S = S;
+    }
+    if (!(best < gate_)) {
+      ++rejected_;
+      return;
+    }
+    ++accepted_;
+    const Eigen::Matrix<double, 3, 2> K = P_ * best_H.transpose() * best_S.inverse();
+    x_ += K * best_innovation;
+    x_(2) = locsim::sdk::wrap(x_(2));
+    // Joseph form: stays symmetric and positive definite.
+    const Eigen::Matrix3d I_KH = Eigen::Matrix3d::Identity() - K * best_H;
+    P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
+  }
+
+  double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_bearing_rad_, gate_,
+      wheel_base_m_;
+  bool use_ptz_, use_omni_;
+  std::vector<Landmark> landmarks_;
+  Pose x_;
+  Eigen::Matrix3d P_;
+  locsim::sdk::WheelTravel wheels_;
+  double accepted_ = 0, rejected_ = 0;
+};
+
+constexpr locsim_param_decl kParams[] = {
+    {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr, "left wheel random error [m^1/2]"},
+    {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr, "right wheel random error [m^1/2]"},
+    {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.05, 1e-6, 10.0, nullptr,
+     "range noise at zero range [m]"},
+    {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.05, 0.0, 10.0, nullptr,
+     "range noise growth [m/m]"},
+    {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr, "bearing noise [deg]"},
+    {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
+     "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},
+    {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},
+    {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,
+     "use the omnidirectional camera's detections"},
+};
+
+}  // namespace
+
+LOCSIM_LOCALIZER(EkfLandmarks, "ekf_landmarks",
+                 "EKF on the known landmark map with camera range-bearing", kParams)

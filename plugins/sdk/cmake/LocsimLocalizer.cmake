@@ -1,0 +1,17 @@
+# locsim_add_localizer(NAME SOURCES...)
+# Builds a localizer plugin: a MODULE library locsim_NAME.so that exports only its entry point.
+# In locsim's own tree the plugins land in build/plugins; out of tree, in the caller's build folder
+# (point LOCSIM_PLUGIN_PATH at it, or pass the .so path to --localizer).
+function(locsim_add_localizer name)
+  add_library(${name} MODULE ${ARGN})
+  target_link_libraries(${name} PRIVATE locsim::sdk)
+  target_compile_features(${name} PRIVATE cxx_std_20)
+  set_target_properties(${name} PROPERTIES
+    PREFIX ""
+    OUTPUT_NAME "locsim_${name}"
+    CXX_VISIBILITY_PRESET hidden
+    VISIBILITY_INLINES_HIDDEN ON)
+  if(DEFINED LOCSIM_PLUGIN_OUTPUT_DIR)
+    set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${LOCSIM_PLUGIN_OUTPUT_DIR})
+  endif()
+endfunction()

@@ -1,0 +1,111 @@
+// Filter maths shared by locsim's localizers and available to every plugin author: motion and
+// measurement models with their analytic Jacobians (each tested against finite differences).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <optional>
+#include <utility>
+
+#include "locsim/localizer.h"
+
+namespace locsim::sdk {
+
+using Pose = Eigen::Vector3d;  // (x [m], y [m], theta [rad])
+
+/// Wraps to (-pi, pi].
+inline double wrap(double angle) {
+  double a = std::remainder(angle, 2.0 * std::numbers::pi);
+  if (a <= -std::numbers::pi) a += 2.0 * std::numbers::pi;
+  return a;
+}
+
+/// Differential-drive dead reckoning over one step of wheel travel (d_left, d_right) [m] with
+/// wheel base b [m], on the mid-heading:
+///   D = (dl + dr) / 2, a = (dr - dl) / b,
+///   x' = x + D cos(theta + a/2), y' = y + D sin(theta + a/2), theta' = theta + a.
+/// F = d x' / d x (3x3), G = d x' / d (dl, dr) (3x2), when asked for.
+inline Pose diff_drive_motion(const Pose& x, double d_left, double d_right, double wheel_base,
+                              Eigen::Matrix3d* F = nullptr,
+                              Eigen::Matrix<double, 3, 2>* G = nullptr) {
+  const double D = 0.5 * (d_left + d_right);
+  const double a = (d_right - d_left) / wheel_base;
+  const double heading = x(2) + 0.5 * a;
+  const double c = std::cos(heading), s = std::sin(heading);
+  if (F != nullptr) {
+    *F << 1, 0, -D * s,  //
+        0, 1, D * c,     //
+        0, 0, 1;
+  }
+  if (G != nullptr) {
+    // dD/ddl = dD/ddr = 1/2; da/ddl = -1/b, da/ddr = 1/b; heading moves by a/2.
+    const double half_b = 0.5 / wheel_base;
+    *G << 0.5 * c + D * s * half_b, 0.5 * c - D * s * half_b,  //
+        0.5 * s - D * c * half_b, 0.5 * s + D * c * half_b,    //
+        -1.0 / wheel_base, 1.0 / wheel_base;
+  }
+  return {x(0) + D * c, x(1) + D * s, wrap(x(2) + a)};
+}
+
+/// Wheel travel (left, right) [m] since the previous odometry reading, from the tick counts and
+/// the nominal metres per tick; nothing for the first reading.
+class WheelTravel {
+ public:
+  std::optional<std::pair<double, double>> update(const locsim_odometry& odometry) {
+    std::optional<std::pair<double, double>> travel;
+    if (last_) {
+      travel = std::pair{
+          static_cast<double>(odometry.left_ticks - last_->first) * odometry.meters_per_tick,
+          static_cast<double>(odometry.right_ticks - last_->second) * odometry.meters_per_tick};
+    }
+    last_ = {odometry.left_ticks, odometry.right_ticks};
+    return travel;
+  }
+
+ private:
+  std::optional<std::pair<std::int64_t, std::int64_t>> last_;
+};
+
+/// Kalman prediction of pose x and covariance P by one step of wheel travel, with paper 002's
+/// input noise Q = diag(k_left^2 |d_left|, k_right^2 |d_right|):  P' = F P F^T + G Q G^T.
+inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double d_right,
+                              double wheel_base, double k_left, double k_right) {
+  Eigen::Matrix3d F;
+  Eigen::Matrix<double, 3, 2> G;
+  x = diff_drive_motion(x, d_left, d_right, wheel_base, &F, &G);
+  const Eigen::Matrix2d Q =
+      Eigen::Vector2d(k_left * k_left * std::abs(d_left), k_right * k_right * std::abs(d_right))
+          .asDiagonal();
+  P = F * P * F.transpose() + G * Q * G.transpose();
+}
+
+/// Range and bearing from the pose to a point landmark:
+///   r = |m - p|, phi = atan2(my - y, mx - x) - theta;  H = d(r, phi) / d x (2x3).
+inline Eigen::Vector2d range_bearing(const Pose& x, const Eigen::Vector2d& landmark,
+                                     Eigen::Matrix<double, 2, 3>* H = nullptr) {
+  const double dx = landmark.x() - x(0), dy = landmark.y() - x(1);
+  const double q = dx * dx + dy * dy;
+  const double r = std::sqrt(q);
+  if (H != nullptr) {
+    *H << -dx / r, -dy / r, 0,  //
+        dy / q, -dx / q, -1;
+  }
+  return {r, wrap(std::atan2(dy, dx) - x(2))};
+}
+
+/// Pose composition a (+) b: b expressed in a's frame, mapped to a's parent frame.
+inline Pose compose(const Pose& a, const Pose& b) {
+  const double c = std::cos(a(2)), s = std::sin(a(2));
+  return {a(0) + c * b(0) - s * b(1), a(1) + s * b(0) + c * b(1), wrap(a(2) + b(2))};
+}
+
+/// The pose of b in a's frame: a^-1 (+) b.
+inline Pose between(const Pose& a, const Pose& b) {
+  const double c = std::cos(a(2)), s = std::sin(a(2));
+  const double dx = b(0) - a(0), dy = b(1) - a(1);
+  return {c * dx + s * dy, -s * dx + c * dy, wrap(b(2) - a(2))};
+}
+
+}  // namespace locsim::sdk

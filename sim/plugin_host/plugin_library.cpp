@@ -1,0 +1,138 @@
+#include "sim/plugin_host/plugin_library.hpp"
+
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <set>
+#include <sstream>
+
+#include "sim/common/errors.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+
+PluginLibrary::PluginLibrary(const fs::path& file) : path_(file) {
+  if (!fs::exists(file)) throw PluginError("plugin file '" + file.string() + "' does not exist");
+  dlerror();
+  handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle_ == nullptr) {
+    const char* reason = dlerror();
+    throw PluginError("cannot load plugin '" + file.string() +
+                      "': " + (reason != nullptr ? reason : "unknown dlopen error"));
+  }
+  // From here on, a failure must close the handle: the destructor does not run for a throwing
+  // constructor, so clean up explicitly.
+  const auto fail = [&](const std::string& message) {
+    dlclose(handle_);
+    handle_ = nullptr;
+    throw PluginError(message);
+  };
+  dlerror();
+  void* symbol = dlsym(handle_, LOCSIM_LOCALIZER_ENTRY_SYMBOL);
+  if (symbol == nullptr) {
+    fail("'" + file.string() + "' is not a locsim plugin: it exports no " +
+         LOCSIM_LOCALIZER_ENTRY_SYMBOL + " function");
+  }
+  auto entry = reinterpret_cast<locsim_localizer_entry_fn>(symbol);
+  table_ = entry(LOCSIM_LOCALIZER_ABI_VERSION);
+  if (table_ == nullptr) {
+    fail("plugin '" + file.string() + "' refused host ABI version " +
+         std::to_string(LOCSIM_LOCALIZER_ABI_VERSION));
+  }
+  if (table_->abi_version != LOCSIM_LOCALIZER_ABI_VERSION) {
+    fail("plugin '" + file.string() + "' was built for localizer ABI version " +
+         std::to_string(table_->abi_version) + "; this locsim speaks version " +
+         std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + ": rebuild it against this SDK");
+  }
+  if (table_->struct_size != sizeof(locsim_localizer)) {
+    fail("plugin '" + file.string() + "' has a localizer table of " +
+         std::to_string(table_->struct_size) + " bytes; ABI version " +
+         std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + " has " +
+         std::to_string(sizeof(locsim_localizer)));
+  }
+  const std::pair<const void*, const char*> required[] = {
+      {table_->name, "name"},
+      {table_->description, "description"},
+      {reinterpret_cast<const void*>(table_->create), "create"},
+      {reinterpret_cast<const void*>(table_->destroy), "destroy"},
+      {reinterpret_cast<const void*>(table_->update), "update"},
+      {reinterpret_cast<const void*>(table_->estimate), "estimate"}};
+  for (const auto& [pointer, what] : required) {
+    if (pointer == nullptr)
+      fail("plugin '" + file.string() + "' leaves required '" + what + "' empty");
+  }
+  if (table_->param_count > 0 && table_->params == nullptr) {
+    fail("plugin '" + file.string() + "' declares parameters but gives none");
+  }
+}
+
+PluginLibrary::~PluginLibrary() {
+  if (handle_ != nullptr) dlclose(handle_);
+}
+
+namespace {
+fs::path executable_dir() {
+  std::error_code error;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  return error ? fs::path() : exe.parent_path();
+}
+}  // namespace
+
+std::vector<fs::path> plugin_search_path() {
+  std::vector<fs::path> folders;
+  if (const char* env = std::getenv("LOCSIM_PLUGIN_PATH"); env != nullptr) {
+    std::stringstream entries(env);
+    std::string entry;
+    while (std::getline(entries, entry, ':')) {
+      if (!entry.empty()) folders.emplace_back(entry);
+    }
+  }
+  const fs::path exe_dir = executable_dir();
+  if (!exe_dir.empty()) {
+    folders.push_back(exe_dir / "plugins");                           // build tree: build/plugins
+    folders.push_back(exe_dir.parent_path() / "lib/locsim/plugins");  // install: bin/../lib
+  }
+  return folders;
+}
+
+fs::path find_plugin(const std::string& name_or_file) {
+  if (name_or_file.find('/') != std::string::npos || name_or_file.ends_with(".so")) {
+    if (!fs::exists(name_or_file))
+      throw PluginError("plugin file '" + name_or_file + "' does not exist");
+    return name_or_file;
+  }
+  const std::string file = "locsim_" + name_or_file + ".so";
+  std::string looked;
+  for (const fs::path& folder : plugin_search_path()) {
+    if (fs::exists(folder / file)) return folder / file;
+    looked += "\n  " + folder.string();
+  }
+  throw PluginError("no localizer plugin '" + name_or_file + "' (" + file +
+                    ") found; looked in:" + looked +
+                    "\n(set LOCSIM_PLUGIN_PATH or give the .so file's path; `locsim plugins` lists "
+                    "what is found)");
+}
+
+std::vector<fs::path> list_plugin_files() {
+  std::vector<fs::path> files;
+  std::set<std::string> names;
+  for (const fs::path& folder : plugin_search_path()) {
+    std::error_code error;
+    if (!fs::is_directory(folder, error)) continue;
+    std::vector<fs::path> here;
+    for (const auto& entry : fs::directory_iterator(folder, error)) {
+      const std::string name = entry.path().filename().string();
+      if (name.starts_with("locsim_") && name.ends_with(".so")) here.push_back(entry.path());
+    }
+    std::sort(here.begin(), here.end());
+    for (const fs::path& file : here) {
+      if (names.insert(file.filename().string()).second) files.push_back(file);
+    }
+  }
+  return files;
+}
+
+}  // namespace locsim

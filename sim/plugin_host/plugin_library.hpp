@@ -1,0 +1,42 @@
+// Finding and loading localizer plugins: dlopen(RTLD_NOW | RTLD_LOCAL), the entry point, and the
+// checks of its table (ABI version, struct size, required functions). Handles close by RAII.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "locsim/localizer.h"
+
+namespace locsim {
+
+class PluginLibrary {
+ public:
+  /// Loads a plugin file. Throws PluginError saying exactly what is wrong.
+  explicit PluginLibrary(const std::filesystem::path& file);
+  ~PluginLibrary();
+  PluginLibrary(const PluginLibrary&) = delete;
+  PluginLibrary& operator=(const PluginLibrary&) = delete;
+
+  const locsim_localizer& table() const { return *table_; }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+  void* handle_ = nullptr;
+  const locsim_localizer* table_ = nullptr;
+};
+
+/// Where plugins are looked for, in order: each folder of LOCSIM_PLUGIN_PATH (colon-separated),
+/// the build's plugin folder (next to the locsim binary), the install prefix's lib/locsim/plugins.
+std::vector<std::filesystem::path> plugin_search_path();
+
+/// A plugin's file: `name_or_file` itself when it names a file (has a '/' or ends in .so), else
+/// locsim_NAME.so in the search path. Throws PluginError listing where it looked.
+std::filesystem::path find_plugin(const std::string& name_or_file);
+
+/// Every locsim_*.so in the search path (the first of each name wins).
+std::vector<std::filesystem::path> list_plugin_files();
+
+}  // namespace locsim

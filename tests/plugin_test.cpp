@@ -1,0 +1,259 @@
+// Localizer plugins: every loading failure has its own message (and exit code 3 on the command
+// line), parameters are checked against declarations, a plugin that throws or returns NaN fails
+// alone, every filter sees the same readings, the SDK's Jacobians are right, and the first two
+// filters do what they are for.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "locsim/models.hpp"
+#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/run/runner.hpp"
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string test_plugin(const std::string& kind) {
+  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
+}
+
+std::string load_error(const fs::path& file) {
+  try {
+    const PluginLibrary library(file);
+  } catch (const PluginError& e) {
+    return e.what();
+  }
+  return "loaded";
+}
+
+void expect_contains(const std::string& text, const std::string& part) {
+  EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;
+}
+
+TEST(PluginLoading, EachFailureHasItsOwnMessage) {
+  expect_contains(load_error("/nonexistent/locsim_x.so"),
+                  "plugin file '/nonexistent/locsim_x.so' does not exist");
+  expect_contains(load_error(test_plugin("no_entry")),
+                  "is not a locsim plugin: it exports no locsim_localizer_entry");
+  expect_contains(load_error(test_plugin("bad_abi")),
+                  "was built for localizer ABI version 99; this locsim speaks version 1");
+  expect_contains(load_error(test_plugin("bad_size")), "has a localizer table of 24 bytes");
+  const std::string unresolved = load_error(test_plugin("unresolved"));
+  expect_contains(unresolved, "cannot load plugin");
+  expect_contains(unresolved, "undefined symbol: locsim_function_nobody_defines");
+  const fs::path not_elf = testing::temp_dir("plugins") / "locsim_text.so";
+  std::ofstream(not_elf) << "not a shared library";
+  expect_contains(load_error(not_elf), "cannot load plugin");
+  EXPECT_EQ(load_error(test_plugin("noop")), "loaded");
+}
+
+TEST(PluginLoading, NotFoundSaysWhereItLooked) {
+  try {
+    find_plugin("no_such_filter");
+    FAIL();
+  } catch (const PluginError& e) {
+    expect_contains(
+        e.what(),
+        "no localizer plugin 'no_such_filter' (locsim_no_such_filter.so) found; looked in:");
+    expect_contains(e.what(), "/plugins");
+  }
+  EXPECT_TRUE(fs::exists(find_plugin("odometry")));
+  std::vector<std::string> names;
+  for (const fs::path& file : list_plugin_files()) names.push_back(file.filename().string());
+  EXPECT_NE(std::find(names.begin(), names.end(), "locsim_ekf_landmarks.so"), names.end());
+}
+
+TEST(PluginLoading, CreateFailureIsAPluginErrorWithThePluginsMessage) {
+  WorldDef world = testing::world_from_yaml("robots:\n  - start: {x: 0, y: 0}\n");
+  const OccupancyGrid grid;
+  try {
+    LocalizerHost host({parse_localizer_spec(test_plugin("create_fails"))}, world, world.robots[0],
+                       LocalizationDef{}, grid, 1);
+    FAIL();
+  } catch (const PluginError& e) {
+    expect_contains(e.what(), "localizer 'test_create_fails'");
+    expect_contains(e.what(), "create failed: needs a map with at least 100 landmarks");
+  }
+}
+
+TEST(Params, AreCheckedAgainstTheDeclarations) {
+  const PluginLibrary library(test_plugin("probe"));
+  const LocalizerSpec spec =
+      parse_localizer_spec("probe:gain=0.25,count=7,verbose=true,mode=slow@p1");
+  EXPECT_EQ(spec.label, "p1");
+  const ParamSet params(library.table(), spec);
+  const auto json = params.to_json();
+  EXPECT_EQ(json["gain"], 0.25);
+  EXPECT_EQ(json["count"], 7);
+  EXPECT_EQ(json["verbose"], true);
+  EXPECT_EQ(json["mode"], "slow");
+  EXPECT_EQ(ParamSet(library.table(), parse_localizer_spec("probe")).to_json()["mode"], "fast");
+  const auto error = [&](const std::string& text) {
+    try {
+      ParamSet(library.table(), parse_localizer_spec(text));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  expect_contains(error("probe:gian=1"), "has no parameter 'gian'; did you mean 'gain'?");
+  expect_contains(error("probe:gain=2"), "parameter 'gain': 2 is outside [0");
+  expect_contains(error("probe:gain=abc"), "expected a number, got 'abc'");
+  expect_contains(error("probe:count=2.5"), "expected an integer");
+  expect_contains(error("probe:verbose=maybe"), "expected true or false");
+  expect_contains(error("probe:gain"), "expected key=value");
+  EXPECT_THROW(parse_localizer_spec("probe@Bad Label"), InputError);
+}
+
+/// Runs the demo world for `seconds` with the given localizers; returns metrics.json.
+nlohmann::json run_demo(const fs::path& out, double seconds, std::vector<std::string> localizers) {
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.duration_s = seconds;
+  options.out_dir = out;
+  options.localizers = std::move(localizers);
+  run_simulation(options);
+  return nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+}
+
+const nlohmann::json& entry(const nlohmann::json& metrics, const std::string& label) {
+  for (const auto& e : metrics["localizers"]) {
+    if (e["label"] == label) return e;
+  }
+  throw std::runtime_error("no localizer " + label);
+}
+
+TEST(LocalizerRun, ThrowingAndNanPluginsFailAloneWithTheReasonRecorded) {
+  const fs::path out = testing::temp_dir("run") / "out";
+  const auto metrics = run_demo(out, 4.0, {test_plugin("throws"), test_plugin("nan"), "odometry"});
+  const auto& throws = entry(metrics, "test_throws");
+  EXPECT_EQ(throws["status"], "failed");
+  EXPECT_DOUBLE_EQ(throws["failure"]["t_s"].get<double>(), 1.0);
+  EXPECT_EQ(throws["failure"]["call"], "update");
+  EXPECT_EQ(throws["failure"]["message"], "deliberate failure at one second");
+  const auto& nan = entry(metrics, "test_nan");
+  EXPECT_EQ(nan["status"], "failed");
+  EXPECT_EQ(nan["failure"]["call"], "estimate");
+  expect_contains(nan["failure"]["message"], "non-finite");
+  EXPECT_EQ(entry(metrics, "odometry")["status"], "ok");
+  EXPECT_EQ(entry(metrics, "odometry")["samples"], 4 * 50 + 1);
+  // The failed filter's estimates stop where it failed.
+  const std::string tum = testing::read_file(out / "test_throws.tum");
+  const std::size_t last = tum.rfind('\n', tum.size() - 2) + 1;
+  EXPECT_LE(std::stod(tum.substr(last)), 1.0);
+  const auto run = nlohmann::json::parse(testing::read_file(out / "run.json"));
+  EXPECT_EQ(run["status"], "completed");
+}
+
+TEST(LocalizerRun, EveryFilterSeesTheSameReadings) {
+  const fs::path out = testing::temp_dir("run") / "out";
+  const std::string probe = test_plugin("probe");
+  const auto metrics = run_demo(out, 3.0, {probe + "@first", probe + ":gain=0.9@second"});
+  const auto& a = entry(metrics, "first")["diagnostics"];
+  const auto& b = entry(metrics, "second")["diagnostics"];
+  EXPECT_GT(a["readings"].get<double>(), 3.0 * (50 + 100 + 10 + 10 + 20 + 10) - 10);
+  EXPECT_EQ(a["readings"], b["readings"]);
+  EXPECT_EQ(a["hash"], b["hash"]);
+}
+
+TEST(LocalizerRun, CommandLineExitsWithThreeForPluginErrorsAndWritesNothing) {
+  const fs::path dir = testing::temp_dir("cli");
+  const std::string demo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+  for (const std::string& plugin : {std::string("no_such_filter"), test_plugin("create_fails"),
+                                    test_plugin("bad_abi"), test_plugin("unresolved")}) {
+    const std::string command = std::string(LOCSIM_BINARY) + " run " + demo +
+                                " --duration 1 --out " + (dir / "out").string() + " --localizer " +
+                                plugin + " 2>/dev/null";
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 3) << plugin;
+    EXPECT_FALSE(fs::exists(dir / "out")) << plugin;
+  }
+  const std::string bad_param = std::string(LOCSIM_BINARY) + " run " + demo + " --out " +
+                                (dir / "out").string() +
+                                " --localizer odometry:k_lef=1 2>/dev/null";
+  const int status = std::system(bad_param.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+}
+
+// --------------------------------------------------------------------------- SDK maths
+TEST(Models, JacobiansMatchFiniteDifferences) {
+  std::mt19937_64 engine(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double h = 1e-6;
+  for (int trial = 0; trial < 50; ++trial) {
+    const sdk::Pose x(3 * u(engine), 3 * u(engine), 3 * u(engine));
+    const double dl = 0.2 * u(engine), dr = 0.2 * u(engine), b = 0.35;
+    Eigen::Matrix3d F;
+    Eigen::Matrix<double, 3, 2> G;
+    const sdk::Pose next = sdk::diff_drive_motion(x, dl, dr, b, &F, &G);
+    for (int j = 0; j < 3; ++j) {
+      sdk::Pose plus = x, minus = x;
+      plus(j) += h;
+      minus(j) -= h;
+      Eigen::Vector3d numeric =
+          (sdk::diff_drive_motion(plus, dl, dr, b) - sdk::diff_drive_motion(minus, dl, dr, b)) /
+          (2 * h);
+      numeric(2) = sdk::wrap(numeric(2) * 2 * h) / (2 * h);
+      EXPECT_TRUE(numeric.isApprox(F.col(j), 1e-6) || (numeric - F.col(j)).norm() < 1e-7)
+          << "F col " << j;
+    }
+    for (int j = 0; j < 2; ++j) {
+      const double d = h;
+      const sdk::Pose plus =
+          sdk::diff_drive_motion(x, dl + (j == 0 ? d : 0), dr + (j == 1 ? d : 0), b);
+      const sdk::Pose minus =
+          sdk::diff_drive_motion(x, dl - (j == 0 ? d : 0), dr - (j == 1 ? d : 0), b);
+      Eigen::Vector3d numeric = (plus - minus) / (2 * d);
+      numeric(2) = sdk::wrap(numeric(2) * 2 * d) / (2 * d);
+      EXPECT_LT((numeric - G.col(j)).norm(), 1e-6) << "G col " << j;
+    }
+    (void)next;
+    const Eigen::Vector2d landmark(4 * u(engine), 4 * u(engine));
+    Eigen::Matrix<double, 2, 3> H;
+    sdk::range_bearing(x, landmark, &H);
+    for (int j = 0; j < 3; ++j) {
+      sdk::Pose plus = x, minus = x;
+      plus(j) += h;
+      minus(j) -= h;
+      Eigen::Vector2d numeric =
+          sdk::range_bearing(plus, landmark) - sdk::range_bearing(minus, landmark);
+      numeric(1) = sdk::wrap(numeric(1));
+      numeric /= 2 * h;
+      EXPECT_LT((numeric - H.col(j)).norm(), 1e-5 * (1 + H.col(j).norm())) << "H col " << j;
+    }
+  }
+}
+
+TEST(Models, ComposeAndBetweenAreInverse) {
+  const sdk::Pose a(1, 2, 2.5), b(-3, 0.5, -2.9);
+  const sdk::Pose back = sdk::compose(a, sdk::between(a, b));
+  EXPECT_LT((back.head<2>() - b.head<2>()).norm(), 1e-12);
+  EXPECT_NEAR(sdk::wrap(back(2) - b(2)), 0.0, 1e-12);
+}
+
+// --------------------------------------------------------------------------- first filters
+TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
+  const fs::path out = testing::temp_dir("run") / "out";
+  const auto metrics = run_demo(out, 30.0, {"odometry", "ekf_landmarks"});
+  const auto& odometry = entry(metrics, "odometry");
+  const auto& ekf = entry(metrics, "ekf_landmarks");
+  ASSERT_EQ(odometry["segments"].size(), 2u);  // split by the kidnap at 20 s
+  const double odometry_rms = odometry["segments"][0]["position_error_m"]["rms"];
+  const double ekf_rms = ekf["segments"][0]["position_error_m"]["rms"];
+  EXPECT_LT(ekf_rms, 0.1);
+  EXPECT_LT(ekf_rms, 0.25 * odometry_rms)
+      << "ekf " << ekf_rms << " m, odometry " << odometry_rms << " m";
+  EXPECT_GT(odometry["segments"][1]["position_error_m"]["rms"].get<double>(), 1.0);
+  EXPECT_GT(ekf["segments"][1]["position_error_m"]["rms"].get<double>(), 1.0);
+  EXPECT_TRUE(ekf["segments"][1]["recovery_s"].is_null());
+  EXPECT_GT(ekf["diagnostics"]["updates_accepted"].get<double>(), 100.0);
+}
+
+}  // namespace
+}  // namespace locsim

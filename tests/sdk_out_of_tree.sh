@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The plugin author's path, end to end: install locsim to a temporary prefix, write a skeleton
+# with `locsim new-plugin`, build it out of tree against the installed SDK, list it, and run it
+# next to a built-in filter on the demo world.
+set -euo pipefail
+build_dir=$1
+source_dir=$2
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cmake --install "$build_dir" --prefix "$work/prefix" >/dev/null
+locsim="$work/prefix/bin/locsim"
+"$locsim" new-plugin my_filter "$work/my_filter"
+cmake -S "$work/my_filter" -B "$work/my_filter/build" -DCMAKE_PREFIX_PATH="$work/prefix" \
+  -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$work/my_filter/build" >/dev/null
+export LOCSIM_PLUGIN_PATH="$work/my_filter/build"
+"$locsim" plugins | grep -q "^my_filter "
+"$locsim" plugins | grep -q "^odometry "   # the installed built-ins are found from the prefix
+"$locsim" run "$source_dir/worlds/demo/demo.yaml" --duration 5 --out "$work/run" -q \
+  --localizer my_filter:gain=0.2 --localizer odometry
+test -s "$work/run/my_filter.tum"
+grep -q '"status": "ok"' "$work/run/metrics.json"
+echo "out-of-tree plugin built against the installed SDK and ran"
