@@ -191,6 +191,18 @@ typedef struct locsim_particles {
   size_t count;
 } locsim_particles;
 
+/* A landmark as a SLAM filter has mapped it. */
+typedef struct locsim_mapped_landmark {
+  int32_t id;           /* the filter's own numbering */
+  double x, y;          /* [m] */
+  double covariance[4]; /* 2x2 row-major [m^2] */
+} locsim_mapped_landmark;
+
+typedef struct locsim_landmark_map {
+  const locsim_mapped_landmark* landmarks;
+  size_t count;
+} locsim_landmark_map;
+
 typedef struct locsim_diagnostic {
   const char* name; /* e.g. "n_eff", "particles" */
   double value;
@@ -223,6 +235,8 @@ typedef struct locsim_localizer {
    * most `capacity` entries and their number to *count. */
   int (*diagnostics)(void* instance, locsim_diagnostic* out, size_t capacity, size_t* count,
                      char* error, size_t error_size);
+  /* optional: SLAM filters' landmark map (the best particle's, or the filter's mean). */
+  int (*landmark_map)(void* instance, locsim_landmark_map* out, char* error, size_t error_size);
 } locsim_localizer;
 
 /* The one exported symbol. Receives the host's ABI version; returns the table (static storage)

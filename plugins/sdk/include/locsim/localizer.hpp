@@ -95,6 +95,8 @@ class Localizer {
                          std::vector<double>& /*weights*/) const {}
   /// Optional: named numbers for metrics.
   virtual std::vector<std::pair<std::string, double>> diagnostics() const { return {}; }
+  /// Optional, for SLAM filters: the landmark map as estimated.
+  virtual void landmark_map(std::vector<locsim_mapped_landmark>& /*landmarks*/) const {}
 };
 
 namespace detail {
@@ -127,6 +129,7 @@ struct Holder {
   std::vector<locsim_pose2> poses;
   std::vector<double> weights;
   std::vector<std::pair<std::string, double>> diagnostics;
+  std::vector<locsim_mapped_landmark> landmarks;
 };
 
 template <class T>
@@ -176,6 +179,17 @@ struct Adapter {
 };
 
 template <class T>
+int landmark_map(void* instance, locsim_landmark_map* out, char* error, size_t size) {
+  return guarded(error, size, [&] {
+    auto* holder = static_cast<Holder<T>*>(instance);
+    holder->landmarks.clear();
+    holder->filter.landmark_map(holder->landmarks);
+    out->landmarks = holder->landmarks.data();
+    out->count = holder->landmarks.size();
+  });
+}
+
+template <class T>
 constexpr locsim_localizer make_table(const char* name, const char* description,
                                       const locsim_param_decl* params, size_t param_count) {
   return locsim_localizer{LOCSIM_LOCALIZER_ABI_VERSION,
@@ -190,7 +204,8 @@ constexpr locsim_localizer make_table(const char* name, const char* description,
                           &Adapter<T>::update,
                           &Adapter<T>::estimate,
                           &Adapter<T>::particles,
-                          &Adapter<T>::diagnostics};
+                          &Adapter<T>::diagnostics,
+                          &landmark_map<T>};
 }
 
 }  // namespace detail
