@@ -107,6 +107,20 @@ YamlNode YamlNode::operator[](std::string_view key) const {
   return *value;
 }
 
+std::vector<std::pair<std::string, YamlNode>> YamlNode::entries() const {
+  require_map();
+  std::vector<std::pair<std::string, YamlNode>> out;
+  std::set<std::string> seen;
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.Scalar();
+    if (!seen.insert(key).second) {
+      YamlNode(entry.first, file_, join_path(path_, key), mark_).fail("key given twice");
+    }
+    out.emplace_back(key, child(entry.second, join_path(path_, key)));
+  }
+  return out;
+}
+
 std::vector<YamlNode> YamlNode::items() const {
   if (!node_.IsSequence()) fail("expected a list, got " + describe(node_));
   std::vector<YamlNode> out;

@@ -46,6 +46,9 @@ class YamlNode {
   YamlNode operator[](std::string_view key) const;
   std::optional<YamlNode> find(std::string_view key) const;
 
+  /// A map's entries in file order (fails unless this is a map).
+  std::vector<std::pair<std::string, YamlNode>> entries() const;
+
   // ---- sequences
   /// The items of a sequence; fails unless this is a sequence.
   std::vector<YamlNode> items() const;

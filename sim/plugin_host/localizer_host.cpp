@@ -17,7 +17,8 @@ using json = nlohmann::ordered_json;
 namespace {
 bool valid_name(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.' ||
+           c == '=';
   });
 }
 }  // namespace
@@ -30,7 +31,7 @@ LocalizerSpec parse_localizer_spec(const std::string& text) {
     rest = rest.substr(0, at);
     if (!valid_name(spec.label)) {
       throw InputError("--localizer '" + text + "': label '" + spec.label +
-                       "' must be lower-case letters, digits, '_' or '-' (it names a file)");
+                       "' may hold only a-z, 0-9, '_', '-', '.', '=' (it names a file)");
     }
   }
   const auto colon = rest.find(':');
@@ -372,9 +373,9 @@ json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const
     out["failure"] = {
         {"t_s", failure_->t_s}, {"call", failure_->call}, {"message", failure_->message}};
   }
-  const ErrorSummary e = summarize_errors(errors_);
+  const ErrorSummary e = summarize_errors(errors_, criterion_);
   out.update(error_json(e));
-  const ConvergenceCriterion c;
+  const ConvergenceCriterion& c = criterion_;
   out["convergence"] = {{"position_m", c.position_m},
                         {"heading_deg", rad_to_deg(c.heading_rad)},
                         {"hold_samples", c.hold_samples},
@@ -390,7 +391,7 @@ json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const
       if (sample.t_s >= bounds[k] && sample.t_s < bounds[k + 1]) part.push_back(sample);
     }
     if (part.empty()) continue;
-    const ErrorSummary summary = summarize_errors(part);
+    const ErrorSummary summary = summarize_errors(part, criterion_);
     json segment = {{"from_s", part.front().t_s}, {"to_s", part.back().t_s}};
     segment.update(error_json(summary));
     segment["recovery_s"] =
@@ -408,7 +409,8 @@ json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const
 // ---------------------------------------------------------------------------------------------
 LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const WorldDef& world,
                              const RobotDef& robot, const LocalizationDef& localization,
-                             const OccupancyGrid& grid, std::uint64_t run_seed)
+                             const OccupancyGrid& grid, std::uint64_t run_seed,
+                             const ConvergenceCriterion& criterion)
     : translator_(robot) {
   RandomStream initial_rng = make_stream(run_seed, "localization/" + robot.name);
   world_ = std::make_unique<LocalizerWorld>(world, robot, grid, localization, initial_rng);
@@ -427,6 +429,7 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
     instances_.push_back(std::make_unique<LocalizerInstance>(
         library, spec.label, std::move(params), *world_,
         derive_seed(run_seed, "localizer/" + robot.name + "/" + spec.label)));
+    instances_.back()->set_criterion(criterion);
   }
 }
 

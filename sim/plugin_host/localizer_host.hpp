@@ -96,6 +96,7 @@ class LocalizerInstance {
   std::vector<std::pair<std::string, double>> diagnostics(double t_s);
 
   void add_error(const ErrorSample& sample) { errors_.push_back(sample); }
+  void set_criterion(const ConvergenceCriterion& criterion) { criterion_ = criterion; }
   /// Its part of metrics.json; `kidnap_times_s` split the run into segments, each with its own
   /// errors and its recovery time (convergence measured from the segment's start).
   nlohmann::ordered_json metrics(const std::vector<double>& kidnap_times_s = {}) const;
@@ -115,6 +116,7 @@ class LocalizerInstance {
   std::optional<Failure> failure_;
   std::vector<float> update_seconds_;
   std::vector<ErrorSample> errors_;
+  ConvergenceCriterion criterion_;
   std::vector<std::pair<std::string, double>> last_diagnostics_;
   char error_[1024] = {};
 };
@@ -126,7 +128,8 @@ class LocalizerHost {
   /// PluginError (exit 3) or InputError (bad parameters, exit 2).
   LocalizerHost(const std::vector<LocalizerSpec>& specs, const WorldDef& world,
                 const RobotDef& robot, const LocalizationDef& localization,
-                const OccupancyGrid& grid, std::uint64_t run_seed);
+                const OccupancyGrid& grid, std::uint64_t run_seed,
+                const ConvergenceCriterion& criterion = {});
 
   void deliver(const Reading& reading);
   std::vector<std::unique_ptr<LocalizerInstance>>& instances() { return instances_; }

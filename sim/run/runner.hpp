@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/metrics/error_metrics.hpp"
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/world/world_def.hpp"
 
@@ -24,6 +25,7 @@ struct RunOptions {
   bool progress = false;                // progress line on stderr
   bool overwrite = false;               // allow writing into a non-empty folder
   std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each run on every robot
+  ConvergenceCriterion convergence;     // what "converged" means in metrics.json
 };
 
 struct RunResult {

@@ -1,11 +1,14 @@
 // Plugins that misbehave on purpose, one per failure the host must survive or report, plus a
 // no-op (host overhead) and a hashing one (every filter sees the same readings). Each is built
 // from this file with LOCSIM_TEST_PLUGIN set to its kind.
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <limits>
 #include <locsim/localizer.hpp>
 #include <stdexcept>
+#include <thread>
 
 namespace {
 
@@ -74,6 +77,22 @@ class Plugin final : public Probe {
  public:
   explicit Plugin(const locsim_init& init) : Probe(init) {
     throw std::invalid_argument("needs a map with at least 100 landmarks");
+  }
+};
+#elif defined(LOCSIM_TEST_SEGFAULT)
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading& r) override {
+    if (r.t_s >= 1.0) std::raise(SIGSEGV);  // as a wild pointer would
+  }
+};
+#elif defined(LOCSIM_TEST_HANG)
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading& r) override {
+    while (r.t_s >= 1.0) std::this_thread::sleep_for(std::chrono::seconds(1));  // never returns
   }
 };
 #elif defined(LOCSIM_TEST_NOOP)

@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include "plugin_template.hpp"
 #include "sim/common/errors.hpp"
+#include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/run/runner.hpp"
@@ -122,6 +124,10 @@ int new_plugin(const std::string& name, const std::filesystem::path& dir) {
   return locsim::kExitOk;
 }
 
+double rad_to_deg_default() {
+  return locsim::rad_to_deg(locsim::ConvergenceCriterion{}.heading_rad);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -159,6 +165,17 @@ int main(int argc, char** argv) {
 
   std::string validate_world;
   std::optional<std::string> validate_scenario;
+  double converged_deg = rad_to_deg_default();
+  run->add_option("--converged-within-m", options.convergence.position_m,
+                  "Convergence: position error at most this [m]")
+      ->capture_default_str();
+  run->add_option("--converged-within-deg", converged_deg,
+                  "Convergence: heading error at most this [deg]")
+      ->capture_default_str();
+  run->add_option("--converged-hold", options.convergence.hold_samples,
+                  "Convergence: for this many consecutive ground-truth samples")
+      ->capture_default_str();
+
   CLI::App* check = app.add_subcommand("validate", "Check a world (and scenario) without running");
   check->add_option("world", validate_world, "World file (YAML)")->required();
   check->add_option("--scenario", validate_scenario, "Scenario file (YAML)");
@@ -171,6 +188,29 @@ int main(int argc, char** argv) {
   new_plugin_cmd->add_option("name", plugin_name, "Plugin name, [a-z_][a-z0-9_]*")->required();
   new_plugin_cmd->add_option("dir", plugin_dir, "Folder to create")->required();
 
+  locsim::SweepOptions sweep_options;
+  std::string shard;
+  CLI::App* sweep =
+      app.add_subcommand("sweep", "Run an experiment: every localizer configuration on every seed");
+  sweep->add_option("experiment", sweep_options.experiment_file, "Experiment file (YAML)")
+      ->required();
+  sweep->add_option("--out", sweep_options.out_dir, "Sweep folder")->required();
+  sweep->add_option("-j,--jobs", sweep_options.jobs, "Runs at a time, each its own process")
+      ->capture_default_str();
+  sweep->add_flag("--resume", sweep_options.resume,
+                  "Finish a sweep in --out without redoing finished runs");
+  sweep->add_option("--shard", shard,
+                    "K/N: run only the K-th of N deterministic slices (merge them after)");
+  sweep->footer(
+      "Writes results.jsonl (a line per finished run, flushed at once), then results.csv and\n"
+      "summary.csv/summary.md (sorted and free of wall-clock figures: identical for any --jobs,\n"
+      "--shard or --resume). Failed, crashed or timed-out runs are results, not errors.");
+  std::string merge_out;
+  std::vector<std::string> merge_parts;
+  CLI::App* merge = app.add_subcommand("merge", "Join the folders of sharded sweeps");
+  merge->add_option("out", merge_out, "New folder for the joined sweep")->required();
+  merge->add_option("parts", merge_parts, "Shard folders")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -181,8 +221,34 @@ int main(int argc, char** argv) {
   try {
     if (*check) return validate(validate_world, validate_scenario);
     if (*plugins) return list_plugins();
+    if (*sweep) {
+      if (!shard.empty()) {
+        int k = 0, n = 0;
+        char slash = 0;
+        std::istringstream text(shard);
+        if (!(text >> k >> slash >> n) || slash != '/' || !text.eof()) {
+          throw locsim::InputError("--shard: expected K/N, got '" + shard + "'");
+        }
+        sweep_options.shard = std::pair{k, n};
+      }
+      sweep_options.progress_bar = isatty(STDERR_FILENO);
+      std::signal(SIGINT, on_sigint);
+      const locsim::SweepSummary s = locsim::run_sweep(sweep_options, &g_interrupted);
+      std::printf("%s: %zu runs (%zu done before), %zu not ok%s -> %s\n",
+                  sweep_options.experiment_file.c_str(), s.total, s.skipped, s.not_ok,
+                  s.interrupted ? ", interrupted (--resume finishes it)" : "",
+                  sweep_options.out_dir.c_str());
+      return s.interrupted ? locsim::kExitInterrupted : locsim::kExitOk;
+    }
+    if (*merge) {
+      std::vector<std::filesystem::path> parts(merge_parts.begin(), merge_parts.end());
+      locsim::merge_sweeps(merge_out, parts);
+      std::printf("merged %zu folders into %s\n", parts.size(), merge_out.c_str());
+      return locsim::kExitOk;
+    }
     if (*new_plugin_cmd) return new_plugin(plugin_name, plugin_dir);
 
+    options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
     options.world_file = world_file;
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;

@@ -1,0 +1,135 @@
+#include "sim/experiments/experiment.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "sim/common/yaml_node.hpp"
+#include "sim/run/runner.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+
+std::string LocalizerConfig::spec() const {
+  std::string out = plugin;
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    out += (i == 0 ? ":" : ",") + params[i].first + "=" + params[i].second;
+  }
+  return out + "@" + label;
+}
+
+namespace {
+
+std::string scalar_text(const YamlNode& node) {
+  if (!node.is_scalar()) node.fail("expected a number, true/false or a string");
+  return node.as_string();
+}
+
+bool valid_label(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '=' ||
+           c == '.';
+  });
+}
+
+}  // namespace
+
+ExperimentDef load_experiment(const fs::path& file) {
+  const YamlNode root = YamlNode::load_file(file);
+  root.allow_keys({"name", "world", "scenario", "duration_s", "seeds", "localizers", "convergence",
+                   "timeout_s"});
+  ExperimentDef e;
+  e.source = file;
+  const fs::path base = file.parent_path();
+  e.name = root.get_string("name", file.stem().string());
+  e.world = base / root["world"].as_string();
+  if (const auto scenario = root.find("scenario")) e.scenario = base / scenario->as_string();
+  if (const auto duration = root.find("duration_s"))
+    e.duration_s = duration->as_double(Check::kPositive);
+  e.timeout_s = root.get_double("timeout_s", e.timeout_s, Check::kPositive);
+
+  const YamlNode seeds = root["seeds"];
+  if (seeds.is_sequence()) {
+    for (const YamlNode& s : seeds.items())
+      e.seeds.push_back(static_cast<std::uint64_t>(s.as_int(0, 1LL << 62)));
+  } else {
+    seeds.allow_keys({"from", "to"});
+    const long long from = seeds["from"].as_int(0, 1LL << 62),
+                    to = seeds["to"].as_int(0, 1LL << 62);
+    if (to < from) seeds["to"].fail("must be >= from");
+    if (to - from >= 100000) seeds.fail("more than 100000 seeds");
+    for (long long s = from; s <= to; ++s) e.seeds.push_back(static_cast<std::uint64_t>(s));
+  }
+  if (e.seeds.empty()) seeds.fail("give at least one seed");
+  if (std::set<std::uint64_t>(e.seeds.begin(), e.seeds.end()).size() != e.seeds.size()) {
+    seeds.fail("a seed is listed twice");
+  }
+
+  std::set<std::string> labels;
+  const YamlNode localizers = root["localizers"];
+  for (const YamlNode& item : localizers.items()) {
+    item.allow_keys({"plugin", "label", "params", "grid"});
+    const std::string plugin = item["plugin"].as_string();
+    const std::string label = item.get_string("label", fs::path(plugin).stem().string());
+    std::vector<std::pair<std::string, std::string>> fixed;
+    // Fixed parameters and grid axes, in file order.
+    std::vector<std::pair<std::string, std::vector<std::string>>> axes;
+    if (const auto params = item.find("params")) {
+      if (!params->is_map()) params->fail("expected a map of parameter values");
+      for (const auto& [key, value] : params->entries())
+        fixed.emplace_back(key, scalar_text(value));
+    }
+    if (const auto grid = item.find("grid")) {
+      if (!grid->is_map()) grid->fail("expected a map from parameter to a list of values");
+      for (const auto& [key, values] : grid->entries()) {
+        std::vector<std::string> texts;
+        for (const YamlNode& v : values.items()) texts.push_back(scalar_text(v));
+        if (texts.empty()) values.fail("give at least one value");
+        axes.emplace_back(key, texts);
+      }
+    }
+    // Cartesian product, the last axis varying fastest.
+    std::vector<std::size_t> digit(axes.size(), 0);
+    while (true) {
+      LocalizerConfig config{label, plugin, fixed};
+      for (std::size_t a = 0; a < axes.size(); ++a) {
+        config.params.emplace_back(axes[a].first, axes[a].second[digit[a]]);
+        config.label += "-" + axes[a].first + "=" + axes[a].second[digit[a]];
+      }
+      if (!valid_label(config.label)) {
+        item.fail("label '" + config.label + "' may hold only a-z, 0-9, '_', '-', '=', '.'");
+      }
+      if (!labels.insert(config.label).second) item.fail("label '" + config.label + "' used twice");
+      e.localizers.push_back(config);
+      std::size_t a = axes.size();
+      while (a > 0 && ++digit[a - 1] == axes[a - 1].second.size()) digit[--a] = 0;
+      if (a == 0) break;
+    }
+  }
+  if (e.localizers.empty()) localizers.fail("give at least one localizer");
+
+  if (const auto convergence = root.find("convergence")) {
+    convergence->allow_keys({"position_m", "heading_deg", "hold_samples"});
+    e.convergence.position_m =
+        convergence->get_double("position_m", e.convergence.position_m, Check::kPositive);
+    e.convergence.heading_rad = deg_to_rad(convergence->get_double(
+        "heading_deg", rad_to_deg(e.convergence.heading_rad), Check::kPositive));
+    e.convergence.hold_samples = static_cast<int>(
+        convergence->get_int("hold_samples", e.convergence.hold_samples, 1, 1000000));
+  }
+  // The world and scenario must load now, not in every run.
+  load_run_inputs(e.world, e.scenario, e.duration_s);
+  return e;
+}
+
+std::vector<RunUnit> expand_runs(const ExperimentDef& experiment) {
+  std::vector<RunUnit> runs;
+  for (const LocalizerConfig& config : experiment.localizers) {
+    for (const std::uint64_t seed : experiment.seeds) {
+      runs.push_back({runs.size(), config.label + "/seed-" + std::to_string(seed), &config, seed});
+    }
+  }
+  return runs;
+}
+
+}  // namespace locsim

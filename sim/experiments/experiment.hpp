@@ -1,0 +1,49 @@
+// Experiments: one YAML file naming a world, a scenario, localizers with parameter grids, seeds
+// and what "converged" means; expanded into runs, each one `locsim run` of one localizer
+// configuration on one seed.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/metrics/error_metrics.hpp"
+
+namespace locsim {
+
+/// One localizer configuration of the grid.
+struct LocalizerConfig {
+  std::string label;   // unique, names its folder and its rows: "ekf_landmarks-sigma_bearing_deg=1"
+  std::string plugin;  // name or .so path
+  std::vector<std::pair<std::string, std::string>> params;  // as given on the command line
+  std::string spec() const;                                 // NAME:key=value,...@label
+};
+
+struct ExperimentDef {
+  std::string name = "experiment";
+  std::filesystem::path source;
+  std::filesystem::path world;  // resolved against the experiment file
+  std::optional<std::filesystem::path> scenario;
+  std::optional<double> duration_s;
+  std::vector<std::uint64_t> seeds;
+  std::vector<LocalizerConfig> localizers;
+  ConvergenceCriterion convergence;
+  double timeout_s = 600.0;  // per run, wall clock [s]
+};
+
+/// Reads and checks an experiment file (including that the world and scenario load).
+ExperimentDef load_experiment(const std::filesystem::path& file);  // throws InputError
+
+struct RunUnit {
+  std::size_t index = 0;  // in the full expansion: localizers outer, seeds inner
+  std::string id;         // "LABEL/seed-N"
+  const LocalizerConfig* config = nullptr;
+  std::uint64_t seed = 0;
+};
+
+/// Every run of the experiment, in a fixed order.
+std::vector<RunUnit> expand_runs(const ExperimentDef& experiment);
+
+}  // namespace locsim

@@ -1,0 +1,463 @@
+#include "sim/experiments/sweep.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "sim/common/errors.hpp"
+#include "sim/experiments/experiment.hpp"
+#include "sim/experiments/statistics.hpp"
+#include "sim/run/simulation.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream out;
+  out << in.rdbuf();
+  return out.str();
+}
+
+/// FNV-1a of the experiment file: a resume or merge must be of the same experiment.
+std::string fingerprint(const fs::path& file) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const char c : read_text(file)) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 0x100000001b3ULL;
+  }
+  char text[24];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+/// Every complete line of results.jsonl; a torn last line (a kill mid-write) is dropped.
+std::vector<json> read_results(const fs::path& file) {
+  std::vector<json> out;
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    try {
+      out.push_back(json::parse(line));
+    } catch (const json::parse_error&) {
+      break;  // only the last line can be torn
+    }
+  }
+  return out;
+}
+
+std::string last_line(const fs::path& file) {
+  const std::string text = read_text(file);
+  std::size_t end = text.find_last_not_of("\n ");
+  if (end == std::string::npos) return "";
+  const std::size_t start = text.rfind('\n', end);
+  return text.substr(start == std::string::npos ? 0 : start + 1,
+                     end - (start == std::string::npos ? 0 : start + 1) + 1);
+}
+
+/// The result of a finished run, from its exit and its metrics.json.
+json result_of(const RunUnit& run, const fs::path& run_dir, int wait_status, bool timed_out,
+               double wall_s) {
+  json r;
+  r["index"] = run.index;
+  r["id"] = run.id;
+  r["config"] = run.config->label;
+  r["plugin"] = run.config->plugin;
+  json params = json::object();
+  for (const auto& [k, v] : run.config->params) params[k] = v;
+  r["params"] = params;
+  r["seed"] = run.seed;
+  json metrics;
+  if (timed_out) {
+    r["status"] = "timeout";
+    r["reason"] = "killed after the experiment's timeout_s";
+  } else if (WIFSIGNALED(wait_status)) {
+    const int signal = WTERMSIG(wait_status);
+    r["status"] = "crashed";
+    r["reason"] = "signal " + std::to_string(signal) + " (" + strsignal(signal) + ")";
+  } else if (WEXITSTATUS(wait_status) != 0) {
+    r["status"] = "error";
+    r["reason"] = "exit code " + std::to_string(WEXITSTATUS(wait_status)) + ": " +
+                  last_line(run_dir / "log.txt");
+  } else {
+    try {
+      const json file = json::parse(read_text(run_dir / "metrics.json"));
+      metrics = file["localizers"].at(0);
+      r["status"] = metrics["status"] == "ok" ? "ok" : "failed";
+      r["reason"] = metrics.contains("failure")
+                        ? metrics["failure"]["call"].get<std::string>() +
+                              " at t = " + fixed(metrics["failure"]["t_s"].get<double>(), 3) +
+                              " s: " + metrics["failure"]["message"].get<std::string>()
+                        : "";
+      const json& timing = file["timing"].at(run.config->label);
+      r["timing"] = {{"wall_s", wall_s},
+                     {"cost_mean_us", timing["cost_per_update_us"]["mean"]},
+                     {"cost_p99_us", timing["cost_per_update_us"]["p99"]}};
+    } catch (const std::exception& e) {
+      r["status"] = "error";
+      r["reason"] = std::string("no readable metrics.json: ") + e.what();
+    }
+  }
+  if (!r.contains("timing")) r["timing"] = {{"wall_s", wall_s}};
+  if (!metrics.is_null()) {
+    metrics.erase("label");
+    metrics.erase("plugin");
+    metrics.erase("params");
+    metrics.erase("status");
+    metrics.erase("failure");
+    r["metrics"] = metrics;
+  }
+  // Keep "timing" last: everything before it is deterministic.
+  json t = r["timing"];
+  r.erase("timing");
+  r["timing"] = t;
+  return r;
+}
+
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (const char c : text)
+    out += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return out + "\"";
+}
+
+std::string number(const json& value, int decimals = 6) {
+  return value.is_number() ? fixed(value.get<double>(), decimals) : std::string();
+}
+
+}  // namespace
+
+void write_tables(const fs::path& out_dir) {
+  std::vector<json> results = read_results(out_dir / "results.jsonl");
+  std::sort(results.begin(), results.end(), [](const json& a, const json& b) {
+    return a["index"].get<std::size_t>() < b["index"].get<std::size_t>();
+  });
+  {
+    std::ofstream csv(out_dir / "results.csv", std::ios::binary);
+    csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,x_rms_"
+           "m,"
+           "y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,recovery_s\n";
+    for (const json& r : results) {
+      const json m = r.value("metrics", json::object());
+      std::string recoveries;  // one per kidnap: the segments after the first
+      const json segments = m.value("segments", json::array());
+      for (std::size_t k = 1; k < segments.size(); ++k) {
+        recoveries += (k == 1 ? "" : ";") + (segments[k]["recovery_s"].is_null()
+                                                 ? std::string("never")
+                                                 : number(segments[k]["recovery_s"], 4));
+      }
+      const json p = m.value("position_error_m", json::object());
+      const json h = m.value("heading_error_deg", json::object());
+      const json c = m.value("convergence", json::object());
+      csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
+          << csv_field(r["config"]) << ',' << r["seed"].get<std::uint64_t>() << ','
+          << r["status"].get<std::string>() << ',' << csv_field(r.value("reason", "")) << ','
+          << number(p.value("rms", json())) << ',' << number(p.value("mean", json())) << ','
+          << number(p.value("max", json())) << ',' << number(p.value("rms_x", json())) << ','
+          << number(p.value("rms_y", json())) << ',' << number(h.value("rms", json())) << ','
+          << number(h.value("mean", json())) << ',' << number(h.value("max", json())) << ','
+          << number(c.value("time_s", json()), 4) << ',' << recoveries << '\n';
+    }
+  }
+  // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const json*>> by_config;
+  for (const json& r : results) {
+    const std::string config = r["config"];
+    if (!by_config.count(config)) order.push_back(config);
+    by_config[config].push_back(&r);
+  }
+  std::ofstream csv(out_dir / "summary.csv", std::ios::binary);
+  std::ofstream md(out_dir / "summary.md", std::ios::binary);
+  csv << "config,runs,ok,converged,recovered_every_kidnap,first_segment_position_rms_m_mean,"
+         "first_segment_position_rms_m_ci95,position_rms_m_mean,position_rms_m_ci95,position_rms_m_"
+         "median,heading_rms_deg_mean,heading_rms_deg_ci95,heading_rms_deg_median,"
+         "converged_s_mean,converged_s_ci95,converged_s_median\n";
+  md << "Figures: mean ± 95 % confidence interval over the runs that finished (ok); median after "
+        "';'.\n\n"
+        "| config | runs | ok | converged | recovered every kidnap | position RMS before the first "
+        "kidnap [m] "
+        "| position RMS [m] | heading RMS [deg] | convergence [s] |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& config : order) {
+    std::vector<double> position, heading, converged, first_segment;
+    std::size_t ok = 0, recovered_all = 0;
+    for (const json* r : by_config[config]) {
+      if ((*r)["status"] != "ok") continue;
+      ++ok;
+      const json& m = (*r)["metrics"];
+      position.push_back(m["position_error_m"]["rms"]);
+      if (!m["segments"].empty())
+        first_segment.push_back(m["segments"][0]["position_error_m"]["rms"]);
+      heading.push_back(m["heading_error_deg"]["rms"]);
+      if (!m["convergence"]["time_s"].is_null()) converged.push_back(m["convergence"]["time_s"]);
+      bool all = true;
+      for (std::size_t s = 1; s < m["segments"].size(); ++s)
+        all = all && !m["segments"][s]["recovery_s"].is_null();
+      recovered_all += all ? 1 : 0;
+    }
+    const Aggregate p = aggregate(position), h = aggregate(heading), c = aggregate(converged),
+                    f = aggregate(first_segment);
+    const std::size_t runs = by_config[config].size();
+    csv << csv_field(config) << ',' << runs << ',' << ok << ',' << c.n << ',' << recovered_all
+        << ',' << fixed(f.mean, 6) << ',' << fixed(f.ci95, 6) << ',' << fixed(p.mean, 6) << ','
+        << fixed(p.ci95, 6) << ',' << fixed(p.median, 6) << ',' << fixed(h.mean, 4) << ','
+        << fixed(h.ci95, 4) << ',' << fixed(h.median, 4) << ',' << fixed(c.mean, 4) << ','
+        << fixed(c.ci95, 4) << ',' << fixed(c.median, 4) << '\n';
+    md << "| " << config << " | " << runs << " | " << ok << " | " << c.n << " | " << recovered_all
+       << " | " << fixed(f.mean, 3) << " ± " << fixed(f.ci95, 3) << " | " << fixed(p.mean, 3)
+       << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3) << " | " << fixed(h.mean, 2)
+       << " ± " << fixed(h.ci95, 2) << "; " << fixed(h.median, 2) << " | "
+       << (c.n > 0 ? fixed(c.mean, 2) + " ± " + fixed(c.ci95, 2) + "; " + fixed(c.median, 2)
+                   : std::string("—"))
+       << " |\n";
+  }
+}
+
+SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt) {
+  const ExperimentDef experiment = load_experiment(options.experiment_file);
+  if (options.jobs < 1) throw InputError("--jobs: must be >= 1");
+  if (options.shard && (options.shard->second < 1 || options.shard->first < 1 ||
+                        options.shard->first > options.shard->second)) {
+    throw InputError("--shard: expected K/N with 1 <= K <= N");
+  }
+  const std::vector<RunUnit> all = expand_runs(experiment);
+  std::vector<const RunUnit*> mine;
+  for (const RunUnit& run : all) {
+    if (!options.shard ||
+        static_cast<int>(run.index % static_cast<std::size_t>(options.shard->second)) ==
+            options.shard->first - 1) {
+      mine.push_back(&run);
+    }
+  }
+
+  const fs::path out = options.out_dir;
+  const json header = {
+      {"experiment", experiment.name},
+      {"file", options.experiment_file.string()},
+      {"fingerprint", fingerprint(options.experiment_file)},
+      {"runs", all.size()},
+      {"shard",
+       options.shard ? json::array({options.shard->first, options.shard->second}) : json(nullptr)}};
+  std::set<std::string> done;
+  if (fs::exists(out / "sweep.json")) {
+    if (!options.resume) {
+      throw InputError(
+          "--out: '" + out.string() +
+          "' already holds a sweep; pass --resume to finish it, or choose another folder");
+    }
+    const json previous = json::parse(read_text(out / "sweep.json"));
+    if (previous["fingerprint"] != header["fingerprint"] || previous["shard"] != header["shard"]) {
+      throw InputError("--resume: '" + out.string() +
+                       "' holds a sweep of another experiment file or shard");
+    }
+    std::vector<json> results = read_results(out / "results.jsonl");
+    // Rewrite the file without a torn last line before appending to it.
+    std::ofstream rewrite(out / "results.jsonl", std::ios::binary | std::ios::trunc);
+    for (const json& r : results) {
+      rewrite << r.dump() << '\n';
+      done.insert(r["id"].get<std::string>());
+    }
+  } else {
+    if (fs::exists(out) && !fs::is_empty(out)) {
+      throw InputError("--out: folder '" + out.string() + "' is not empty");
+    }
+    fs::create_directories(out);
+    std::ofstream(out / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
+  }
+
+  SweepSummary summary;
+  summary.total = mine.size();
+  std::vector<const RunUnit*> pending;
+  for (const RunUnit* run : mine) {
+    if (done.count(run->id)) {
+      ++summary.skipped;
+    } else {
+      pending.push_back(run);
+    }
+  }
+  const fs::path binary =
+      options.locsim_binary.empty() ? fs::read_symlink("/proc/self/exe") : options.locsim_binary;
+  const int results_fd =
+      ::open((out / "results.jsonl").c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  if (results_fd < 0) throw std::runtime_error("cannot write " + (out / "results.jsonl").string());
+
+  struct Active {
+    const RunUnit* run;
+    std::chrono::steady_clock::time_point start;
+    bool timed_out = false;
+  };
+  std::map<pid_t, Active> active;
+  std::size_t next = 0;
+  const auto sweep_start = std::chrono::steady_clock::now();
+  const auto report = [&](const RunUnit& run, const json& result) {
+    const std::size_t finished = summary.skipped + summary.ran;
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
+    const double left = summary.ran > 0 ? elapsed / static_cast<double>(summary.ran) *
+                                              static_cast<double>(summary.total - finished)
+                                        : 0.0;
+    if (options.progress_bar) {
+      const int width = 30;
+      const int filled =
+          static_cast<int>(width * finished / std::max<std::size_t>(summary.total, 1));
+      std::fprintf(stderr, "\r  [%s%s] %zu/%zu runs, %zu not ok, %.0f s left   ",
+                   std::string(static_cast<std::size_t>(filled), '#').c_str(),
+                   std::string(static_cast<std::size_t>(width - filled), '.').c_str(), finished,
+                   summary.total, summary.not_ok, left);
+    } else {
+      std::fprintf(stderr, "[%zu/%zu] %s %s%s%s (%.0f s left)\n", finished, summary.total,
+                   result["status"].get<std::string>().c_str(), run.id.c_str(),
+                   result.value("reason", "").empty() ? "" : ": ",
+                   result.value("reason", "").c_str(), left);
+    }
+  };
+
+  while (next < pending.size() || !active.empty()) {
+    if (interrupt != nullptr && interrupt->load()) {
+      for (const auto& [pid, a] : active) kill(-pid, SIGKILL);
+      for (const auto& [pid, a] : active) waitpid(pid, nullptr, 0);
+      summary.interrupted = true;
+      break;
+    }
+    while (next < pending.size() && static_cast<int>(active.size()) < options.jobs) {
+      const RunUnit& run = *pending[next++];
+      const fs::path run_dir =
+          out / "runs" / run.config->label / ("seed-" + std::to_string(run.seed));
+      fs::remove_all(run_dir);  // a run in flight when a previous sweep died
+      fs::create_directories(run_dir);
+      std::vector<std::string> args = {binary.string(),
+                                       "run",
+                                       experiment.world.string(),
+                                       "--seed",
+                                       std::to_string(run.seed),
+                                       "--out",
+                                       run_dir.string(),
+                                       "--overwrite",
+                                       "-q",
+                                       "--localizer",
+                                       run.config->spec(),
+                                       "--converged-within-m",
+                                       fixed(experiment.convergence.position_m, 9),
+                                       "--converged-within-deg",
+                                       fixed(rad_to_deg(experiment.convergence.heading_rad), 9),
+                                       "--converged-hold",
+                                       std::to_string(experiment.convergence.hold_samples)};
+      if (experiment.scenario)
+        args.insert(args.end(), {"--scenario", experiment.scenario->string()});
+      if (experiment.duration_s)
+        args.insert(args.end(), {"--duration", fixed(*experiment.duration_s, 9)});
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      const std::string log = (run_dir / "log.txt").string();
+      const pid_t pid = fork();
+      if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
+      if (pid == 0) {
+        setpgid(0, 0);  // its own group: a timeout kills it and anything it started
+        // A sweep killed hard takes its runs with it, so a --resume never races a survivor.
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (getppid() == 1) _exit(127);  // the sweep died before prctl took effect
+        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+          dup2(fd, STDOUT_FILENO);
+          dup2(fd, STDERR_FILENO);
+          ::close(fd);
+        }
+        execv(argv[0], argv.data());
+        _exit(127);
+      }
+      setpgid(pid, pid);
+      active[pid] = {&run, std::chrono::steady_clock::now()};
+    }
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid > 0 && active.count(pid)) {
+      const Active a = active[pid];
+      active.erase(pid);
+      const double wall =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - a.start).count();
+      const fs::path run_dir =
+          out / "runs" / a.run->config->label / ("seed-" + std::to_string(a.run->seed));
+      const json result = result_of(*a.run, run_dir, status, a.timed_out, wall);
+      const std::string line = result.dump() + "\n";
+      // One write per line, flushed to the disk: a kill loses at most the runs in flight.
+      if (::write(results_fd, line.data(), line.size()) != static_cast<ssize_t>(line.size())) {
+        throw std::runtime_error("cannot append to results.jsonl");
+      }
+      fsync(results_fd);
+      ++summary.ran;
+      if (result["status"] != "ok") ++summary.not_ok;
+      report(*a.run, result);
+      continue;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    for (auto& [child, a] : active) {
+      if (!a.timed_out &&
+          std::chrono::duration<double>(now - a.start).count() > experiment.timeout_s) {
+        a.timed_out = true;
+        kill(-child, SIGKILL);
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ::close(results_fd);
+  if (options.progress_bar) std::fprintf(stderr, "\n");
+  write_tables(out);
+  return summary;
+}
+
+void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
+  if (parts.empty()) throw InputError("merge: give the shard folders to join");
+  std::string fingerprint_seen;
+  std::map<std::size_t, json> by_index;
+  json header;
+  for (const fs::path& part : parts) {
+    if (!fs::exists(part / "sweep.json"))
+      throw InputError("merge: '" + part.string() + "' is not a sweep folder");
+    header = json::parse(read_text(part / "sweep.json"));
+    const std::string fp = header["fingerprint"];
+    if (!fingerprint_seen.empty() && fp != fingerprint_seen) {
+      throw InputError("merge: '" + part.string() + "' is a sweep of another experiment file");
+    }
+    fingerprint_seen = fp;
+    for (json& r : read_results(part / "results.jsonl"))
+      by_index.emplace(r["index"].get<std::size_t>(), std::move(r));
+  }
+  if (fs::exists(out_dir) && !fs::is_empty(out_dir))
+    throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
+  fs::create_directories(out_dir);
+  header["shard"] = nullptr;
+  header["merged_from"] = json::array();
+  for (const fs::path& part : parts) header["merged_from"].push_back(part.string());
+  std::ofstream(out_dir / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
+  {
+    std::ofstream results(out_dir / "results.jsonl", std::ios::binary);
+    for (const auto& [index, r] : by_index) results << r.dump() << '\n';
+  }
+  write_tables(out_dir);
+  if (by_index.size() != header["runs"].get<std::size_t>()) {
+    std::fprintf(stderr, "locsim merge: warning: %zu of %zu runs present\n", by_index.size(),
+                 header["runs"].get<std::size_t>());
+  }
+}
+
+}  // namespace locsim

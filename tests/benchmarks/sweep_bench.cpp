@@ -1,0 +1,43 @@
+// A 40-run sweep of the demo world end to end (20 seeds x odometry and the EKF, 60 s each, every
+// sensor on), at 1 and 2 jobs: parallel efficiency = time(1 job) / (2 x time(2 jobs)), target
+// >= 90 % on 2 cores.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sim/experiments/sweep.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+void BM_DemoSweep40Runs(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_sweep";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "experiment.yaml")
+      << "world: " << LOCSIM_SOURCE_DIR << "/worlds/demo/demo.yaml\n"
+      << "seeds: {from: 1, to: 20}\n"
+      << "localizers: [{plugin: odometry}, {plugin: ekf_landmarks}]\n";
+  int round = 0;
+  for (auto _ : state) {
+    locsim::SweepOptions options;
+    options.experiment_file = dir / "experiment.yaml";
+    options.out_dir = dir / ("out" + std::to_string(round++));
+    options.jobs = static_cast<int>(state.range(0));
+    options.locsim_binary = LOCSIM_BINARY;
+    benchmark::DoNotOptimize(locsim::run_sweep(options));
+  }
+  fs::remove_all(dir);
+  state.counters["runs_per_s"] = benchmark::Counter(40.0 * static_cast<double>(state.iterations()),
+                                                    benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_DemoSweep40Runs)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(2);
+
+}  // namespace
