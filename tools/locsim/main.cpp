@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <cstring>
 #include <iostream>
 #include <sstream>
 
@@ -128,6 +129,26 @@ double rad_to_deg_default() {
   return locsim::rad_to_deg(locsim::ConvergenceCriterion{}.heading_rad);
 }
 
+/// `locsim report DIR`: tools/report.py (installed to share/locsim), run with Debian's Python.
+int report(const std::string& dir) {
+  std::error_code error;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  const std::filesystem::path candidates[] = {exe.parent_path().parent_path() / "share/locsim/report.py",
+                                              std::filesystem::path(LOCSIM_TOOLS_DIR) / "report.py"};
+  for (const auto& script : candidates) {
+    if (!std::filesystem::exists(script)) continue;
+    const std::string python = "/usr/bin/python3";
+    std::vector<std::string> args = {python, script.string(), dir};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    std::fflush(stdout);
+    execv(python.c_str(), argv.data());
+    throw std::runtime_error("cannot run " + python + " (tools/setup installs it): " + std::strerror(errno));
+  }
+  throw std::runtime_error("report.py not found next to this locsim (share/locsim) nor in the source tree");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -205,6 +226,9 @@ int main(int argc, char** argv) {
       "Writes results.jsonl (a line per finished run, flushed at once), then results.csv and\n"
       "summary.csv/summary.md (sorted and free of wall-clock figures: identical for any --jobs,\n"
       "--shard or --resume). Failed, crashed or timed-out runs are results, not errors.");
+  std::string report_dir;
+  CLI::App* report_cmd = app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
+  report_cmd->add_option("dir", report_dir, "Sweep or run folder")->required();
   std::string merge_out;
   std::vector<std::string> merge_parts;
   CLI::App* merge = app.add_subcommand("merge", "Join the folders of sharded sweeps");
@@ -221,6 +245,7 @@ int main(int argc, char** argv) {
   try {
     if (*check) return validate(validate_world, validate_scenario);
     if (*plugins) return list_plugins();
+    if (*report_cmd) return report(report_dir);
     if (*sweep) {
       if (!shard.empty()) {
         int k = 0, n = 0;
