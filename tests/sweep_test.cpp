@@ -60,14 +60,18 @@ TEST(Sweep, ResultsAreTheSameWhateverTheNumberOfJobs) {
   EXPECT_TRUE(fs::exists(dir / "one/runs/odometry/seed-1/metrics.json"));
 
   // The report of the sweep, as a user asks for it.
-  const std::string report = std::string(LOCSIM_BINARY) + " report " + (dir / "one").string() + " >/dev/null";
+  const std::string report =
+      std::string(LOCSIM_BINARY) + " report " + (dir / "one").string() + " >/dev/null";
   EXPECT_EQ(std::system(report.c_str()), 0);
   const std::string markdown = testing::read_file(dir / "one/report.md");
-  EXPECT_NE(markdown.find("| ekf_landmarks-sigma_bearing_deg=1 | 3 | 3 |"), std::string::npos) << markdown;
-  for (const char* png : {"error_vs_time.png", "cdf.png", "param_ekf_landmarks_sigma_bearing_deg.png"}) {
+  EXPECT_NE(markdown.find("| ekf_landmarks-sigma_bearing_deg=1 | 3 | 3 |"), std::string::npos)
+      << markdown;
+  for (const char* png :
+       {"error_vs_time.png", "cdf.png", "param_ekf_landmarks_sigma_bearing_deg.png"}) {
     EXPECT_GT(fs::file_size(dir / "one/report" / png), 5000u) << png;
   }
-  const std::string not_a_sweep = std::string(LOCSIM_BINARY) + " report " + dir.string() + " 2>/dev/null";
+  const std::string not_a_sweep =
+      std::string(LOCSIM_BINARY) + " report " + dir.string() + " 2>/dev/null";
   EXPECT_EQ(WEXITSTATUS(std::system(not_a_sweep.c_str())), 2);
 }
 

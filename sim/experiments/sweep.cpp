@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -300,13 +301,6 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       ::open((out / "results.jsonl").c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
   if (results_fd < 0) throw std::runtime_error("cannot write " + (out / "results.jsonl").string());
 
-  struct Active {
-    const RunUnit* run;
-    std::chrono::steady_clock::time_point start;
-    bool timed_out = false;
-  };
-  std::map<pid_t, Active> active;
-  std::size_t next = 0;
   const auto sweep_start = std::chrono::steady_clock::now();
   const auto report = [&](const RunUnit& run, const json& result) {
     const std::size_t finished = summary.skipped + summary.ran;
@@ -330,45 +324,121 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                    result.value("reason", "").c_str(), left);
     }
   };
+  const auto append_result = [&](const RunUnit& run, const json& result) {
+    const std::string line = result.dump() + "\n";
+    // One write per line, flushed to the disk: a kill loses at most the runs in flight.
+    if (::write(results_fd, line.data(), line.size()) != static_cast<ssize_t>(line.size())) {
+      throw std::runtime_error("cannot append to results.jsonl");
+    }
+    fsync(results_fd);
+    ++summary.ran;
+    if (result["status"] != "ok") ++summary.not_ok;
+    report(run, result);
+  };
 
-  while (next < pending.size() || !active.empty()) {
+  // Phase 1: simulate each seed once, recording its log. Phase 2: replay the log to every
+  // localizer configuration, each in its own process. Both phases share one pool of processes.
+  struct Task {
+    std::vector<std::string> args;
+    fs::path log;
+    bool recording = false;
+    std::uint64_t seed = 0;
+    const RunUnit* run = nullptr;
+  };
+  struct Active {
+    Task task;
+    std::chrono::steady_clock::time_point start;
+    bool timed_out = false;
+  };
+  std::map<pid_t, Active> active;
+  std::deque<Task> queue;
+  const auto log_of = [&](std::uint64_t seed) {
+    return out / "logs" / ("seed-" + std::to_string(seed) + ".locsimlog");
+  };
+  const auto recording_dir = [&](std::uint64_t seed) {
+    return out / "logs" / ("seed-" + std::to_string(seed));
+  };
+  const auto run_dir_of = [&](const RunUnit& run) {
+    return out / "runs" / run.config->label / ("seed-" + std::to_string(run.seed));
+  };
+  const auto recorded = [&](std::uint64_t seed) {
+    try {
+      return fs::exists(log_of(seed)) &&
+             json::parse(read_text(recording_dir(seed) / "run.json"))["status"] == "completed";
+    } catch (const std::exception&) {
+      return false;
+    }
+  };
+  std::map<std::uint64_t, std::vector<const RunUnit*>>
+      waiting;  // runs whose seed is being recorded
+  const auto replay_task = [&](const RunUnit& run) {
+    Task task;
+    task.run = &run;
+    task.log = run_dir_of(run) / "log.txt";
+    task.args = {
+        binary.string(),           "replay",
+        log_of(run.seed).string(), "--localizer",
+        run.config->spec(),        "--out",
+        run_dir_of(run).string(),  "--overwrite",
+        "--converged-within-m",    fixed(experiment.convergence.position_m, 9),
+        "--converged-within-deg",  fixed(rad_to_deg(experiment.convergence.heading_rad), 9),
+        "--converged-hold",        std::to_string(experiment.convergence.hold_samples)};
+    return task;
+  };
+  for (const RunUnit* run : pending) {
+    if (recorded(run->seed)) {
+      queue.push_back(replay_task(*run));
+      continue;
+    }
+    if (!waiting.count(run->seed)) {
+      Task task;
+      task.recording = true;
+      task.seed = run->seed;
+      task.log = recording_dir(run->seed) / "log.txt";
+      task.args = {binary.string(),
+                   "run",
+                   experiment.world.string(),
+                   "--seed",
+                   std::to_string(run->seed),
+                   "--out",
+                   recording_dir(run->seed).string(),
+                   "--overwrite",
+                   "-q",
+                   "--log",
+                   log_of(run->seed).string()};
+      if (experiment.scenario)
+        task.args.insert(task.args.end(), {"--scenario", experiment.scenario->string()});
+      if (experiment.duration_s)
+        task.args.insert(task.args.end(), {"--duration", fixed(*experiment.duration_s, 9)});
+      // Recordings first: the replays of a seed wait for its log.
+      queue.push_front(task);
+    }
+    waiting[run->seed].push_back(run);
+  }
+
+  // Wake the moment a child ends (SIGCHLD, blocked and waited for) rather than polling: with
+  // short runs, a poll interval shows up directly in the parallel efficiency.
+  sigset_t child_signal, previous_mask;
+  sigemptyset(&child_signal);
+  sigaddset(&child_signal, SIGCHLD);
+  sigprocmask(SIG_BLOCK, &child_signal, &previous_mask);
+  while (!queue.empty() || !active.empty()) {
     if (interrupt != nullptr && interrupt->load()) {
       for (const auto& [pid, a] : active) kill(-pid, SIGKILL);
       for (const auto& [pid, a] : active) waitpid(pid, nullptr, 0);
       summary.interrupted = true;
       break;
     }
-    while (next < pending.size() && static_cast<int>(active.size()) < options.jobs) {
-      const RunUnit& run = *pending[next++];
-      const fs::path run_dir =
-          out / "runs" / run.config->label / ("seed-" + std::to_string(run.seed));
-      fs::remove_all(run_dir);  // a run in flight when a previous sweep died
-      fs::create_directories(run_dir);
-      std::vector<std::string> args = {binary.string(),
-                                       "run",
-                                       experiment.world.string(),
-                                       "--seed",
-                                       std::to_string(run.seed),
-                                       "--out",
-                                       run_dir.string(),
-                                       "--overwrite",
-                                       "-q",
-                                       "--localizer",
-                                       run.config->spec(),
-                                       "--converged-within-m",
-                                       fixed(experiment.convergence.position_m, 9),
-                                       "--converged-within-deg",
-                                       fixed(rad_to_deg(experiment.convergence.heading_rad), 9),
-                                       "--converged-hold",
-                                       std::to_string(experiment.convergence.hold_samples)};
-      if (experiment.scenario)
-        args.insert(args.end(), {"--scenario", experiment.scenario->string()});
-      if (experiment.duration_s)
-        args.insert(args.end(), {"--duration", fixed(*experiment.duration_s, 9)});
+    while (!queue.empty() && static_cast<int>(active.size()) < options.jobs) {
+      Task task = std::move(queue.front());
+      queue.pop_front();
+      const fs::path dir = task.log.parent_path();
+      fs::remove_all(dir);  // a task in flight when a previous sweep died
+      fs::create_directories(dir);
       std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
+      for (std::string& a : task.args) argv.push_back(a.data());
       argv.push_back(nullptr);
-      const std::string log = (run_dir / "log.txt").string();
+      const std::string log = task.log.string();
       const pid_t pid = fork();
       if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
       if (pid == 0) {
@@ -376,6 +446,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         // A sweep killed hard takes its runs with it, so a --resume never races a survivor.
         prctl(PR_SET_PDEATHSIG, SIGKILL);
         if (getppid() == 1) _exit(127);  // the sweep died before prctl took effect
+        sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
         const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) {
           dup2(fd, STDOUT_FILENO);
@@ -386,7 +457,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         _exit(127);
       }
       setpgid(pid, pid);
-      active[pid] = {&run, std::chrono::steady_clock::now()};
+      active[pid] = {std::move(task), std::chrono::steady_clock::now()};
     }
     int status = 0;
     const pid_t pid = waitpid(-1, &status, WNOHANG);
@@ -395,18 +466,27 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       active.erase(pid);
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - a.start).count();
-      const fs::path run_dir =
-          out / "runs" / a.run->config->label / ("seed-" + std::to_string(a.run->seed));
-      const json result = result_of(*a.run, run_dir, status, a.timed_out, wall);
-      const std::string line = result.dump() + "\n";
-      // One write per line, flushed to the disk: a kill loses at most the runs in flight.
-      if (::write(results_fd, line.data(), line.size()) != static_cast<ssize_t>(line.size())) {
-        throw std::runtime_error("cannot append to results.jsonl");
+      if (a.task.recording) {
+        const bool ok = !a.timed_out && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+        for (const RunUnit* run : waiting[a.task.seed]) {
+          if (ok) {
+            queue.push_back(replay_task(*run));
+            continue;
+          }
+          // Without its recording no run of this seed can go on: each gets the reason.
+          json result = result_of(*run, a.task.log.parent_path(), status, a.timed_out, wall);
+          if (result["status"] != "ok") {
+            result["reason"] = "simulating seed " + std::to_string(a.task.seed) +
+                               " failed: " + result["status"].get<std::string>() + ", " +
+                               result.value("reason", "");
+            result["status"] = "error";
+          }
+          append_result(*run, result);
+        }
+        continue;
       }
-      fsync(results_fd);
-      ++summary.ran;
-      if (result["status"] != "ok") ++summary.not_ok;
-      report(*a.run, result);
+      append_result(*a.task.run,
+                    result_of(*a.task.run, run_dir_of(*a.task.run), status, a.timed_out, wall));
       continue;
     }
     const auto now = std::chrono::steady_clock::now();
@@ -417,8 +497,11 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         kill(-child, SIGKILL);
       }
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    const timespec wait_at_most{0,
+                                50'000'000};  // 50 ms: timeouts and Ctrl-C are checked that often
+    sigtimedwait(&child_signal, nullptr, &wait_at_most);
   }
+  sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
   ::close(results_fd);
   if (options.progress_bar) std::fprintf(stderr, "\n");
   write_tables(out);

@@ -8,12 +8,15 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 #include <type_traits>
 #include <variant>
 
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/config_json.hpp"
+#include "sim/run/run_log.hpp"
+#include "sim/run/run_outputs.hpp"
 #include "sim/run/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/sensors/models.hpp"
@@ -53,20 +56,6 @@ RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::pa
 }
 
 namespace {
-
-/// One TUM row: `t x y 0 0 0 qz qw` for a planar pose.
-void append_tum(std::string& line, double t_s, double x, double y, double theta) {
-  append_fixed(line, t_s, 4);
-  line += ' ';
-  append_fixed(line, x, 6);
-  line += ' ';
-  append_fixed(line, y, 6);
-  line += " 0 0 0 ";
-  append_fixed(line, std::sin(0.5 * theta), 9);
-  line += ' ';
-  append_fixed(line, std::cos(0.5 * theta), 9);
-  line += '\n';
-}
 
 /// Writes the files of one run as it goes, flushing often so that a crash or Ctrl-C keeps
 /// everything up to the last few steps.
@@ -208,13 +197,23 @@ class RunWriter {
   /// Called after every step (and once before the first) with the step's readings, after the
   /// localizers have had them.
   void record(Simulation& sim, const std::vector<Reading>& readings) {
-    for (const Reading& reading : readings) write(reading);
+    for (const Reading& reading : readings) {
+      write(reading);
+      if (log_ != nullptr) log_->reading(reading);
+    }
     for (const SimEvent& event : sim.take_events()) {
       line_.clear();
       append_fixed(line_, event.t_s, 4);
       line_ += ',' + event.kind + ',' + event.robot + ",\"" + event.details + "\"\n";
       events_ << line_;
       if (event.kind == "kidnap") kidnaps_[event.robot].push_back(event.t_s);
+      if (log_ != nullptr) {
+        int robot = -1;
+        for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+          if (sim.robot(i).name() == event.robot) robot = static_cast<int>(i);
+        }
+        log_->event(event, robot);
+      }
     }
     if (sim.step_index() % stride_ != 0 || sim.step_index() == last_step_) return;
     last_step_ = sim.step_index();
@@ -225,6 +224,7 @@ class RunWriter {
       line_.clear();
       append_tum(line_, sim.time_s(), pose.x, pose.y, pose.theta);
       groundtruth_[i] << line_;
+      if (log_ != nullptr) log_->groundtruth(sim.time_s(), static_cast<int>(i), pose);
       if (i >= hosts_.size()) continue;
       auto& instances = hosts_[i]->instances();
       for (std::size_t k = 0; k < instances.size(); ++k) {
@@ -240,7 +240,10 @@ class RunWriter {
     if (sim.step_index() % (stride_ * 50) == 0) flush();
   }
 
+  void set_log(LogWriter* log) { log_ = log; }
+
   void flush() {
+    if (log_ != nullptr) log_->flush();
     for (auto& file : groundtruth_) file.flush();
     for (auto& robot : estimates_) {
       for (auto& file : robot) file->flush();
@@ -271,6 +274,7 @@ class RunWriter {
   std::vector<std::unique_ptr<LocalizerHost>>& hosts_;                   // by robot
   std::vector<std::vector<std::unique_ptr<std::ofstream>>> estimates_;   // by robot, localizer
   std::map<std::string, std::vector<double>> kidnaps_;                   // by robot
+  LogWriter* log_ = nullptr;
   std::string line_;
 };
 
@@ -285,16 +289,6 @@ fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
     dir = fs::path("runs") / (base + "-" + std::to_string(suffix));
   }
   return dir;
-}
-
-void write_json_atomically(const fs::path& file, const json& content) {
-  const fs::path temporary = file.string() + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out << content.dump(2) << '\n';
-    if (!out) throw std::runtime_error("cannot write " + temporary.string());
-  }
-  fs::rename(temporary, file);
 }
 
 }  // namespace
@@ -337,6 +331,29 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   }
   fs::create_directories(result.out_dir);
   RunWriter writer(result.out_dir, sim, hosts);
+  std::unique_ptr<LogWriter> log;
+  if (options.log_file) {
+    const auto text = [](const fs::path& file) {
+      std::ifstream in(file, std::ios::binary);
+      std::ostringstream content;
+      content << in.rdbuf();
+      return content.str();
+    };
+    // Everything replay needs to rebuild the world and its localizer inputs: the files' text.
+    json header = {{"format", "locsim-log"},
+                   {"locsim_version", locsim_version()},
+                   {"seed", options.seed},
+                   {"world_file", options.world_file.string()},
+                   {"world_dir", fs::absolute(options.world_file).parent_path().string()},
+                   {"world_yaml", text(options.world_file)},
+                   {"scenario_file",
+                    options.scenario_file ? json(options.scenario_file->string()) : json(nullptr)},
+                   {"scenario_yaml",
+                    options.scenario_file ? json(text(*options.scenario_file)) : json(nullptr)},
+                   {"duration_s", inputs.scenario.duration_s}};
+    log = std::make_unique<LogWriter>(*options.log_file, header);
+    writer.set_log(log.get());
+  }
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto next_progress = wall_start + std::chrono::seconds(1);
@@ -377,6 +394,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   }
   if (progress_shown) std::fprintf(stderr, "\n");
   writer.flush();
+  if (log && result.status == "completed") log->finish();  // else it reads as truncated, rightly
   result.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   result.simulated_s = sim.time_s();
@@ -409,39 +427,13 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
                       {"kidnaps", stats.kidnaps}});
   }
   run["robots"] = robots;
-  // metrics.json per robot folder: what each localizer achieved; its wall-clock cost is kept in
-  // the last block, "timing", so that the rest is byte-identical for the same inputs and seed.
   json localizers = json::array();
   for (std::size_t i = 0; i < hosts.size(); ++i) {
-    json metrics;
-    metrics["robot"] = sim.robot(i).name();
-    json entries = json::array(), timing = json::object();
-    for (const auto& instance : hosts[i]->instances()) {
-      instance->diagnostics(sim.time_s());
-      json entry = instance->metrics(writer.kidnaps(sim.robot(i).name()));
-      entries.push_back(entry);
-      const CostSummary cost = summarize_costs(instance->update_seconds());
-      timing[instance->label()] = {
-          {"updates", cost.calls},
-          {"cost_per_update_us",
-           {{"mean", cost.mean_us}, {"p99", cost.p99_us}, {"max", cost.max_us}}}};
-      localizers.push_back({{"robot", sim.robot(i).name()},
-                            {"label", instance->label()},
-                            {"status", entry["status"]},
-                            {"position_rms_m", entry["position_error_m"]["rms"]}});
-      if (entry.contains("failure")) {
-        std::fprintf(
-            stderr,
-            "locsim: warning: localizer '%s' of robot '%s' failed at t = %.3f s in %s: %s\n",
-            instance->label().c_str(), sim.robot(i).name().c_str(),
-            entry["failure"]["t_s"].get<double>(),
-            entry["failure"]["call"].get<std::string>().c_str(),
-            entry["failure"]["message"].get<std::string>().c_str());
-      }
+    for (const json& entry :
+         write_localizer_metrics(writer.robot_dirs()[i], sim.robot(i).name(), *hosts[i],
+                                 writer.kidnaps(sim.robot(i).name()), sim.time_s())) {
+      localizers.push_back(entry);
     }
-    metrics["localizers"] = entries;
-    metrics["timing"] = timing;
-    write_json_atomically(writer.robot_dirs()[i] / "metrics.json", metrics);
   }
   if (!hosts.empty()) run["localizers"] = localizers;
   run["config"] = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};

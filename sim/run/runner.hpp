@@ -26,6 +26,7 @@ struct RunOptions {
   bool overwrite = false;               // allow writing into a non-empty folder
   std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each run on every robot
   ConvergenceCriterion convergence;     // what "converged" means in metrics.json
+  std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
 };
 
 struct RunResult {

@@ -41,3 +41,46 @@ BENCHMARK(BM_DemoSweep40Runs)
     ->Iterations(2);
 
 }  // namespace
+
+#include "sim/run/replay.hpp"
+#include "sim/run/runner.hpp"
+
+namespace {
+
+/// The demo world's 60 s with the landmark EKF: simulated (every sensor, all logs written) vs
+/// replayed from its recording. The ratio is what a sweep over filter parameters saves per run.
+void BM_DemoEkf(benchmark::State& state) {
+  const bool replay = state.range(0) == 1;
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_replay";
+  fs::remove_all(dir);
+  locsim::RunOptions run;
+  run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  run.out_dir = dir / "run";
+  run.overwrite = true;
+  run.localizers = {LOCSIM_BUILD_PLUGIN_DIR "/locsim_ekf_landmarks.so"};
+  run.log_file = dir / "demo.locsimlog";
+  locsim::run_simulation(run);
+  for (auto _ : state) {
+    if (replay) {
+      locsim::ReplayOptions options;
+      options.log_file = *run.log_file;
+      options.out_dir = dir / "replay";
+      options.overwrite = true;
+      options.localizers = run.localizers;
+      benchmark::DoNotOptimize(locsim::replay_log(options));
+    } else {
+      benchmark::DoNotOptimize(locsim::run_simulation(run));
+    }
+  }
+  fs::remove_all(dir);
+  state.counters["real_time_factor"] = benchmark::Counter(
+      60.0 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_DemoEkf)
+    ->ArgName("replay")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+}  // namespace

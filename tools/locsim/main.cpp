@@ -6,8 +6,8 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
-#include <fstream>
 #include <cstring>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -16,6 +16,7 @@
 #include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
+#include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
 #include "sim/run/simulation.hpp"
 
@@ -133,8 +134,9 @@ double rad_to_deg_default() {
 int report(const std::string& dir) {
   std::error_code error;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
-  const std::filesystem::path candidates[] = {exe.parent_path().parent_path() / "share/locsim/report.py",
-                                              std::filesystem::path(LOCSIM_TOOLS_DIR) / "report.py"};
+  const std::filesystem::path candidates[] = {
+      exe.parent_path().parent_path() / "share/locsim/report.py",
+      std::filesystem::path(LOCSIM_TOOLS_DIR) / "report.py"};
   for (const auto& script : candidates) {
     if (!std::filesystem::exists(script)) continue;
     const std::string python = "/usr/bin/python3";
@@ -144,9 +146,11 @@ int report(const std::string& dir) {
     argv.push_back(nullptr);
     std::fflush(stdout);
     execv(python.c_str(), argv.data());
-    throw std::runtime_error("cannot run " + python + " (tools/setup installs it): " + std::strerror(errno));
+    throw std::runtime_error("cannot run " + python +
+                             " (tools/setup installs it): " + std::strerror(errno));
   }
-  throw std::runtime_error("report.py not found next to this locsim (share/locsim) nor in the source tree");
+  throw std::runtime_error(
+      "report.py not found next to this locsim (share/locsim) nor in the source tree");
 }
 
 }  // namespace
@@ -174,6 +178,10 @@ int main(int argc, char** argv) {
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
   run->add_flag("--overwrite", options.overwrite, "Allow writing into a non-empty folder");
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
+  std::string log_file;
+  run->add_option("--log", log_file,
+                  "Also record the sensor stream, ground truth and events into one log file, for "
+                  "`locsim replay`");
   run->add_option(
       "--localizer", options.localizers,
       "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
@@ -187,15 +195,21 @@ int main(int argc, char** argv) {
   std::string validate_world;
   std::optional<std::string> validate_scenario;
   double converged_deg = rad_to_deg_default();
-  run->add_option("--converged-within-m", options.convergence.position_m,
-                  "Convergence: position error at most this [m]")
-      ->capture_default_str();
-  run->add_option("--converged-within-deg", converged_deg,
-                  "Convergence: heading error at most this [deg]")
-      ->capture_default_str();
-  run->add_option("--converged-hold", options.convergence.hold_samples,
-                  "Convergence: for this many consecutive ground-truth samples")
-      ->capture_default_str();
+  const auto add_convergence = [&](CLI::App* command, locsim::ConvergenceCriterion& criterion) {
+    command
+        ->add_option("--converged-within-m", criterion.position_m,
+                     "Convergence: position error at most this [m]")
+        ->capture_default_str();
+    command
+        ->add_option("--converged-within-deg", converged_deg,
+                     "Convergence: heading error at most this [deg]")
+        ->capture_default_str();
+    command
+        ->add_option("--converged-hold", criterion.hold_samples,
+                     "Convergence: for this many consecutive ground-truth samples")
+        ->capture_default_str();
+  };
+  add_convergence(run, options.convergence);
 
   CLI::App* check = app.add_subcommand("validate", "Check a world (and scenario) without running");
   check->add_option("world", validate_world, "World file (YAML)")->required();
@@ -226,8 +240,21 @@ int main(int argc, char** argv) {
       "Writes results.jsonl (a line per finished run, flushed at once), then results.csv and\n"
       "summary.csv/summary.md (sorted and free of wall-clock figures: identical for any --jobs,\n"
       "--shard or --resume). Failed, crashed or timed-out runs are results, not errors.");
+  locsim::ReplayOptions replay_options;
+  std::string replay_out;
+  CLI::App* replay = app.add_subcommand(
+      "replay", "Run localizers on a recorded log (run --log), without simulating");
+  replay->add_option("log", replay_options.log_file, "Log file written by `locsim run --log`")
+      ->required();
+  replay->add_option("--localizer", replay_options.localizers, "As for run; repeat for several")
+      ->required();
+  replay->add_option("--out", replay_out, "Output folder")->required();
+  replay->add_flag("--overwrite", replay_options.overwrite,
+                   "Allow writing into a non-empty folder");
+  add_convergence(replay, replay_options.convergence);
   std::string report_dir;
-  CLI::App* report_cmd = app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
+  CLI::App* report_cmd =
+      app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
   report_cmd->add_option("dir", report_dir, "Sweep or run folder")->required();
   std::string merge_out;
   std::vector<std::string> merge_parts;
@@ -246,6 +273,15 @@ int main(int argc, char** argv) {
     if (*check) return validate(validate_world, validate_scenario);
     if (*plugins) return list_plugins();
     if (*report_cmd) return report(report_dir);
+    if (*replay) {
+      replay_options.out_dir = replay_out;
+      replay_options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
+      const locsim::ReplayResult r = locsim::replay_log(replay_options);
+      std::printf("%s: replayed %.1f s (%zu records) in %.3f s -> %s\n",
+                  replay_options.log_file.c_str(), r.replayed_s, r.records, r.wall_s,
+                  replay_out.c_str());
+      return locsim::kExitOk;
+    }
     if (*sweep) {
       if (!shard.empty()) {
         int k = 0, n = 0;
@@ -275,6 +311,7 @@ int main(int argc, char** argv) {
 
     options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
     options.world_file = world_file;
+    if (!log_file.empty()) options.log_file = log_file;
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
     options.progress = !quiet && isatty(STDERR_FILENO);
