@@ -9,6 +9,7 @@
 #include <random>
 
 #include "locsim/models.hpp"
+#include "sim/metrics/error_metrics.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
@@ -228,6 +229,23 @@ TEST(Models, JacobiansMatchFiniteDifferences) {
       EXPECT_LT((numeric - H.col(j)).norm(), 1e-5 * (1 + H.col(j).norm())) << "H col " << j;
     }
   }
+}
+
+TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
+  // 50 Hz samples: 1 m off for 1 s, then on target; a 2 s gap (carried) at t = 3 s while lost.
+  std::vector<ErrorSample> samples;
+  for (int i = 0; i < 150; ++i) {
+    const double t = i * 0.02;
+    samples.push_back({t, t < 1.0 ? 1.0 : 0.0, 0.0, 0.0});
+  }
+  samples.push_back({5.0, 2.0, 0.0, 0.0});
+  samples.push_back({5.02, 0.0, 0.0, 0.0});
+  const ErrorSummary s = summarize_errors(samples);
+  ASSERT_TRUE(s.converged_at_s.has_value());
+  EXPECT_NEAR(*s.converged_at_s, 1.0, 1e-9);
+  EXPECT_NEAR(s.time_lost_s, 1.0 + 0.02, 1e-9);  // the carried gap counts one interval, not 2 s
+  EXPECT_DOUBLE_EQ(s.position_max_m, 2.0);
+  EXPECT_NEAR(s.x_rms_m, std::sqrt((50 * 1.0 + 4.0) / 152.0), 1e-12);
 }
 
 TEST(Models, ComposeAndBetweenAreInverse) {

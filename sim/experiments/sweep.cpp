@@ -155,7 +155,8 @@ void write_tables(const fs::path& out_dir) {
     std::ofstream csv(out_dir / "results.csv", std::ios::binary);
     csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,x_rms_"
            "m,"
-           "y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,recovery_s\n";
+           "y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,time_lost_s,"
+           "recovery_s\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
       std::string recoveries;  // one per kidnap: the segments after the first
@@ -175,7 +176,8 @@ void write_tables(const fs::path& out_dir) {
           << number(p.value("max", json())) << ',' << number(p.value("rms_x", json())) << ','
           << number(p.value("rms_y", json())) << ',' << number(h.value("rms", json())) << ','
           << number(h.value("mean", json())) << ',' << number(h.value("max", json())) << ','
-          << number(c.value("time_s", json()), 4) << ',' << recoveries << '\n';
+          << number(c.value("time_s", json()), 4) << ','
+          << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).

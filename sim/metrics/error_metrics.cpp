@@ -30,6 +30,17 @@ ErrorSummary summarize_errors(const std::vector<ErrorSample>& samples,
       }
     }
   }
+  // Each sample stands for the interval to the next one (the last for the typical interval);
+  // gaps wider than twice the typical interval (a robot carried) count only one interval.
+  const double typical = samples.size() > 1 ? samples[1].t_s - samples[0].t_s : 0.0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const ErrorSample& e = samples[i];
+    const bool within = std::hypot(e.dx_m, e.dy_m) <= criterion.position_m &&
+                        std::abs(e.dtheta_rad) <= criterion.heading_rad;
+    if (within) continue;
+    const double interval = i + 1 < samples.size() ? samples[i + 1].t_s - e.t_s : typical;
+    s.time_lost_s += interval > 2.0 * typical ? typical : interval;
+  }
   const double n = static_cast<double>(samples.size());
   s.position_rms_m = std::sqrt(sum_sq / n);
   s.position_mean_m = sum / n;

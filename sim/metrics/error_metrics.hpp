@@ -24,6 +24,7 @@ struct ErrorSummary {
   double x_rms_m = 0.0, y_rms_m = 0.0;
   double heading_rms_rad = 0.0, heading_mean_rad = 0.0, heading_max_rad = 0.0;  // of |error|
   std::optional<double> converged_at_s;  // start of the first run that holds the criterion
+  double time_lost_s = 0.0;  // time with the error outside the criterion's bounds (carried time aside)
 };
 
 ErrorSummary summarize_errors(const std::vector<ErrorSample>& samples,

@@ -359,7 +359,8 @@ json error_json(const ErrorSummary& e) {
           {"heading_error_deg",
            {{"rms", rad_to_deg(e.heading_rms_rad)},
             {"mean", rad_to_deg(e.heading_mean_rad)},
-            {"max", rad_to_deg(e.heading_max_rad)}}}};
+            {"max", rad_to_deg(e.heading_max_rad)}}},
+          {"time_lost_s", e.time_lost_s}};
 }
 }  // namespace
 
