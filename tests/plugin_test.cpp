@@ -236,13 +236,14 @@ TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   std::vector<ErrorSample> samples;
   for (int i = 0; i < 150; ++i) {
     const double t = i * 0.02;
-    samples.push_back({t, t < 1.0 ? 1.0 : 0.0, 0.0, 0.0});
+    samples.push_back({t, t < 1.0 ? 1.0 : 0.0, 0.0, 0.0, i / 5});  // a camera frame every 0.1 s
   }
   samples.push_back({5.0, 2.0, 0.0, 0.0});
   samples.push_back({5.02, 0.0, 0.0, 0.0});
   const ErrorSummary s = summarize_errors(samples);
   ASSERT_TRUE(s.converged_at_s.has_value());
   EXPECT_NEAR(*s.converged_at_s, 1.0, 1e-9);
+  EXPECT_EQ(s.converged_at_steps, 10);
   EXPECT_NEAR(s.time_lost_s, 1.0 + 0.02, 1e-9);  // the carried gap counts one interval, not 2 s
   EXPECT_DOUBLE_EQ(s.position_max_m, 2.0);
   EXPECT_NEAR(s.x_rms_m, std::sqrt((50 * 1.0 + 4.0) / 152.0), 1e-12);

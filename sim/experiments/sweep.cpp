@@ -177,7 +177,9 @@ void write_tables(const fs::path& out_dir) {
           << number(p.value("rms_y", json())) << ',' << number(h.value("rms", json())) << ','
           << number(h.value("mean", json())) << ',' << number(h.value("max", json())) << ','
           << number(c.value("time_s", json()), 4) << ','
-          << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << '\n';
+          << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
+                                                   : std::string())
+          << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).

@@ -26,7 +26,9 @@ ErrorSummary summarize_errors(const std::vector<ErrorSample>& samples,
     if (!s.converged_at_s) {
       run = (position <= criterion.position_m && heading <= criterion.heading_rad) ? run + 1 : 0;
       if (run >= criterion.hold_samples) {
-        s.converged_at_s = samples[&e - samples.data() - (criterion.hold_samples - 1)].t_s;
+        const ErrorSample& first = samples[&e - samples.data() - (criterion.hold_samples - 1)];
+        s.converged_at_s = first.t_s;
+        s.converged_at_steps = first.steps - samples.front().steps;
       }
     }
   }

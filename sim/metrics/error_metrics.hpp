@@ -10,6 +10,7 @@ struct ErrorSample {
   double t_s = 0.0;
   double dx_m = 0.0, dy_m = 0.0;  // estimate - truth
   double dtheta_rad = 0.0;        // wrapped
+  long steps = 0;                 // perception updates (camera, ultrasonic, laser) delivered so far
 };
 
 struct ConvergenceCriterion {
@@ -23,8 +24,10 @@ struct ErrorSummary {
   double position_rms_m = 0.0, position_mean_m = 0.0, position_max_m = 0.0;
   double x_rms_m = 0.0, y_rms_m = 0.0;
   double heading_rms_rad = 0.0, heading_mean_rad = 0.0, heading_max_rad = 0.0;  // of |error|
-  std::optional<double> converged_at_s;  // start of the first run that holds the criterion
-  double time_lost_s = 0.0;  // time with the error outside the criterion's bounds (carried time aside)
+  std::optional<double> converged_at_s;    // start of the first run that holds the criterion
+  std::optional<long> converged_at_steps;  // perception updates from the first sample to then
+  double time_lost_s =
+      0.0;  // time with the error outside the criterion's bounds (carried time aside)
 };
 
 ErrorSummary summarize_errors(const std::vector<ErrorSample>& samples,

@@ -295,6 +295,11 @@ void LocalizerInstance::fail(double t_s, const std::string& call, const std::str
 
 void LocalizerInstance::deliver(const locsim_reading& reading) {
   if (failure_) return;
+  // A "step" in the papers is a perception update: what the steps-to-convergence count.
+  if (reading.kind == LOCSIM_READING_LANDMARKS || reading.kind == LOCSIM_READING_BEACON_RANGES ||
+      reading.kind == LOCSIM_READING_LASER) {
+    ++perception_updates_;
+  }
   error_[0] = '\0';
   const auto start = std::chrono::steady_clock::now();
   const int status = table().update(instance_, &reading, error_, sizeof(error_));
@@ -343,6 +348,9 @@ std::vector<std::pair<std::string, double>> LocalizerInstance::diagnostics(doubl
   last_diagnostics_.clear();
   for (std::size_t i = 0; i < std::min<std::size_t>(count, 64); ++i) {
     last_diagnostics_.emplace_back(out[i].name != nullptr ? out[i].name : "?", out[i].value);
+    auto& [sum, samples] = diagnostic_sums_[last_diagnostics_.back().first];
+    sum += out[i].value;
+    ++samples;
   }
   return last_diagnostics_;
 }
@@ -377,10 +385,12 @@ json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const
   const ErrorSummary e = summarize_errors(errors_, criterion_);
   out.update(error_json(e));
   const ConvergenceCriterion& c = criterion_;
-  out["convergence"] = {{"position_m", c.position_m},
-                        {"heading_deg", rad_to_deg(c.heading_rad)},
-                        {"hold_samples", c.hold_samples},
-                        {"time_s", e.converged_at_s ? json(*e.converged_at_s) : json(nullptr)}};
+  out["convergence"] = {
+      {"position_m", c.position_m},
+      {"heading_deg", rad_to_deg(c.heading_rad)},
+      {"hold_samples", c.hold_samples},
+      {"time_s", e.converged_at_s ? json(*e.converged_at_s) : json(nullptr)},
+      {"steps", e.converged_at_steps ? json(*e.converged_at_steps) : json(nullptr)}};
   // Segments between kidnaps: how well it tracked, and how long it took to recover.
   json segments = json::array();
   std::vector<double> bounds{-1e300};
@@ -397,12 +407,18 @@ json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const
     segment.update(error_json(summary));
     segment["recovery_s"] =
         summary.converged_at_s ? json(*summary.converged_at_s - part.front().t_s) : json(nullptr);
+    segment["recovery_steps"] =
+        summary.converged_at_steps ? json(*summary.converged_at_steps) : json(nullptr);
     segments.push_back(segment);
   }
   out["segments"] = segments;
-  json diagnostics = json::object();
+  json diagnostics = json::object(), means = json::object();
   for (const auto& [name, value] : last_diagnostics_) diagnostics[name] = value;
+  for (const auto& [name, sum] : diagnostic_sums_) {
+    means[name] = sum.first / static_cast<double>(std::max<long>(sum.second, 1));
+  }
   out["diagnostics"] = diagnostics;
+  out["diagnostics_mean"] = means;  // over the ground-truth samples
   out["updates"] = update_seconds_.size();
   return out;
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <deque>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -95,7 +96,10 @@ class LocalizerInstance {
   /// The plugin's diagnostics, named.
   std::vector<std::pair<std::string, double>> diagnostics(double t_s);
 
-  void add_error(const ErrorSample& sample) { errors_.push_back(sample); }
+  void add_error(ErrorSample sample) {
+    sample.steps = perception_updates_;
+    errors_.push_back(sample);
+  }
   void set_criterion(const ConvergenceCriterion& criterion) { criterion_ = criterion; }
   /// Its part of metrics.json; `kidnap_times_s` split the run into segments, each with its own
   /// errors and its recovery time (convergence measured from the segment's start).
@@ -118,6 +122,8 @@ class LocalizerInstance {
   std::vector<ErrorSample> errors_;
   ConvergenceCriterion criterion_;
   std::vector<std::pair<std::string, double>> last_diagnostics_;
+  std::map<std::string, std::pair<double, long>> diagnostic_sums_;  // sum, samples
+  long perception_updates_ = 0;
   char error_[1024] = {};
 };
 

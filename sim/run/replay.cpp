@@ -112,6 +112,7 @@ ReplayResult replay_log(const ReplayOptions& options) {
         groundtruth[i] << line;
         auto& instances = hosts[i]->instances();
         for (std::size_t k = 0; k < instances.size(); ++k) {
+          instances[k]->diagnostics(record.t_s);  // sampled for their means
           const std::optional<locsim_estimate> estimate = instances[k]->estimate(record.t_s);
           if (!estimate) continue;
           line.clear();

@@ -228,6 +228,7 @@ class RunWriter {
       if (i >= hosts_.size()) continue;
       auto& instances = hosts_[i]->instances();
       for (std::size_t k = 0; k < instances.size(); ++k) {
+        instances[k]->diagnostics(sim.time_s());  // sampled for their means
         const std::optional<locsim_estimate> estimate = instances[k]->estimate(sim.time_s());
         if (!estimate) continue;
         line_.clear();
