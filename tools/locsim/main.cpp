@@ -188,8 +188,9 @@ int main(int argc, char** argv) {
       "several (all get the same readings)");
   run->footer(
       "Writes run.json (resolved configuration, seed, version, timing), groundtruth.tum (true\n"
-      "pose, TUM format) and events.csv (every scenario event). With several robots each has its\n"
-      "own sub-folder for groundtruth.tum.\n\n" +
+      "pose, TUM format), events.csv (every scenario event), readings/ (one CSV per sensor), and\n"
+      "per localizer LABEL.tum and its part of metrics.json. With several robots each has its own\n"
+      "sub-folder.\n\n" +
       std::string(kExitCodes));
 
   std::string validate_world;
