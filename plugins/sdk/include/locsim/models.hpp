@@ -17,6 +17,8 @@ using Pose = Eigen::Vector3d;  // (x [m], y [m], theta [rad])
 
 /// Wraps to (-pi, pi].
 inline double wrap(double angle) {
+  if (angle > -std::numbers::pi && angle <= std::numbers::pi)
+    return angle;  // the common case, cheap
   double a = std::remainder(angle, 2.0 * std::numbers::pi);
   if (a <= -std::numbers::pi) a += 2.0 * std::numbers::pi;
   return a;
