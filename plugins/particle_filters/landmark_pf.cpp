@@ -1,0 +1,241 @@
+#include "landmark_pf.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace locsim::particle_filters {
+
+LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery recovery)
+    : recovery_(recovery), random_(init.seed) {
+  const sdk::Params params(init);
+  const auto n = static_cast<std::size_t>(params.integer("particles"));
+  noise_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
+            params.number("alpha4"), params.flag("variance_form")};
+  sigma_range_m_ = params.number("sigma_range_m");
+  sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
+  const std::string resampler = params.string("resampler");
+  if (resampler != "roulette" && resampler != "low_variance") {
+    throw std::invalid_argument("resampler must be roulette or low_variance, not '" + resampler +
+                                "'");
+  }
+  low_variance_ = resampler == "low_variance";
+  use_omni_ = params.flag("use_omni");
+  switch (recovery_) {
+    case Recovery::kNone:
+      break;
+    case Recovery::kSensorResetting:
+      srl_threshold_ = params.number("threshold");
+      break;
+    case Recovery::kAdaptiveSensorResetting:
+      asrl_mu_ = params.number("mu");
+      asrl_pt_ = params.number("p_t");
+      break;
+    case Recovery::kAugmented:
+      alpha_slow_ = params.number("alpha_slow");
+      alpha_fast_ = params.number("alpha_fast");
+      if (alpha_slow_ >= alpha_fast_)
+        throw std::invalid_argument("alpha_slow must be below alpha_fast");
+      break;
+  }
+  for (size_t i = 0; i < init.map->landmark_count; ++i) {
+    const locsim_landmark& l = init.map->landmarks[i];
+    landmarks_.push_back({l.id, l.color != nullptr ? l.color : "", l.x, l.y});
+  }
+  if (landmarks_.empty())
+    throw std::invalid_argument("needs a landmark map; this world has no landmarks");
+  grid_ = init.map->grid;
+  grid_cells_.assign(grid_.cells,
+                     grid_.cells + static_cast<std::size_t>(grid_.width) * grid_.height);
+  grid_.cells = grid_cells_.data();
+
+  particles_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (init.initial_pose_known) {
+      // Gaussian about the initial guess, with its covariance's standard deviations.
+      particles_.x[i] = init.initial_pose.x + random_.normal(std::sqrt(init.initial_covariance[0]));
+      particles_.y[i] = init.initial_pose.y + random_.normal(std::sqrt(init.initial_covariance[4]));
+      particles_.theta[i] = sdk::wrap(init.initial_pose.theta +
+                                      random_.normal(std::sqrt(init.initial_covariance[8])));
+    } else {
+      sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
+    }
+  }
+}
+
+void LandmarkParticleFilter::sample_uniform(double& x, double& y, double& theta) {
+  // Uniform over the free cells of the map (rejection; the map's extent if it is all walls).
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    x = grid_.origin_x + random_.uniform() * grid_.width * grid_.resolution_m;
+    y = grid_.origin_y + random_.uniform() * grid_.height * grid_.resolution_m;
+    const auto col = static_cast<int>((x - grid_.origin_x) / grid_.resolution_m);
+    const auto row = static_cast<int>((y - grid_.origin_y) / grid_.resolution_m);
+    if (col >= 0 && row >= 0 && col < grid_.width && row < grid_.height &&
+        grid_.cells[static_cast<std::size_t>(row) * grid_.width + col] == 0) {
+      break;
+    }
+  }
+  theta = random_.uniform(-std::numbers::pi, std::numbers::pi);
+}
+
+std::vector<const LandmarkParticleFilter::Landmark*> LandmarkParticleFilter::candidates(
+    const locsim_detection& d) const {
+  std::vector<const Landmark*> out;
+  for (const Landmark& l : landmarks_) {
+    if (d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color)) out.push_back(&l);
+  }
+  return out;
+}
+
+double LandmarkParticleFilter::log_likelihood(double x, double y, double theta,
+                                              const locsim_landmarks& reading) const {
+  double total = 0.0;
+  for (size_t k = 0; k < reading.count; ++k) {
+    const locsim_detection& d = reading.detections[k];
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Landmark& l : landmarks_) {
+      if (!(d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color))) continue;
+      best = std::max(best, sdk::landmark_log_likelihood(x, y, theta, d.range_m, d.bearing_rad, l.x,
+                                                         l.y, sigma_range_m_, sigma_bearing_rad_));
+    }
+    // A detection of no known landmark (a colour not on the map) tells nothing.
+    if (std::isfinite(best)) total += best;
+  }
+  return total;
+}
+
+bool LandmarkParticleFilter::sample_from_sensors(const locsim_landmarks& reading, double& x,
+                                                 double& y, double& theta) {
+  // A ring around one detected landmark, heading fixed by the bearing; with more detections,
+  // several ring candidates weighted by all of them (their intersection, approximately).
+  constexpr int kCandidates = 16;
+  double best_x[kCandidates], best_y[kCandidates], best_theta[kCandidates], log_w[kCandidates];
+  int made = 0;
+  for (int c = 0; c < kCandidates; ++c) {
+    const locsim_detection& d = reading.detections[std::min(
+        reading.count - 1,
+        static_cast<std::size_t>(random_.uniform() * static_cast<double>(reading.count)))];
+    const auto options = candidates(d);
+    if (options.empty()) continue;
+    const Landmark& l = *options[std::min(
+        options.size() - 1,
+        static_cast<std::size_t>(random_.uniform() * static_cast<double>(options.size())))];
+    const double r = std::max(0.05, d.range_m + random_.normal(sigma_range_m_));
+    const double phi = d.bearing_rad + random_.normal(sigma_bearing_rad_);
+    const double alpha =
+        random_.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
+    best_x[made] = l.x - r * std::cos(alpha);
+    best_y[made] = l.y - r * std::sin(alpha);
+    best_theta[made] = sdk::wrap(alpha - phi);
+    log_w[made] = reading.count > 1
+                      ? log_likelihood(best_x[made], best_y[made], best_theta[made], reading)
+                      : 0.0;
+    ++made;
+    if (reading.count == 1) break;  // one detection: the ring itself is the distribution
+  }
+  if (made == 0) return false;
+  const double top = *std::max_element(log_w, log_w + made);
+  double sum = 0.0, w[kCandidates];
+  for (int c = 0; c < made; ++c) sum += w[c] = std::exp(log_w[c] - top);
+  double u = random_.uniform() * sum;
+  int pick = 0;
+  while (pick + 1 < made && (u -= w[pick]) > 0.0) ++pick;
+  x = best_x[pick], y = best_y[pick], theta = best_theta[pick];
+  return true;
+}
+
+void LandmarkParticleFilter::on_odometry(double, const locsim_odometry& odometry) {
+  const sdk::Pose now(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+  if (last_odometry_)
+    sdk::sample_motion(particles_, sdk::decompose(*last_odometry_, now), noise_, random_);
+  last_odometry_ = now;
+}
+
+void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
+  if (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_) return;
+  if (reading.count == 0) return;  // nothing seen: no information, no step
+  ++steps_;
+  const std::size_t n = particles_.size();
+  // Weight (in logs, then one shift and exp per particle: no underflow with many detections).
+  log_weights_.resize(n);
+  double top = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    log_weights_[i] =
+        log_likelihood(particles_.x[i], particles_.y[i], particles_.theta[i], reading);
+    top = std::max(top, log_weights_[i]);
+  }
+  double sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) sum += particles_.weight[i] = std::exp(log_weights_[i] - top);
+  // log of the mean likelihood p~ = sum_i p(z | x_i) / n.
+  const double log_mean_likelihood = top + std::log(sum / static_cast<double>(n));
+  mean_likelihood_ = std::exp(log_mean_likelihood);
+  sdk::normalize(particles_.weight);
+  n_eff_ = sdk::effective_sample_size(particles_.weight);
+
+  if (low_variance_) {
+    sdk::low_variance_resample(particles_.weight, random_, chosen_);
+  } else {
+    sdk::roulette_resample(particles_.weight, random_, chosen_, cumulative_);
+  }
+  sdk::apply_resample(particles_, chosen_, scratch_);
+
+  // How many to replace.
+  double fraction = 0.0;
+  const double m = static_cast<double>(reading.count);
+  switch (recovery_) {
+    case Recovery::kNone:
+      break;
+    case Recovery::kSensorResetting:  // Lenser and Veloso: a fixed threshold on p~
+      fraction = 1.0 - mean_likelihood_ / srl_threshold_;
+      break;
+    case Recovery::kAdaptiveSensorResetting:  // paper 004 eq. 1: ns = n max(0, 1 - p~ / (mu
+                                              // p_t^(2m)))
+      fraction =
+          1.0 - std::exp(log_mean_likelihood - std::log(asrl_mu_) - 2.0 * m * std::log(asrl_pt_));
+      break;
+    case Recovery::kAugmented: {
+      // Thrun's w_slow / w_fast on the per-detection (geometric mean) likelihood, so that steps
+      // with different numbers of detections compare.
+      const double w_avg = std::exp(log_mean_likelihood / m);
+      w_slow_ = w_slow_ == 0.0 ? w_avg : w_slow_ + alpha_slow_ * (w_avg - w_slow_);
+      w_fast_ = w_fast_ == 0.0 ? w_avg : w_fast_ + alpha_fast_ * (w_avg - w_fast_);
+      fraction = 1.0 - w_fast_ / w_slow_;
+      break;
+    }
+  }
+  const auto resets =
+      static_cast<std::size_t>(std::floor(static_cast<double>(n) * std::clamp(fraction, 0.0, 1.0)));
+  resets_ = static_cast<double>(resets);
+  for (std::size_t k = 0; k < resets; ++k) {
+    const auto i =
+        std::min(n - 1, static_cast<std::size_t>(random_.uniform() * static_cast<double>(n)));
+    if (recovery_ == Recovery::kAugmented ||
+        !sample_from_sensors(reading, particles_.x[i], particles_.y[i], particles_.theta[i])) {
+      sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
+    }
+  }
+}
+
+sdk::Estimate LandmarkParticleFilter::estimate() const {
+  sdk::Pose mean;
+  Eigen::Matrix3d covariance;
+  sdk::mean_and_covariance(particles_, mean, covariance);
+  return {{mean(0), mean(1), mean(2)}, covariance};
+}
+
+void LandmarkParticleFilter::particles(std::vector<locsim_pose2>& poses,
+                                       std::vector<double>& weights) const {
+  for (std::size_t i = 0; i < particles_.size(); ++i) {
+    poses.push_back({particles_.x[i], particles_.y[i], particles_.theta[i]});
+    weights.push_back(particles_.weight[i]);
+  }
+}
+
+std::vector<std::pair<std::string, double>> LandmarkParticleFilter::diagnostics() const {
+  return {{"n_eff", n_eff_},
+          {"particles", static_cast<double>(particles_.size())},
+          {"resets", resets_},
+          {"mean_likelihood", mean_likelihood_},
+          {"steps", static_cast<double>(steps_)}};
+}
+
+}  // namespace locsim::particle_filters

@@ -1,0 +1,129 @@
+// Monte Carlo localization on landmark detections (paper 004, SPEC section 2), with the recovery
+// schemes that make the difference after a kidnapping: none (mcl), sensor resetting with a fixed
+// threshold (srl, Lenser and Veloso), adaptive sensor resetting (asrl, the paper's eq. 1), and
+// Thrun's w_slow/w_fast random injection (augmented_mcl, as nav2 AMCL has).
+//
+// One perception update (a camera frame with detections) is one "step": weight every particle by
+// the detections, resample, then replace ns particles by poses drawn from the sensor
+// distribution (srl, asrl) or uniformly (augmented_mcl).
+#pragma once
+
+#include <cmath>
+#include <locsim/localizer.hpp>
+#include <locsim/particles.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace locsim::particle_filters {
+
+enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmented };
+
+/// Parameters every variant declares; each adds its recovery's.
+#define LOCSIM_LANDMARK_PF_PARAMS                                                          \
+  {"particles", LOCSIM_PARAM_INT, 200, 1, 1000000, nullptr, "number of particles n [-]"},  \
+      {"alpha1",                                                                           \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       0.0014,                                                                             \
+       0,                                                                                  \
+       10,                                                                                 \
+       nullptr,                                                                            \
+       "rotation noise from rotation (paper 004) [-]"},                                    \
+      {"alpha2",                                                                           \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       0.000125,                                                                           \
+       0,                                                                                  \
+       10,                                                                                 \
+       nullptr,                                                                            \
+       "rotation noise from translation [rad/m]"},                                         \
+      {"alpha3",                                                                           \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       0.01,                                                                               \
+       0,                                                                                  \
+       10,                                                                                 \
+       nullptr,                                                                            \
+       "translation noise from translation [-]"},                                          \
+      {"alpha4",                                                                           \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       0.26,                                                                               \
+       0,                                                                                  \
+       10,                                                                                 \
+       nullptr,                                                                            \
+       "translation noise from rotation [m/rad]"},                                         \
+      {"variance_form",                                                                    \
+       LOCSIM_PARAM_BOOL,                                                                  \
+       0,                                                                                  \
+       0,                                                                                  \
+       1,                                                                                  \
+       nullptr,                                                                            \
+       "Thrun's variance form of the motion noise"},                                       \
+      {"sigma_range_m",                                                                    \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       0.3,                                                                                \
+       1e-6,                                                                               \
+       100,                                                                                \
+       nullptr,                                                                            \
+       "range noise of a detection [m]"},                                                  \
+      {"sigma_bearing_deg",                                                                \
+       LOCSIM_PARAM_DOUBLE,                                                                \
+       3.0,                                                                                \
+       1e-6,                                                                               \
+       180,                                                                                \
+       nullptr,                                                                            \
+       "bearing noise of a detection [deg]"},                                              \
+      {"resampler",                                                                        \
+       LOCSIM_PARAM_STRING,                                                                \
+       0,                                                                                  \
+       0,                                                                                  \
+       0,                                                                                  \
+       "roulette",                                                                         \
+       "roulette (as in the paper) or low_variance"},                                      \
+  {                                                                                        \
+    "use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "also use the omnidirectional camera" \
+  }
+
+class LandmarkParticleFilter : public sdk::Localizer {
+ public:
+  LandmarkParticleFilter(const locsim_init& init, Recovery recovery);
+
+  void on_odometry(double t_s, const locsim_odometry& odometry) override;
+  void on_landmarks(double t_s, const locsim_landmarks& reading) override;
+  sdk::Estimate estimate() const override;
+  void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override;
+  std::vector<std::pair<std::string, double>> diagnostics() const override;
+
+ private:
+  struct Landmark {
+    int id;
+    std::string color;
+    double x, y;
+  };
+  /// The landmarks a detection may be: by id when the camera gives one, else by colour.
+  std::vector<const Landmark*> candidates(const locsim_detection& d) const;
+  /// log p(z | x) of all detections; for each, the best-matching candidate.
+  double log_likelihood(double x, double y, double theta, const locsim_landmarks& reading) const;
+  /// A pose consistent with the detections (a ring around one landmark, weighted by the others).
+  bool sample_from_sensors(const locsim_landmarks& reading, double& x, double& y, double& theta);
+  void sample_uniform(double& x, double& y, double& theta);
+
+  Recovery recovery_;
+  sdk::Random random_;
+  sdk::ParticleSet particles_, scratch_;
+  sdk::OdometryNoise noise_;
+  double sigma_range_m_, sigma_bearing_rad_;
+  bool low_variance_, use_omni_;
+  // Recovery parameters.
+  double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
+  double w_slow_ = 0.0, w_fast_ = 0.0;
+  std::vector<Landmark> landmarks_;
+  locsim_occupancy_grid grid_{};
+  std::vector<std::uint8_t> grid_cells_;
+  std::optional<sdk::Pose> last_odometry_;
+  std::vector<std::size_t> chosen_;
+  std::vector<double> cumulative_, log_weights_;
+  // Diagnostics of the last step.
+  double n_eff_ = 0.0, mean_likelihood_ = 0.0, resets_ = 0.0;
+  long steps_ = 0;
+};
+
+}  // namespace locsim::particle_filters
