@@ -14,8 +14,11 @@ cmake -S "$work/my_filter" -B "$work/my_filter/build" -DCMAKE_PREFIX_PATH="$work
   -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$work/my_filter/build" >/dev/null
 export LOCSIM_PLUGIN_PATH="$work/my_filter/build"
-"$locsim" plugins | grep -q "^my_filter "
-"$locsim" plugins | grep -q "^odometry "   # the installed built-ins are found from the prefix
+# Capture first: `grep -q` stops reading at its match, and under pipefail the writer's SIGPIPE
+# would fail the test once the listing outgrows the pipe buffer.
+listing=$("$locsim" plugins)
+grep -q "^my_filter " <<<"$listing"
+grep -q "^odometry " <<<"$listing"   # the installed built-ins are found from the prefix
 "$locsim" run "$source_dir/worlds/demo/demo.yaml" --duration 5 --out "$work/run" -q \
   --localizer my_filter:gain=0.2 --localizer odometry
 test -s "$work/run/my_filter.tum"
