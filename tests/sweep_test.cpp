@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <sstream>
 #include <thread>
 
 #include "sim/experiments/experiment.hpp"
@@ -53,6 +54,17 @@ TEST(Sweep, ResultsAreTheSameWhateverTheNumberOfJobs) {
   sweep(experiment, dir / "two", 2);
   const std::string results = testing::read_file(dir / "one/results.csv");
   EXPECT_EQ(std::count(results.begin(), results.end(), '\n'), 10);
+  // Every row has the header's columns (tools read it by name).
+  std::istringstream rows(results);
+  std::string header, row;
+  std::getline(rows, header);
+  EXPECT_NE(header.find(",converged_steps,"), std::string::npos);
+  EXPECT_NE(header.find(",recovery_steps"), std::string::npos);
+  while (std::getline(rows, row)) {
+    EXPECT_EQ(std::count(row.begin(), row.end(), ','),
+              std::count(header.begin(), header.end(), ','))
+        << row;
+  }
   EXPECT_EQ(results, testing::read_file(dir / "two/results.csv"));
   EXPECT_EQ(testing::read_file(dir / "one/summary.csv"),
             testing::read_file(dir / "two/summary.csv"));

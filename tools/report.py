@@ -5,7 +5,7 @@
 
 Sweep folder: the summary table, error vs time per configuration (mean over seeds with its 95 %
 band, kidnaps marked), each grid parameter's effect on the position error, and the CDFs of the
-convergence and recovery times. Run folder: its localizers' metrics and error vs time.
+convergence and recovery steps. Run folder: its localizers' metrics and error vs time.
 Uses Debian's python3-matplotlib; writes DIR/report.md and DIR/report/*.png.
 """
 import argparse
@@ -148,6 +148,8 @@ def sweep_report(root, out_dir):
             cis.append(t975(len(v) - 1) * s / math.sqrt(len(v)) if len(v) > 1 else 0.0)
         fig, ax = plt.subplots(figsize=(6, 4))
         ax.errorbar(xs, means, yerr=cis, marker="o", capsize=4)
+        if xs[0] > 0 and xs[-1] / xs[0] >= 20:  # a sweep over orders of magnitude (particles)
+            ax.set_xscale("log")
         ax.set_xlabel(key)
         ax.set_ylabel("position RMS [m]")
         ax.set_title(f"{base}: position RMS against {key}")
@@ -158,14 +160,14 @@ def sweep_report(root, out_dir):
         plt.close(fig)
         lines += [f"## {base}: {key}", "", f"![{key}](report/{name})", ""]
 
-    # CDFs of convergence and recovery times.
+    # CDFs of convergence and recovery, in steps (perception updates, the papers' unit).
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for i, config in enumerate(configs):
         rows = [r for r in results if r["config"] == config]
-        converged = sorted(float(r["converged_s"]) for r in rows if r["converged_s"])
+        converged = sorted(float(r["converged_steps"]) for r in rows if r["converged_steps"])
         recoveries = []
         for r in rows:
-            for value in filter(None, r["recovery_s"].split(";")):
+            for value in filter(None, r["recovery_steps"].split(";")):
                 recoveries.append(math.inf if value == "never" else float(value))
         for ax, values, total in ((axes[0], converged, len(rows)), (axes[1], sorted(recoveries), len(recoveries))):
             finite = [v for v in values if math.isfinite(v)]
@@ -173,7 +175,7 @@ def sweep_report(root, out_dir):
                 ax.step(finite, [(k + 1) / total for k in range(len(finite))], where="post",
                         color=COLORS[i % len(COLORS)], label=config)
     for ax, title in ((axes[0], "convergence time"), (axes[1], "recovery time after a kidnap")):
-        ax.set_xlabel("time [s]")
+        ax.set_xlabel("steps (perception updates)")
         ax.set_ylabel("fraction of runs")
         ax.set_ylim(0, 1.02)
         ax.set_title(f"CDF of {title} (never: stays below 1)")

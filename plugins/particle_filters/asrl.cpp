@@ -12,8 +12,9 @@ class Asrl final : public locsim::particle_filters::LandmarkParticleFilter {
 constexpr locsim_param_decl kParams[] = {
     LOCSIM_LANDMARK_PF_PARAMS,
     {"mu", LOCSIM_PARAM_DOUBLE, 1.0, 1e-12, 1e12, nullptr, "tuning factor mu of eq. 1 [-]"},
-    {"p_t", LOCSIM_PARAM_DOUBLE, 0.7, 1e-12, 1e12, nullptr,
-     "per-component likelihood threshold p_t of eq. 1: larger resets sooner [-]"}};
+    {"p_t", LOCSIM_PARAM_DOUBLE, 0.3, 1e-12, 1, nullptr,
+     "per-component likelihood threshold p_t of eq. 1, each component scaled to 1 at a perfect "
+     "match: larger resets sooner [-]"}};
 }  // namespace
 
 LOCSIM_LOCALIZER(Asrl, "asrl", "Adaptive sensor resetting localization (paper 004)", kParams)

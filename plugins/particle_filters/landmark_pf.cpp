@@ -12,6 +12,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
   noise_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
             params.number("alpha4"), params.flag("variance_form")};
   sigma_range_m_ = params.number("sigma_range_m");
+  sigma_range_per_m_ = params.number("sigma_range_per_m");
   sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
   const std::string resampler = params.string("resampler");
   if (resampler != "roulette" && resampler != "low_variance") {
@@ -19,7 +20,9 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
                                 "'");
   }
   low_variance_ = resampler == "low_variance";
+  use_ptz_ = params.flag("use_ptz");
   use_omni_ = params.flag("use_omni");
+  if (!use_ptz_ && !use_omni_) throw std::invalid_argument("use_ptz and use_omni are both off");
   switch (recovery_) {
     case Recovery::kNone:
       break;
@@ -91,11 +94,13 @@ double LandmarkParticleFilter::log_likelihood(double x, double y, double theta,
   double total = 0.0;
   for (size_t k = 0; k < reading.count; ++k) {
     const locsim_detection& d = reading.detections[k];
+    // The range noise follows the measured range, the same for every particle.
+    const double sigma_range = sigma_range_m_ + sigma_range_per_m_ * d.range_m;
     double best = -std::numeric_limits<double>::infinity();
     for (const Landmark& l : landmarks_) {
       if (!(d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color))) continue;
-      best = std::max(best, sdk::landmark_log_likelihood(x, y, theta, d.range_m, d.bearing_rad, l.x,
-                                                         l.y, sigma_range_m_, sigma_bearing_rad_));
+      best = std::max(best, sdk::landmark_log_match(x, y, theta, d.range_m, d.bearing_rad, l.x, l.y,
+                                                    sigma_range, sigma_bearing_rad_));
     }
     // A detection of no known landmark (a colour not on the map) tells nothing.
     if (std::isfinite(best)) total += best;
@@ -119,7 +124,8 @@ bool LandmarkParticleFilter::sample_from_sensors(const locsim_landmarks& reading
     const Landmark& l = *options[std::min(
         options.size() - 1,
         static_cast<std::size_t>(random_.uniform() * static_cast<double>(options.size())))];
-    const double r = std::max(0.05, d.range_m + random_.normal(sigma_range_m_));
+    const double r =
+        std::max(0.05, d.range_m + random_.normal(sigma_range_m_ + sigma_range_per_m_ * d.range_m));
     const double phi = d.bearing_rad + random_.normal(sigma_bearing_rad_);
     const double alpha =
         random_.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
@@ -144,16 +150,22 @@ bool LandmarkParticleFilter::sample_from_sensors(const locsim_landmarks& reading
 }
 
 void LandmarkParticleFilter::on_odometry(double, const locsim_odometry& odometry) {
-  const sdk::Pose now(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-  if (last_odometry_)
-    sdk::sample_motion(particles_, sdk::decompose(*last_odometry_, now), noise_, random_);
-  last_odometry_ = now;
+  odometry_now_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+  if (!odometry_applied_) odometry_applied_ = odometry_now_;
+}
+
+void LandmarkParticleFilter::apply_pending_motion() {
+  if (!odometry_now_ || !odometry_applied_) return;
+  sdk::sample_motion(particles_, sdk::decompose(*odometry_applied_, *odometry_now_), noise_,
+                     random_);
+  odometry_applied_ = odometry_now_;
 }
 
 void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
-  if (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_) return;
+  if (reading.camera == LOCSIM_CAMERA_OMNI ? !use_omni_ : !use_ptz_) return;
   if (reading.count == 0) return;  // nothing seen: no information, no step
   ++steps_;
+  apply_pending_motion();
   const std::size_t n = particles_.size();
   // Weight (in logs, then one shift and exp per particle: no underflow with many detections).
   log_weights_.resize(n);
@@ -165,7 +177,8 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   }
   double sum = 0.0;
   for (std::size_t i = 0; i < n; ++i) sum += particles_.weight[i] = std::exp(log_weights_[i] - top);
-  // log of the mean likelihood p~ = sum_i p(z | x_i) / n.
+  injected_ = 0;
+  // log of the mean likelihood p~ = sum_i p(z | x_i) / n (each p scaled to 1 at a perfect match).
   const double log_mean_likelihood = top + std::log(sum / static_cast<double>(n));
   mean_likelihood_ = std::exp(log_mean_likelihood);
   sdk::normalize(particles_.weight);
@@ -205,20 +218,42 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   const auto resets =
       static_cast<std::size_t>(std::floor(static_cast<double>(n) * std::clamp(fraction, 0.0, 1.0)));
   resets_ = static_cast<double>(resets);
+  // Which ones: a random subset (a partial Fisher-Yates shuffle), moved to the tail so that the
+  // estimate can leave them out until they have been weighted.
   for (std::size_t k = 0; k < resets; ++k) {
-    const auto i =
-        std::min(n - 1, static_cast<std::size_t>(random_.uniform() * static_cast<double>(n)));
+    const std::size_t i = n - 1 - k;
+    const std::size_t pick =
+        std::min(i, static_cast<std::size_t>(random_.uniform() * static_cast<double>(i + 1)));
+    std::swap(particles_.x[i], particles_.x[pick]);
+    std::swap(particles_.y[i], particles_.y[pick]);
+    std::swap(particles_.theta[i], particles_.theta[pick]);
     if (recovery_ == Recovery::kAugmented ||
         !sample_from_sensors(reading, particles_.x[i], particles_.y[i], particles_.theta[i])) {
       sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
     }
   }
+  injected_ = resets;
 }
 
 sdk::Estimate LandmarkParticleFilter::estimate() const {
   sdk::Pose mean;
   Eigen::Matrix3d covariance;
-  sdk::mean_and_covariance(particles_, mean, covariance);
+  if (injected_ == 0 || injected_ >= particles_.size()) {
+    sdk::mean_and_covariance(particles_, mean, covariance);
+  } else {
+    // The weighted-and-resampled part only (copied: estimate() is const and rare).
+    sdk::ParticleSet evidence;
+    const std::size_t kept = particles_.size() - injected_;
+    evidence.x.assign(particles_.x.begin(), particles_.x.begin() + kept);
+    evidence.y.assign(particles_.y.begin(), particles_.y.begin() + kept);
+    evidence.theta.assign(particles_.theta.begin(), particles_.theta.begin() + kept);
+    evidence.weight.assign(kept, 1.0 / static_cast<double>(kept));
+    sdk::mean_and_covariance(evidence, mean, covariance);
+  }
+  if (odometry_now_ && odometry_applied_) {
+    // Moved by the odometry since the last step (its noise is in the next step's sampling).
+    mean = sdk::compose(mean, sdk::between(*odometry_applied_, *odometry_now_));
+  }
   return {{mean(0), mean(1), mean(2)}, covariance};
 }
 

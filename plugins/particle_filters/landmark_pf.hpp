@@ -19,68 +19,30 @@ namespace locsim::particle_filters {
 
 enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmented };
 
-/// Parameters every variant declares; each adds its recovery's.
-#define LOCSIM_LANDMARK_PF_PARAMS                                                          \
-  {"particles", LOCSIM_PARAM_INT, 200, 1, 1000000, nullptr, "number of particles n [-]"},  \
-      {"alpha1",                                                                           \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       0.0014,                                                                             \
-       0,                                                                                  \
-       10,                                                                                 \
-       nullptr,                                                                            \
-       "rotation noise from rotation (paper 004) [-]"},                                    \
-      {"alpha2",                                                                           \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       0.000125,                                                                           \
-       0,                                                                                  \
-       10,                                                                                 \
-       nullptr,                                                                            \
-       "rotation noise from translation [rad/m]"},                                         \
-      {"alpha3",                                                                           \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       0.01,                                                                               \
-       0,                                                                                  \
-       10,                                                                                 \
-       nullptr,                                                                            \
-       "translation noise from translation [-]"},                                          \
-      {"alpha4",                                                                           \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       0.26,                                                                               \
-       0,                                                                                  \
-       10,                                                                                 \
-       nullptr,                                                                            \
-       "translation noise from rotation [m/rad]"},                                         \
-      {"variance_form",                                                                    \
-       LOCSIM_PARAM_BOOL,                                                                  \
-       0,                                                                                  \
-       0,                                                                                  \
-       1,                                                                                  \
-       nullptr,                                                                            \
-       "Thrun's variance form of the motion noise"},                                       \
-      {"sigma_range_m",                                                                    \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       0.3,                                                                                \
-       1e-6,                                                                               \
-       100,                                                                                \
-       nullptr,                                                                            \
-       "range noise of a detection [m]"},                                                  \
-      {"sigma_bearing_deg",                                                                \
-       LOCSIM_PARAM_DOUBLE,                                                                \
-       3.0,                                                                                \
-       1e-6,                                                                               \
-       180,                                                                                \
-       nullptr,                                                                            \
-       "bearing noise of a detection [deg]"},                                              \
-      {"resampler",                                                                        \
-       LOCSIM_PARAM_STRING,                                                                \
-       0,                                                                                  \
-       0,                                                                                  \
-       0,                                                                                  \
-       "roulette",                                                                         \
-       "roulette (as in the paper) or low_variance"},                                      \
-  {                                                                                        \
-    "use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "also use the omnidirectional camera" \
-  }
+/// Parameters every variant declares; each adds its recovery's. The detection noise defaults fit
+/// locsim's PTZ camera at 160 x 120 (range from the blob's height in rows: its error grows with
+/// distance; docs/sensors.md), not the paper's unpublished deltas.
+// clang-format off
+#define LOCSIM_LANDMARK_PF_PARAMS                                                                  \
+  {"particles", LOCSIM_PARAM_INT, 200, 1, 1000000, nullptr, "number of particles n [-]"},          \
+  {"alpha1", LOCSIM_PARAM_DOUBLE, 0.0014, 0, 10, nullptr,                                          \
+   "rotation noise from rotation (paper 004) [-]"},                                                \
+  {"alpha2", LOCSIM_PARAM_DOUBLE, 0.000125, 0, 10, nullptr, "rotation noise from translation [rad/m]"}, \
+  {"alpha3", LOCSIM_PARAM_DOUBLE, 0.01, 0, 10, nullptr, "translation noise from translation [-]"},  \
+  {"alpha4", LOCSIM_PARAM_DOUBLE, 0.26, 0, 10, nullptr, "translation noise from rotation [m/rad]"}, \
+  {"variance_form", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                          \
+   "Thrun's variance form of the motion noise"},                                                   \
+  {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.05, 1e-6, 100, nullptr,                                 \
+   "range noise of a detection at zero range [m]"},                                                \
+  {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.05, 0, 10, nullptr,                                 \
+   "growth of the range noise with the measured range [m/m]"},                                     \
+  {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 2.0, 1e-6, 180, nullptr,                              \
+   "bearing noise of a detection [deg]"},                                                          \
+  {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
+   "roulette (as in the paper) or low_variance"},                                                  \
+  {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
+  {"use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the omnidirectional camera's detections"}
+// clang-format on
 
 class LandmarkParticleFilter : public sdk::Localizer {
  public:
@@ -100,7 +62,8 @@ class LandmarkParticleFilter : public sdk::Localizer {
   };
   /// The landmarks a detection may be: by id when the camera gives one, else by colour.
   std::vector<const Landmark*> candidates(const locsim_detection& d) const;
-  /// log p(z | x) of all detections; for each, the best-matching candidate.
+  /// log of the match of all detections (sdk::landmark_log_match, 0 = perfect); for each, the
+  /// best-matching candidate.
   double log_likelihood(double x, double y, double theta, const locsim_landmarks& reading) const;
   /// A pose consistent with the detections (a ring around one landmark, weighted by the others).
   bool sample_from_sensors(const locsim_landmarks& reading, double& x, double& y, double& theta);
@@ -110,17 +73,25 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::Random random_;
   sdk::ParticleSet particles_, scratch_;
   sdk::OdometryNoise noise_;
-  double sigma_range_m_, sigma_bearing_rad_;
-  bool low_variance_, use_omni_;
+  double sigma_range_m_, sigma_range_per_m_, sigma_bearing_rad_;
+  bool low_variance_, use_ptz_, use_omni_;
   // Recovery parameters.
   double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
   double w_slow_ = 0.0, w_fast_ = 0.0;
   std::vector<Landmark> landmarks_;
   locsim_occupancy_grid grid_{};
   std::vector<std::uint8_t> grid_cells_;
-  std::optional<sdk::Pose> last_odometry_;
+  /// Odometry is applied once per step, just before weighting (the paper's steps 2 and 3): the
+  /// alpha noise is per perception step, as in the paper, whatever the encoder rate. Between
+  /// steps the estimate is the particles' mean moved by the odometry since.
+  void apply_pending_motion();
+  std::optional<sdk::Pose> odometry_now_, odometry_applied_;
   std::vector<std::size_t> chosen_;
   std::vector<double> cumulative_, log_weights_;
+  /// The last `injected_` particles were injected after the last weighting: hypotheses for the
+  /// next step, not yet evidence, so the estimate leaves them out (the paper's order: the
+  /// estimate is taken after resampling, step 4, before resetting, step 5).
+  std::size_t injected_ = 0;
   // Diagnostics of the last step.
   double n_eff_ = 0.0, mean_likelihood_ = 0.0, resets_ = 0.0;
   long steps_ = 0;

@@ -9,8 +9,9 @@ class Srl final : public locsim::particle_filters::LandmarkParticleFilter {
 };
 constexpr locsim_param_decl kParams[] = {
     LOCSIM_LANDMARK_PF_PARAMS,
-    {"threshold", LOCSIM_PARAM_DOUBLE, 0.5, 1e-300, 1e300, nullptr,
-     "mean likelihood below which samples are reset, whatever the number of detections [-]"}};
+    {"threshold", LOCSIM_PARAM_DOUBLE, 0.1, 1e-300, 1, nullptr,
+     "mean likelihood (1 = a perfect match) below which samples are reset, whatever the number "
+     "of detections [-]"}};
 }  // namespace
 
 LOCSIM_LOCALIZER(Srl, "srl", "Sensor resetting localization (fixed threshold)", kParams)

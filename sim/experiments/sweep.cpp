@@ -153,18 +153,21 @@ void write_tables(const fs::path& out_dir) {
   });
   {
     std::ofstream csv(out_dir / "results.csv", std::ios::binary);
-    csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,x_rms_"
-           "m,"
-           "y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,time_lost_s,"
-           "recovery_s\n";
+    csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
+           "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
+           "converged_steps,time_lost_s,recovery_s,recovery_steps\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
-      std::string recoveries;  // one per kidnap: the segments after the first
+      std::string recoveries, recovery_steps;  // one per kidnap: the segments after the first
       const json segments = m.value("segments", json::array());
       for (std::size_t k = 1; k < segments.size(); ++k) {
-        recoveries += (k == 1 ? "" : ";") + (segments[k]["recovery_s"].is_null()
-                                                 ? std::string("never")
-                                                 : number(segments[k]["recovery_s"], 4));
+        const bool never = segments[k]["recovery_s"].is_null();
+        recoveries += (k == 1 ? "" : ";") +
+                      (never ? std::string("never") : number(segments[k]["recovery_s"], 4));
+        recovery_steps +=
+            (k == 1 ? "" : ";") +
+            (never ? std::string("never")
+                   : std::to_string(segments[k].value("recovery_steps", json(0)).get<long>()));
       }
       const json p = m.value("position_error_m", json::object());
       const json h = m.value("heading_error_deg", json::object());
@@ -179,7 +182,8 @@ void write_tables(const fs::path& out_dir) {
           << number(c.value("time_s", json()), 4) << ','
           << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
                                                    : std::string())
-          << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << '\n';
+          << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
+          << recovery_steps << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).

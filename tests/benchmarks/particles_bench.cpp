@@ -27,8 +27,8 @@ void BM_ParticleUpdateLandmarks(benchmark::State& state) {
     for (std::size_t i = 0; i < n; ++i) {
       double log_w = 0.0;
       for (const auto& l : landmarks) {
-        log_w += landmark_log_likelihood(particles.x[i], particles.y[i], particles.theta[i], 2.5,
-                                         0.3, l[0], l[1], 0.3, 0.1);
+        log_w += landmark_log_match(particles.x[i], particles.y[i], particles.theta[i], 2.5, 0.3,
+                                    l[0], l[1], 0.3, 0.1);
       }
       particles.weight[i] = std::exp(log_w) + 1e-300;
     }

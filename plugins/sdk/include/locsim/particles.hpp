@@ -108,16 +108,25 @@ inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const Odometry
   }
 }
 
+/// log of the landmark likelihood below scaled to 1 at a perfect match: -(e_r^2 + e_phi^2) / 2,
+/// the errors in units of their sigma. A mean of these is dimensionless, so a threshold on it (SRL,
+/// ASRL's p_t) means the same whatever the units and noise levels; the density above is this minus
+/// a constant.
+inline double landmark_log_match(double x, double y, double theta, double range, double bearing,
+                                 double lx, double ly, double sigma_range, double sigma_bearing) {
+  const double dx = lx - x, dy = ly - y;
+  const double er = (range - std::sqrt(dx * dx + dy * dy)) / sigma_range;
+  const double eb = wrap(bearing - (std::atan2(dy, dx) - theta)) / sigma_bearing;
+  return -0.5 * (er * er + eb * eb);
+}
+
 /// log p(z | x, m) for one range-bearing detection of a landmark at (lx, ly): the sum of the two
 /// components' normal log densities, N(r - r^; 0, sigma_r^2) N(phi - phi^; 0, sigma_phi^2). Sum
 /// these over a step's detections and take one exp: cheaper, and no underflow on the way.
 inline double landmark_log_likelihood(double x, double y, double theta, double range,
                                       double bearing, double lx, double ly, double sigma_range,
                                       double sigma_bearing) {
-  const double dx = lx - x, dy = ly - y;
-  const double er = (range - std::sqrt(dx * dx + dy * dy)) / sigma_range;
-  const double eb = wrap(bearing - (std::atan2(dy, dx) - theta)) / sigma_bearing;
-  return -0.5 * (er * er + eb * eb) -
+  return landmark_log_match(x, y, theta, range, bearing, lx, ly, sigma_range, sigma_bearing) -
          std::log(2.0 * std::numbers::pi * sigma_range * sigma_bearing);
 }
 
