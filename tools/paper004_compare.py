@@ -88,6 +88,14 @@ def quartiles(values):
     return q[0], q[2]
 
 
+def save(fig, figures, name, alt, lines):
+    """Writes the figure to figures/NAME and links it in the report."""
+    fig.tight_layout()
+    fig.savefig(os.path.join(figures, name), dpi=100)
+    plt.close(fig)
+    lines += ["", f"![{alt}](figures/{name})", ""]
+
+
 def tracking_section(sweep, lines):
     rows = results(sweep)
     lines += ["## 4.1 Tracking (200 particles, known start)", "",
@@ -140,10 +148,7 @@ def global_section(sweep, lines, figures):
     ax.set_title("Global localization: steps to converge over 20 seeds")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(os.path.join(figures, "global_steps.png"), dpi=100)
-    plt.close(fig)
-    lines += ["", "![steps to converge](figures/global_steps.png)", ""]
+    save(fig, figures, "global_steps.png", "steps to converge", lines)
 
 
 def kidnap_section(sweep, lines, figures):
@@ -190,10 +195,7 @@ def kidnap_section(sweep, lines, figures):
         ax.set_title(title)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(figures, "kidnap_steps.png"), dpi=100)
-    plt.close(fig)
-    lines += ["", "![steps to recover](figures/kidnap_steps.png)", ""]
+    save(fig, figures, "kidnap_steps.png", "steps to recover", lines)
 
 
 def table1_section(sweep, lines, figures):
@@ -251,10 +253,7 @@ def table1_section(sweep, lines, figures):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.suptitle("Error against particle count, ASRL and SRL (Table 1)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(figures, "table1.png"), dpi=100)
-    plt.close(fig)
-    lines += ["![error against particle count](figures/table1.png)", ""]
+    save(fig, figures, "table1.png", "error against particle count", lines)
 
 
 def main():
