@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace locsim::sdk {
@@ -50,16 +51,106 @@ TEST(Particles, MotionNoiseHasThePapersSpreadAndThrunsVarianceForm) {
   }
 }
 
-TEST(Particles, LandmarkLikelihoodIsTheProductOfTheComponentDensities) {
+TEST(Particles, LandmarkLikelihoodIsANormalRangeTimesAVonMisesBearing) {
   // Robot at the origin facing +x, landmark at (3, 4): r = 5, phi = atan2(4, 3).
-  const double peak = landmark_likelihood(0, 0, 0, 5.0, std::atan2(4.0, 3.0), 3, 4, 0.1, 0.05);
-  EXPECT_NEAR(peak, 1.0 / (2 * std::numbers::pi * 0.1 * 0.05), 1e-9);
-  EXPECT_NEAR(landmark_likelihood(0, 0, 0, 5.1, std::atan2(4.0, 3.0), 3, 4, 0.1, 0.05),
-              peak * std::exp(-0.5), 1e-9);
-  // A bearing off by 2 pi is the same bearing.
-  EXPECT_NEAR(landmark_likelihood(0, 0, 0, 5.0, std::atan2(4.0, 3.0) + 2 * std::numbers::pi, 3, 4,
-                                  0.1, 0.05),
-              peak, 1e-9);
+  const double phi = std::atan2(4.0, 3.0);
+  EXPECT_NEAR(landmark_log_match(0, 0, 0, 5.0, phi, 3, 4, 0.1, 0.05), 0.0, 1e-12);
+  // One sigma of range error: -1/2; a bearing error e: -(1 - cos e) / sigma^2.
+  EXPECT_NEAR(landmark_log_match(0, 0, 0, 5.1, phi, 3, 4, 0.1, 0.05), -0.5, 1e-9);
+  EXPECT_NEAR(landmark_log_match(0, 0, 0, 5.0, phi + 0.3, 3, 4, 0.1, 0.05),
+              -(1.0 - std::cos(0.3)) / (0.05 * 0.05), 1e-9);
+  // Near a perfect match the bearing term is the Gaussian's e^2 / (2 sigma^2) (1 % at 14 deg).
+  const double e = 14.0 * std::numbers::pi / 180.0;
+  EXPECT_NEAR(
+      landmark_log_match(0, 0, 0, 5.0, phi + e, 3, 4, 0.1, 0.05) / (-0.5 * e * e / (0.05 * 0.05)),
+      1.0, 0.01);
+  // A bearing off by 2 pi is the same bearing; the far side of the circle is the worst match.
+  EXPECT_NEAR(landmark_log_match(0, 0, 0, 5.0, phi + 2 * std::numbers::pi, 3, 4, 0.1, 0.05), 0.0,
+              1e-9);
+  EXPECT_NEAR(landmark_log_match(0, 0, 0, 5.0, phi + std::numbers::pi, 3, 4, 0.1, 0.05),
+              -2.0 / (0.05 * 0.05), 1e-9);
+  // The density integrates to 1 over range and bearing, for narrow and wide bearing noise (the
+  // von Mises normaliser by both of its series).
+  for (const double sigma_bearing : {0.05, 0.5, 1.5}) {
+    double total = 0.0;
+    const int steps = 1000;
+    const double dr = 2.0 / steps, db = 2.0 * std::numbers::pi / steps;
+    for (int i = 0; i < steps; ++i) {
+      for (int j = 0; j < steps; ++j) {
+        total +=
+            landmark_likelihood(0, 0, 0, 4.0 + (i + 0.5) * dr,
+                                phi - std::numbers::pi + (j + 0.5) * db, 3, 4, 0.1, sigma_bearing) *
+            dr * db;
+      }
+    }
+    EXPECT_NEAR(total, 1.0, 1e-6) << sigma_bearing;
+  }
+}
+
+TEST(Particles, BatchLandmarkMatchIsTheScalarOneForEveryParticle) {
+  Random random(5);
+  ParticleSet p;
+  p.resize(1001);  // odd: the vector loop's scalar tail too
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.x[i] = random.uniform(-1, 7), p.y[i] = random.uniform(-1, 5);
+    p.theta[i] = random.uniform(-std::numbers::pi, std::numbers::pi);
+  }
+  p.x[7] = 3.0, p.y[7] = 4.0;  // on the landmark itself: finite, no division by zero
+  Headings headings;
+  headings.compute(p);
+  std::vector<double> out;
+  landmark_log_match(p, headings, 2.5, -0.7, 3.0, 4.0, 0.2, 0.04, out);
+  ASSERT_EQ(out.size(), p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double scalar =
+        landmark_log_match(p.x[i], p.y[i], p.theta[i], 2.5, -0.7, 3.0, 4.0, 0.2, 0.04);
+    ASSERT_TRUE(std::isfinite(out[i])) << i;
+    EXPECT_NEAR(out[i], scalar, 1e-9 * (1.0 + std::abs(scalar))) << i;
+  }
+}
+
+// Kolmogorov-Smirnov distance of `samples` (sorted here) from the distribution `cdf`.
+template <class Cdf>
+double ks_distance(std::vector<double>& samples, Cdf cdf) {
+  std::sort(samples.begin(), samples.end());
+  double d = 0.0;
+  const auto n = static_cast<double>(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const double f = cdf(samples[i]);
+    d = std::max({d, std::abs(f - static_cast<double>(i) / n),
+                  std::abs(f - static_cast<double>(i + 1) / n)});
+  }
+  return d;
+}
+
+TEST(SdkRandom, ZigguratNormalsAndExponentialsHaveTheirDistributions) {
+  // The tables close: the last strip reaches the density's peak.
+  const auto& zn = detail::normal_ziggurat();
+  EXPECT_NEAR(9.91256303526217e-3 / zn.x[127] + zn.fx[127], 1.0, 1e-9);
+  const auto& ze = detail::exponential_ziggurat();
+  EXPECT_NEAR(3.949659822581572e-3 / ze.x[255] + ze.fx[255], 1.0, 1e-9);
+
+  Random random(2024);
+  const std::size_t n = 400000;
+  std::vector<double> normals(n), exponentials(n);
+  double tail_normal = 0.0, tail_exponential = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    normals[i] = random.normal();
+    exponentials[i] = random.exponential();
+    tail_normal += std::abs(normals[i]) > 3.5 ? 1.0 : 0.0;  // beyond r: the tail algorithm
+    tail_exponential += exponentials[i] > 8.0 ? 1.0 : 0.0;
+  }
+  // KS at 400 000 samples: the 0.1 % critical distance is 1.95 / sqrt(n) = 0.0031.
+  EXPECT_LT(ks_distance(normals, [](double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }),
+            0.0031);
+  EXPECT_LT(ks_distance(exponentials, [](double x) { return 1.0 - std::exp(-x); }), 0.0031);
+  // The tails beyond the base strip, within 5 standard errors of a binomial count.
+  const double p_normal = std::erfc(3.5 / std::sqrt(2.0)), p_exponential = std::exp(-8.0);
+  EXPECT_NEAR(tail_normal / n, p_normal, 5 * std::sqrt(p_normal / n));
+  EXPECT_NEAR(tail_exponential / n, p_exponential, 5 * std::sqrt(p_exponential / n));
+  // Seeded: the same seed, the same numbers.
+  Random a(9), b(9);
+  for (int i = 0; i < 1000; ++i) ASSERT_EQ(a.normal(), b.normal());
 }
 
 TEST(Particles, EffectiveSampleSizeAndNormalisation) {
@@ -92,17 +183,32 @@ TEST(Particles, LowVarianceResamplingCopiesInProportionToWeight) {
   }
 }
 
-TEST(Particles, RouletteResamplingIsUnbiased) {
+TEST(Particles, RouletteResamplingIsMultinomial) {
+  // Each draw independent: a particle of weight w gets n w copies on average with the binomial
+  // variance n w (1 - w) (systematic resampling's would be below 1/4).
   const std::vector<double> w = {0.1, 0.2, 0.3, 0.4};
   Random random(11);
   std::vector<std::size_t> chosen;
-  std::vector<double> cumulative;
-  std::vector<double> total(4, 0.0);
-  for (int trial = 0; trial < 20000; ++trial) {
-    roulette_resample(w, random, chosen, cumulative);
-    for (const std::size_t c : chosen) total[c] += 1.0;
+  std::vector<double> spacings;
+  const int trials = 20000;
+  std::vector<double> total(4, 0.0), squares(4, 0.0);
+  for (int trial = 0; trial < trials; ++trial) {
+    roulette_resample(w, random, chosen, spacings);
+    ASSERT_EQ(chosen.size(), 4u);
+    ASSERT_TRUE(std::is_sorted(chosen.begin(), chosen.end()));
+    std::vector<double> copies(4, 0.0);
+    for (const std::size_t c : chosen) copies[c] += 1.0;
+    for (std::size_t i = 0; i < 4; ++i) total[i] += copies[i], squares[i] += copies[i] * copies[i];
   }
-  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(total[i] / (20000 * 4), w[i], 0.005);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double mean = total[i] / trials, variance = squares[i] / trials - mean * mean;
+    EXPECT_NEAR(mean, 4 * w[i], 0.03) << i;
+    EXPECT_NEAR(variance, 4 * w[i] * (1 - w[i]), 0.05) << i;
+  }
+  // Zero-weight particles are never chosen, at either end.
+  const std::vector<double> ends = {0.0, 1.0, 0.0};
+  roulette_resample(ends, random, chosen, spacings);
+  for (const std::size_t c : chosen) EXPECT_EQ(c, 1u);
 }
 
 TEST(Particles, MeanHeadingIsCircularAndResamplingKeepsTheCount) {

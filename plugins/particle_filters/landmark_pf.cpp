@@ -80,65 +80,89 @@ void LandmarkParticleFilter::sample_uniform(double& x, double& y, double& theta)
   theta = random_.uniform(-std::numbers::pi, std::numbers::pi);
 }
 
-std::vector<const LandmarkParticleFilter::Landmark*> LandmarkParticleFilter::candidates(
-    const locsim_detection& d) const {
-  std::vector<const Landmark*> out;
-  for (const Landmark& l : landmarks_) {
-    if (d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color)) out.push_back(&l);
+void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
+  if (step_.size() < reading.count) step_.resize(reading.count);
+  step_count_ = 0;
+  for (std::size_t k = 0; k < reading.count; ++k) {
+    const locsim_detection& d = reading.detections[k];
+    StepDetection& s = step_[step_count_];
+    s.candidates.clear();
+    for (std::size_t j = 0; j < landmarks_.size(); ++j) {
+      const Landmark& l = landmarks_[j];
+      if (d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color))
+        s.candidates.push_back(j);
+    }
+    if (s.candidates.empty()) continue;  // a landmark not on the map tells nothing
+    s.range_m = d.range_m;
+    s.bearing_rad = d.bearing_rad;
+    // The range noise follows the measured range, the same for every particle.
+    s.sigma_range_m = sigma_range_m_ + sigma_range_per_m_ * d.range_m;
+    ++step_count_;
   }
-  return out;
 }
 
-double LandmarkParticleFilter::log_likelihood(double x, double y, double theta,
-                                              const locsim_landmarks& reading) const {
+double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) const {
   double total = 0.0;
-  for (size_t k = 0; k < reading.count; ++k) {
-    const locsim_detection& d = reading.detections[k];
-    // The range noise follows the measured range, the same for every particle.
-    const double sigma_range = sigma_range_m_ + sigma_range_per_m_ * d.range_m;
+  for (std::size_t k = 0; k < step_count_; ++k) {
+    const StepDetection& d = step_[k];
     double best = -std::numeric_limits<double>::infinity();
-    for (const Landmark& l : landmarks_) {
-      if (!(d.id >= 0 ? l.id == d.id : (d.color != nullptr && l.color == d.color))) continue;
-      best = std::max(best, sdk::landmark_log_match(x, y, theta, d.range_m, d.bearing_rad, l.x, l.y,
-                                                    sigma_range, sigma_bearing_rad_));
+    for (const std::size_t j : d.candidates) {
+      best = std::max(
+          best, sdk::landmark_log_match(x, y, theta, d.range_m, d.bearing_rad, landmarks_[j].x,
+                                        landmarks_[j].y, d.sigma_range_m, sigma_bearing_rad_));
     }
-    // A detection of no known landmark (a colour not on the map) tells nothing.
-    if (std::isfinite(best)) total += best;
+    total += best;
   }
   return total;
 }
 
-bool LandmarkParticleFilter::sample_from_sensors(const locsim_landmarks& reading, double& x,
-                                                 double& y, double& theta) {
+void LandmarkParticleFilter::weigh_particles() {
+  const auto n = static_cast<Eigen::Index>(particles_.size());
+  headings_.compute(particles_);
+  log_weights_.assign(particles_.size(), 0.0);
+  Eigen::Map<Eigen::ArrayXd> log_w(log_weights_.data(), n);
+  for (std::size_t k = 0; k < step_count_; ++k) {
+    const StepDetection& d = step_[k];
+    for (std::size_t c = 0; c < d.candidates.size(); ++c) {
+      const Landmark& l = landmarks_[d.candidates[c]];
+      sdk::landmark_log_match(particles_, headings_, d.range_m, d.bearing_rad, l.x, l.y,
+                              d.sigma_range_m, sigma_bearing_rad_,
+                              c == 0 ? match_ : candidate_match_);
+      if (c > 0) {  // an ambiguous colour: the best-matching landmark of that colour
+        Eigen::Map<Eigen::ArrayXd>(match_.data(), n) =
+            Eigen::Map<Eigen::ArrayXd>(match_.data(), n)
+                .max(Eigen::Map<Eigen::ArrayXd>(candidate_match_.data(), n));
+      }
+    }
+    log_w += Eigen::Map<Eigen::ArrayXd>(match_.data(), n);
+  }
+}
+
+bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& theta) {
   // A ring around one detected landmark, heading fixed by the bearing; with more detections,
   // several ring candidates weighted by all of them (their intersection, approximately).
   constexpr int kCandidates = 16;
   double best_x[kCandidates], best_y[kCandidates], best_theta[kCandidates], log_w[kCandidates];
   int made = 0;
   for (int c = 0; c < kCandidates; ++c) {
-    const locsim_detection& d = reading.detections[std::min(
-        reading.count - 1,
-        static_cast<std::size_t>(random_.uniform() * static_cast<double>(reading.count)))];
-    const auto options = candidates(d);
-    if (options.empty()) continue;
-    const Landmark& l = *options[std::min(
-        options.size() - 1,
-        static_cast<std::size_t>(random_.uniform() * static_cast<double>(options.size())))];
-    const double r =
-        std::max(0.05, d.range_m + random_.normal(sigma_range_m_ + sigma_range_per_m_ * d.range_m));
+    const StepDetection& d =
+        step_[std::min(step_count_ - 1, static_cast<std::size_t>(
+                                            random_.uniform() * static_cast<double>(step_count_)))];
+    const Landmark& l = landmarks_[d.candidates[std::min(
+        d.candidates.size() - 1,
+        static_cast<std::size_t>(random_.uniform() * static_cast<double>(d.candidates.size())))]];
+    const double r = std::max(0.05, d.range_m + random_.normal(d.sigma_range_m));
     const double phi = d.bearing_rad + random_.normal(sigma_bearing_rad_);
     const double alpha =
         random_.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
     best_x[made] = l.x - r * std::cos(alpha);
     best_y[made] = l.y - r * std::sin(alpha);
     best_theta[made] = sdk::wrap(alpha - phi);
-    log_w[made] = reading.count > 1
-                      ? log_likelihood(best_x[made], best_y[made], best_theta[made], reading)
-                      : 0.0;
+    log_w[made] =
+        step_count_ > 1 ? log_likelihood(best_x[made], best_y[made], best_theta[made]) : 0.0;
     ++made;
-    if (reading.count == 1) break;  // one detection: the ring itself is the distribution
+    if (step_count_ == 1) break;  // one detection: the ring itself is the distribution
   }
-  if (made == 0) return false;
   const double top = *std::max_element(log_w, log_w + made);
   double sum = 0.0, w[kCandidates];
   for (int c = 0; c < made; ++c) sum += w[c] = std::exp(log_w[c] - top);
@@ -163,20 +187,19 @@ void LandmarkParticleFilter::apply_pending_motion() {
 
 void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
   if (reading.camera == LOCSIM_CAMERA_OMNI ? !use_omni_ : !use_ptz_) return;
-  if (reading.count == 0) return;  // nothing seen: no information, no step
+  prepare_step(reading);
+  if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;
   apply_pending_motion();
   const std::size_t n = particles_.size();
   // Weight (in logs, then one shift and exp per particle: no underflow with many detections).
-  log_weights_.resize(n);
-  double top = -std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < n; ++i) {
-    log_weights_[i] =
-        log_likelihood(particles_.x[i], particles_.y[i], particles_.theta[i], reading);
-    top = std::max(top, log_weights_[i]);
-  }
+  weigh_particles();
+  const Eigen::Map<const Eigen::ArrayXd> log_w(log_weights_.data(), static_cast<Eigen::Index>(n));
+  const double top = log_w.maxCoeff();
+  Eigen::Map<Eigen::ArrayXd>(particles_.weight.data(), static_cast<Eigen::Index>(n)) =
+      (log_w - top).exp();
   double sum = 0.0;
-  for (std::size_t i = 0; i < n; ++i) sum += particles_.weight[i] = std::exp(log_weights_[i] - top);
+  for (const double w : particles_.weight) sum += w;
   injected_ = 0;
   // log of the mean likelihood p~ = sum_i p(z | x_i) / n (each p scaled to 1 at a perfect match).
   const double log_mean_likelihood = top + std::log(sum / static_cast<double>(n));
@@ -187,13 +210,13 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   if (low_variance_) {
     sdk::low_variance_resample(particles_.weight, random_, chosen_);
   } else {
-    sdk::roulette_resample(particles_.weight, random_, chosen_, cumulative_);
+    sdk::roulette_resample(particles_.weight, random_, chosen_, spacings_);
   }
   sdk::apply_resample(particles_, chosen_, scratch_);
 
   // How many to replace.
   double fraction = 0.0;
-  const double m = static_cast<double>(reading.count);
+  const double m = static_cast<double>(step_count_);  // detections of mapped landmarks
   switch (recovery_) {
     case Recovery::kNone:
       break;
@@ -228,7 +251,7 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
     std::swap(particles_.y[i], particles_.y[pick]);
     std::swap(particles_.theta[i], particles_.theta[pick]);
     if (recovery_ == Recovery::kAugmented ||
-        !sample_from_sensors(reading, particles_.x[i], particles_.y[i], particles_.theta[i])) {
+        !sample_from_sensors(particles_.x[i], particles_.y[i], particles_.theta[i])) {
       sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
     }
   }

@@ -60,13 +60,20 @@ class LandmarkParticleFilter : public sdk::Localizer {
     std::string color;
     double x, y;
   };
-  /// The landmarks a detection may be: by id when the camera gives one, else by colour.
-  std::vector<const Landmark*> candidates(const locsim_detection& d) const;
-  /// log of the match of all detections (sdk::landmark_log_match, 0 = perfect); for each, the
-  /// best-matching candidate.
-  double log_likelihood(double x, double y, double theta, const locsim_landmarks& reading) const;
+  /// A detection of this step with what it may be: the landmarks with its id when the camera
+  /// gives one, else those of its colour (none: a colour not on the map, it tells nothing).
+  struct StepDetection {
+    double range_m, bearing_rad, sigma_range_m;
+    std::vector<std::size_t> candidates;  // indices into landmarks_
+  };
+  void prepare_step(const locsim_landmarks& reading);
+  /// log of the match of all this step's detections at one pose (sdk::landmark_log_match, 0 =
+  /// perfect), each with its best-matching candidate.
+  double log_likelihood(double x, double y, double theta) const;
+  /// The same for every particle, into log_weights_ (vectorised, the step's inner loop).
+  void weigh_particles();
   /// A pose consistent with the detections (a ring around one landmark, weighted by the others).
-  bool sample_from_sensors(const locsim_landmarks& reading, double& x, double& y, double& theta);
+  bool sample_from_sensors(double& x, double& y, double& theta);
   void sample_uniform(double& x, double& y, double& theta);
 
   Recovery recovery_;
@@ -87,7 +94,10 @@ class LandmarkParticleFilter : public sdk::Localizer {
   void apply_pending_motion();
   std::optional<sdk::Pose> odometry_now_, odometry_applied_;
   std::vector<std::size_t> chosen_;
-  std::vector<double> cumulative_, log_weights_;
+  std::vector<double> spacings_, log_weights_, match_, candidate_match_;
+  sdk::Headings headings_;
+  std::vector<StepDetection> step_;  // capacity reused from step to step
+  std::size_t step_count_ = 0;       // detections in step_ this step
   /// The last `injected_` particles were injected after the last weighting: hypotheses for the
   /// next step, not yet evidence, so the estimate leaves them out (the paper's order: the
   /// estimate is taken after resampling, step 4, before resetting, step 5).

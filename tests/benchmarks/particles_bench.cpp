@@ -1,7 +1,10 @@
-// Particle updates per second for the landmark model: motion sampling, weighting by 6 landmark
-// detections, normalisation, N_eff and low-variance resampling. Target (issue 6): >= 10 million
-// particle updates per second per core; 10 000 particles well under a millisecond.
+// Particle updates per second for the landmark model from the SDK's pieces: motion sampling,
+// weighting by 6 landmark detections (the batch likelihood), normalisation, N_eff and
+// resampling. landmark_pf_bench.cpp measures the same through a plugin. Target (issue 6):
+// >= 10 million particle updates per second per core; 10 000 particles well under a millisecond.
 #include <benchmark/benchmark.h>
+
+#include <algorithm>
 
 #include "locsim/particles.hpp"
 
@@ -22,25 +25,55 @@ void BM_ParticleUpdateLandmarks(benchmark::State& state) {
   const OdometryDelta delta{0.01, 0.03, -0.01};
   const OdometryNoise noise;
   std::vector<std::size_t> chosen;
+  std::vector<double> log_w(n), match, spacings;
+  Headings headings;
   for (auto _ : state) {
     sample_motion(particles, delta, noise, random);
-    for (std::size_t i = 0; i < n; ++i) {
-      double log_w = 0.0;
-      for (const auto& l : landmarks) {
-        log_w += landmark_log_match(particles.x[i], particles.y[i], particles.theta[i], 2.5, 0.3,
-                                    l[0], l[1], 0.3, 0.1);
-      }
-      particles.weight[i] = std::exp(log_w) + 1e-300;
+    headings.compute(particles);
+    std::fill(log_w.begin(), log_w.end(), 0.0);
+    for (const auto& l : landmarks) {
+      landmark_log_match(particles, headings, 2.5, 0.3, l[0], l[1], 0.3, 0.1, match);
+      for (std::size_t i = 0; i < n; ++i) log_w[i] += match[i];
     }
+    const double top = *std::max_element(log_w.begin(), log_w.end());
+    for (std::size_t i = 0; i < n; ++i) particles.weight[i] = std::exp(log_w[i] - top);
     normalize(particles.weight);
     benchmark::DoNotOptimize(effective_sample_size(particles.weight));
-    low_variance_resample(particles.weight, random, chosen);
+    if (state.range(1) == 0) {
+      roulette_resample(particles.weight, random, chosen, spacings);
+    } else {
+      low_variance_resample(particles.weight, random, chosen);
+    }
     apply_resample(particles, chosen, scratch);
   }
   state.counters["particle_updates_per_s"] =
       benchmark::Counter(static_cast<double>(n) * static_cast<double>(state.iterations()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_ParticleUpdateLandmarks)->Arg(400)->Arg(10000)->Unit(benchmark::kMicrosecond);
+// Args: particles, resampler (0 roulette as in the paper, 1 low variance).
+BENCHMARK(BM_ParticleUpdateLandmarks)
+    ->ArgsProduct({{400, 10000}, {0, 1}})
+    ->ArgNames({"particles", "low_variance"})
+    ->Unit(benchmark::kMicrosecond);
+
+// The pieces alone, per particle: where a step's time goes.
+void BM_NormalVariates(benchmark::State& state) {
+  Random random(1);
+  for (auto _ : state) benchmark::DoNotOptimize(random.normal());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_NormalVariates);
+
+void BM_RouletteResample(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  Random random(1);
+  std::vector<double> w(n);
+  for (double& v : w) v = random.uniform();
+  std::vector<std::size_t> chosen;
+  std::vector<double> spacings;
+  for (auto _ : state) roulette_resample(w, random, chosen, spacings);
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+BENCHMARK(BM_RouletteResample)->Arg(10000);
 
 }  // namespace
