@@ -42,6 +42,8 @@ TEST(Cli, HelpDocumentsTheExitCodes) {
   EXPECT_EQ(run_help.exit_code, 0);
   EXPECT_NE(run_help.output.find("--seed"), std::string::npos);
   EXPECT_NE(run_help.output.find("130  interrupted"), std::string::npos);
+  EXPECT_NE(run_help.output.find("4    --video/--frames"), std::string::npos);
+  EXPECT_NE(run_help.output.find("--video-speed"), std::string::npos);
 }
 
 TEST(Cli, BadCommandLineExitsWithTwo) {
@@ -159,6 +161,31 @@ TEST(Cli, ValidateChecksWithoutRunning) {
   EXPECT_NE(stuck.output.find("stuck.yaml:4:5: 'start': robot 'robot0' starts in collision"),
             std::string::npos)
       << stuck.output;
+}
+
+TEST(Cli, RunRendersAVideoWithNoDisplayAndReportsBadVideoOptions) {
+  unsetenv("DISPLAY");  // offscreen: no X server needed
+  unsetenv("WAYLAND_DISPLAY");
+  const fs::path dir = testing::temp_dir("cli-video");
+  const Outcome o = locsim("run " + kDemo + " --duration 1 --out " + (dir / "out").string() +
+                           " --localizer ekf_landmarks --video " + (dir / "run.mp4").string() +
+                           " --video-size 320x240 --video-fps 10");
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("video: 11 frames of 320x240"), std::string::npos) << o.output;
+  EXPECT_GT(fs::file_size(dir / "run.mp4"), 1000u);
+
+  const Outcome size = locsim("run " + kDemo + " --duration 1 --out " + (dir / "a").string() +
+                              " --video " + (dir / "a.mp4").string() + " --video-size big");
+  EXPECT_EQ(size.exit_code, 2) << size.output;
+  EXPECT_NE(size.output.find("--video-size: 'big'"), std::string::npos) << size.output;
+
+  // A video the encoder cannot write: exit 4, the message names the file, run.json says why.
+  const Outcome format = locsim("run " + kDemo + " --duration 1 --out " + (dir / "b").string() +
+                                " --video " + (dir / "b.txt").string());
+  EXPECT_EQ(format.exit_code, 4) << format.output;
+  EXPECT_NE(format.output.find("b.txt"), std::string::npos) << format.output;
+  EXPECT_NE(testing::read_file(dir / "b/run.json").find("\"status\": \"failed\""),
+            std::string::npos);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@ enum ExitCode : int {
   kExitFailure = 1,        // anything not caused by the user's input
   kExitBadInput = 2,       // bad command line, or a world/scenario/map file that cannot be used
   kExitPlugin = 3,         // a localizer plugin cannot be found, loaded or created
+  kExitRender = 4,         // the renderer cannot be loaded, or a video or frame cannot be written
   kExitInterrupted = 130,  // SIGINT; the run folder holds everything written so far
 };
 
@@ -34,6 +35,13 @@ class InputError : public std::runtime_error {
 /// A localizer plugin cannot be used: not found, not a plugin, wrong ABI, unresolved symbols,
 /// or its create call failed. The message names the plugin and the file.
 class PluginError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The renderer (render/, loaded at run time for --video and --frames) cannot be loaded, its GL
+/// context cannot be made, or a video or frame file cannot be opened or written.
+class RenderError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };

@@ -327,13 +327,16 @@ std::optional<locsim_estimate> LocalizerInstance::estimate(double t_s) {
   return out;
 }
 
-std::vector<locsim_pose2> LocalizerInstance::particles(double t_s) {
+std::vector<locsim_pose2> LocalizerInstance::particles(double t_s, std::vector<double>* weights) {
+  if (weights != nullptr) weights->clear();
   if (failure_ || table().particles == nullptr) return {};
   locsim_particles out{};
   if (table().particles(instance_, &out, error_, sizeof(error_)) != 0) {
     fail(t_s, "particles", error_);
     return {};
   }
+  if (weights != nullptr && out.weights != nullptr)
+    weights->assign(out.weights, out.weights + out.count);
   return {out.poses, out.poses + out.count};
 }
 

@@ -92,7 +92,8 @@ class LocalizerInstance {
   void deliver(const locsim_reading& reading);
   /// The current estimate, or nullopt after a failure (which this call may cause).
   std::optional<locsim_estimate> estimate(double t_s);
-  std::vector<locsim_pose2> particles(double t_s);
+  /// The particles, and their weights when the plugin gives them (else `weights` is left empty).
+  std::vector<locsim_pose2> particles(double t_s, std::vector<double>* weights = nullptr);
   /// The plugin's diagnostics, named.
   std::vector<std::pair<std::string, double>> diagnostics(double t_s);
 

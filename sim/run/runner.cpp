@@ -15,6 +15,7 @@
 
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/config_json.hpp"
+#include "sim/run/frame_capture.hpp"
 #include "sim/run/run_log.hpp"
 #include "sim/run/run_outputs.hpp"
 #include "sim/run/simulation.hpp"
@@ -311,6 +312,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
                                                       options.seed));
     }
   }
+  std::optional<FrameCapture> capture;
   const auto deliver_and_record = [&](RunWriter& writer) {
     std::vector<Reading> readings = sim.take_readings();
     for (const Reading& reading : readings) {
@@ -318,6 +320,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
         hosts[reading.robot]->deliver(reading);
     }
     writer.record(sim, readings);
+    if (capture) capture->step(sim, readings, hosts);
   };
 
   RunResult result;
@@ -363,6 +366,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   std::exception_ptr failure;
   result.status = "completed";
   try {
+    if (options.video != nullptr) capture.emplace(*options.video, options.video_options, sim);
     deliver_and_record(writer);
     while (!sim.done()) {
       if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
@@ -395,6 +399,18 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   }
   if (progress_shown) std::fprintf(stderr, "\n");
   writer.flush();
+  if (options.video != nullptr) {
+    // Closed whatever the status: the frames so far make a valid video of a failed run too.
+    try {
+      options.video->finish();
+    } catch (const std::exception& e) {
+      if (!failure) {
+        result.status = "failed";
+        error = std::string("video: ") + e.what();
+        failure = std::current_exception();
+      }
+    }
+  }
   if (log && result.status == "completed") log->finish();  // else it reads as truncated, rightly
   result.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

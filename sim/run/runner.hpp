@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "sim/metrics/error_metrics.hpp"
+#include "sim/run/frame_state.hpp"
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/world/world_def.hpp"
 
@@ -27,6 +28,8 @@ struct RunOptions {
   std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each run on every robot
   ConvergenceCriterion convergence;     // what "converged" means in metrics.json
   std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
+  FrameSink* video = nullptr;  // frames of the run (render/), at video_options' frame times
+  VideoOptions video_options;
 };
 
 struct RunResult {

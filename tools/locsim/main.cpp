@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "plugin_template.hpp"
+#include "render/loader.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
@@ -35,6 +36,8 @@ constexpr const char* kExitCodes = R"(Exit codes:
        or a localizer parameter the plugin does not declare or accept
   3    a localizer plugin not found, not a locsim plugin, of another ABI version, with unresolved
        symbols, or whose create call failed (the message says which and where it looked)
+  4    --video/--frames: the renderer cannot be loaded, no GL context, or a video or frame file
+       cannot be opened or written (frames written before stay; the video is closed and plays)
   130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted")";
 
 int validate(const std::string& world, const std::optional<std::string>& scenario) {
@@ -186,6 +189,23 @@ int main(int argc, char** argv) {
       "--localizer", options.localizers,
       "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
       "several (all get the same readings)");
+  std::string video_file, frames_dir, video_size = "1280x720";
+  locsim::VideoOptions& video = options.video_options;
+  run->add_option("--video", video_file,
+                  "Render the run offscreen into a video (.mp4: H.264, else MPEG-4; .avi, .mkv)")
+      ->group("Video");
+  run->add_option("--frames", frames_dir, "Also write every frame as a PNG into this folder")
+      ->group("Video");
+  run->add_option("--video-size", video_size, "Frame size WxH [px] (default 1280x720)")
+      ->group("Video");
+  run->add_option("--video-fps", video.fps, "Video frames per second (default 30)")->group("Video");
+  run->add_option("--video-speed", video.speed,
+                  "Simulated seconds per second of video (default 1: real time)")
+      ->group("Video");
+  run->add_flag("!--no-particles", video.particles, "Do not draw the particle clouds")
+      ->group("Video");
+  run->add_option("--gl-backend", video.backend, "Offscreen GL: osmesa (software; the default)")
+      ->group("Video");
   run->footer(
       "Writes run.json (resolved configuration, seed, version, timing), groundtruth.tum (true\n"
       "pose, TUM format), events.csv (every scenario event), readings/ (one CSV per sensor), and\n"
@@ -316,8 +336,28 @@ int main(int argc, char** argv) {
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
     options.progress = !quiet && isatty(STDERR_FILENO);
+    // The renderer is loaded only when asked for (it brings OpenGL, OpenCV and FFmpeg along).
+    std::shared_ptr<locsim::FrameSink> recorder;
+    if (!video_file.empty() || !frames_dir.empty()) {
+      int width = 0, height = 0;
+      char tail = 0;
+      if (std::sscanf(video_size.c_str(), "%dx%d%c", &width, &height, &tail) != 2) {
+        throw locsim::InputError("--video-size: '" + video_size + "' is not WxH, e.g. 1280x720");
+      }
+      video.width_px = width, video.height_px = height;
+      if (!video_file.empty()) video.video_file = video_file;
+      if (!frames_dir.empty()) video.frames_dir = frames_dir;
+      recorder = locsim::render::RenderModule::load()->make_recorder(video);
+      options.video = recorder.get();
+    }
     std::signal(SIGINT, on_sigint);
     const locsim::RunResult result = locsim::run_simulation(options, &g_interrupted);
+    if (recorder && !quiet) {
+      std::printf("video: %ld frames of %dx%d at %.0f fps%s%s\n", recorder->frames(),
+                  video.width_px, video.height_px, video.fps,
+                  video.video_file ? (" -> " + video.video_file->string()).c_str() : "",
+                  video.frames_dir ? (", PNGs in " + video.frames_dir->string()).c_str() : "");
+    }
     if (!quiet) {
       std::printf("%s: %s, %.1f s simulated in %.2f s (%.0fx real time) -> %s\n",
                   world_file.c_str(), result.status.c_str(), result.simulated_s, result.wall_s,
@@ -328,6 +368,9 @@ int main(int argc, char** argv) {
   } catch (const locsim::PluginError& e) {
     std::fprintf(stderr, "locsim: plugin error: %s\n", e.what());
     return locsim::kExitPlugin;
+  } catch (const locsim::RenderError& e) {
+    std::fprintf(stderr, "locsim: render error: %s\n", e.what());
+    return locsim::kExitRender;
   } catch (const locsim::InputError& e) {
     std::fprintf(stderr, "locsim: error: %s\n", e.what());
     return locsim::kExitBadInput;

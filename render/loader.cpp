@@ -1,0 +1,74 @@
+#include "render/loader.hpp"
+
+#include <dlfcn.h>
+
+#include <cstdlib>
+
+#include "sim/common/errors.hpp"
+
+namespace locsim::render {
+
+namespace fs = std::filesystem;
+
+std::vector<fs::path> render_module_candidates() {
+  std::vector<fs::path> out;
+  if (const char* env = std::getenv("LOCSIM_RENDER_MODULE"); env != nullptr && *env != '\0')
+    out.emplace_back(env);
+  std::error_code error;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    out.push_back(exe.parent_path() / "liblocsim_render.so");  // build tree
+    out.push_back(exe.parent_path().parent_path() / "lib/locsim/liblocsim_render.so");  // install
+  }
+  return out;
+}
+
+RenderModule::RenderModule(void* handle, fs::path path) : handle_(handle), path_(std::move(path)) {}
+
+RenderModule::~RenderModule() {
+  if (handle_ != nullptr) dlclose(handle_);
+}
+
+std::shared_ptr<RenderModule> RenderModule::load() {
+  std::string tried;
+  for (const fs::path& candidate : render_module_candidates()) {
+    if (!fs::exists(candidate)) {
+      tried += "\n  " + candidate.string() + ": not there";
+      continue;
+    }
+    void* handle = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) {
+      const char* why = dlerror();
+      tried += "\n  " + candidate.string() + ": " + (why != nullptr ? why : "dlopen failed");
+      continue;
+    }
+    std::shared_ptr<RenderModule> module(new RenderModule(handle, candidate));
+    const auto abi = reinterpret_cast<std::uint32_t (*)()>(dlsym(handle, "locsim_render_abi"));
+    module->create_ =
+        reinterpret_cast<decltype(module->create_)>(dlsym(handle, "locsim_render_create"));
+    module->destroy_ =
+        reinterpret_cast<decltype(module->destroy_)>(dlsym(handle, "locsim_render_destroy"));
+    if (abi == nullptr || module->create_ == nullptr || module->destroy_ == nullptr) {
+      tried += "\n  " + candidate.string() + ": not a locsim render module";
+      continue;
+    }
+    if (abi() != kRenderAbi) {
+      tried += "\n  " + candidate.string() + ": built from another version of locsim";
+      continue;
+    }
+    return module;
+  }
+  throw RenderError("cannot load the renderer (liblocsim_render.so) for --video/--frames:" + tried);
+}
+
+std::shared_ptr<FrameSink> RenderModule::make_recorder(const VideoOptions& options) {
+  FrameSink* sink = nullptr;
+  char error[1024] = {};
+  if (create_(&options, &sink, error, sizeof error) != 0 || sink == nullptr)
+    throw RenderError(error[0] != '\0' ? error : "the renderer could not be created");
+  // The sink keeps the module loaded for as long as it lives.
+  return std::shared_ptr<FrameSink>(
+      sink, [module = shared_from_this(), destroy = destroy_](FrameSink* s) { destroy(s); });
+}
+
+}  // namespace locsim::render

@@ -1,0 +1,87 @@
+// The top-down view of a run: the world (floor friction tinted, walls, obstacles, landmarks,
+// beacons, people), the robot's true footprint, every localizer's estimate with its covariance
+// ellipse and particles, the trajectories, the sensors' rays and field of view, and the kidnaps.
+// Drawn with OpenGL into the current context; the text (time, errors, legend) is drawn on the
+// read-back image with OpenCV (GL has no text).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "sim/run/frame_state.hpp"
+
+namespace locsim::render {
+
+using Rgb = std::array<float, 3>;  // [0, 1]
+
+/// Colours of the drawing, also what tests look for.
+struct Palette {
+  Rgb background{0.97f, 0.97f, 0.97f};  // outside the world and the side panel
+  Rgb floor{0.90f, 0.90f, 0.88f};
+  Rgb wall{0.25f, 0.25f, 0.27f};
+  Rgb truth{0.0f, 0.0f, 0.0f};
+  Rgb odometry{0.55f, 0.55f, 0.55f};
+  Rgb kidnap{0.85f, 0.0f, 0.0f};
+  Rgb person{0.95f, 0.62f, 0.25f};
+  Rgb beacon{0.45f, 0.2f, 0.6f};
+  Rgb laser{0.9f, 0.2f, 0.2f};
+  Rgb line_of_sight{0.1f, 0.65f, 0.2f};
+  Rgb occluded{0.9f, 0.0f, 0.0f};
+  Rgb camera{0.95f, 0.8f, 0.1f};
+  /// One colour per localizer, in the order they run (then repeating).
+  std::vector<Rgb> filters{{0.12f, 0.47f, 0.71f}, {1.0f, 0.5f, 0.05f},   {0.17f, 0.63f, 0.17f},
+                           {0.58f, 0.4f, 0.74f},  {0.55f, 0.34f, 0.29f}, {0.89f, 0.47f, 0.76f},
+                           {0.09f, 0.75f, 0.81f}, {0.74f, 0.74f, 0.13f}};
+  Rgb filter(std::size_t i) const { return filters[i % filters.size()]; }
+};
+
+/// Where the world lands in the image: an aspect-preserving fit of the world's bounds into the
+/// map area (the image less the side panel).
+struct View {
+  double x_min = 0, y_min = 0, x_max = 1, y_max = 1;  // world rectangle shown [m]
+  double scale_px_per_m = 1;
+  int map_width_px = 0, height_px = 0;  // the map area, from the image's left edge
+  cv::Point2d to_pixel(double x, double y) const {
+    return {(x - x_min) * scale_px_per_m, (y_max - y) * scale_px_per_m};
+  }
+};
+
+class TopDownRenderer {
+ public:
+  TopDownRenderer(const WorldDef& world, int width_px, int height_px, bool draw_particles = true);
+
+  /// Draws `frame` with GL into the current context (of width_px x height_px).
+  void draw(const FrameState& frame);
+  /// The frame's image (BGR): the static world, the particle clouds, and over them the drawn layer
+  /// (RGBA, premultiplied, rows from the top, as the context returns it).
+  void compose(const FrameState& frame, const std::uint8_t* rgba, cv::Mat& bgr) const;
+  /// Text, legend and labels onto the composed image (BGR).
+  void overlay(const FrameState& frame, cv::Mat& bgr) const;
+
+  const View& view() const { return view_; }
+  const Palette& palette() const { return palette_; }
+
+ private:
+  struct Trail {
+    std::vector<std::vector<cv::Point2d>> segments;  // broken where the robot was carried
+  };
+  void remember(const FrameState& frame);
+  void draw_static();
+
+  WorldDef world_;
+  int width_px_, height_px_;
+  bool draw_particles_;
+  Palette palette_;
+  View view_;
+  unsigned int map_texture_ = 0;  // occupancy map, if the world has one
+  cv::Mat background_;            // the static world as drawn (BGR), from the first frame on
+  std::vector<Trail> truth_, odometry_;
+  std::vector<Trail> estimates_;  // by localizer
+  std::vector<std::string> labels_;
+  std::vector<int> truth_kidnaps_;  // by robot, at its last floor frame
+};
+
+}  // namespace locsim::render

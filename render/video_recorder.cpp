@@ -1,0 +1,119 @@
+#include "render/video_recorder.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "sim/common/errors.hpp"
+
+namespace locsim::render {
+
+namespace fs = std::filesystem;
+
+VideoRecorder::VideoRecorder(VideoOptions options) : options_(std::move(options)) {
+  if (!options_.video_file && !options_.frames_dir)
+    throw RenderError("nothing to write: give a video file or a frames folder");
+  if (!(options_.fps > 0.0 && options_.fps <= 1000.0))
+    throw RenderError("--video-fps must be in (0, 1000]");
+  if (!(options_.speed > 0.0)) throw RenderError("--video-speed must be positive");
+  // Encoders want even sizes (4:2:0 chroma).
+  if (options_.width_px % 2 != 0 || options_.height_px % 2 != 0)
+    throw RenderError("--video-size must have an even width and height");
+}
+
+VideoRecorder::~VideoRecorder() {
+  try {
+    finish();
+  } catch (...) {
+    // Destructors do not throw; finish() reported through the run already, if it could.
+  }
+}
+
+void VideoRecorder::start(const WorldDef& world) {
+  context_ = make_gl_context(options_.backend, options_.width_px, options_.height_px);
+  renderer_ = std::make_unique<TopDownRenderer>(world, options_.width_px, options_.height_px,
+                                                options_.particles);
+  if (options_.video_file) {
+    encoder_ = std::make_unique<VideoEncoder>(*options_.video_file, options_.width_px,
+                                              options_.height_px, options_.fps);
+    codec_ = encoder_->codec();
+  }
+  if (options_.frames_dir) fs::create_directories(*options_.frames_dir);
+  worker_ = std::thread([this] { work(); });
+}
+
+void VideoRecorder::frame(const FrameState& frame) {
+  if (!context_) throw RenderError("frame before start");
+  rethrow_worker_error();
+  context_->make_current();
+  renderer_->draw(frame);
+  cv::Mat bgr;  // a new buffer per frame: the worker owns the queued ones
+  renderer_->compose(frame, context_->finish_frame(), bgr);
+  renderer_->overlay(frame, bgr);
+  bgr_ = bgr;
+  {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return queue_.size() < kQueued || worker_error_; });
+    queue_.emplace_back(frames_, std::move(bgr));
+  }
+  changed_.notify_all();
+  ++frames_;
+}
+
+void VideoRecorder::work() {
+  for (;;) {
+    std::pair<long, cv::Mat> item;
+    {
+      std::unique_lock lock(mutex_);
+      changed_.wait(lock, [&] { return !queue_.empty() || closing_; });
+      if (queue_.empty()) return;  // closing, all written
+      item = std::move(queue_.front());
+    }
+    try {
+      if (encoder_) encoder_->write(item.second);
+      if (options_.frames_dir) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%06ld.png", item.first);
+        const fs::path file = *options_.frames_dir / name;
+        // Fast zlib level: frames are for looking at, not archiving.
+        if (!cv::imwrite(file.string(), item.second, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+          throw RenderError("cannot write '" + file.string() + "'");
+      }
+    } catch (...) {
+      std::lock_guard lock(mutex_);
+      worker_error_ = std::current_exception();
+      queue_.clear();
+      changed_.notify_all();
+      return;
+    }
+    {
+      std::lock_guard lock(mutex_);
+      queue_.pop_front();
+    }
+    changed_.notify_all();
+  }
+}
+
+void VideoRecorder::rethrow_worker_error() {
+  std::lock_guard lock(mutex_);
+  if (worker_error_) std::rethrow_exception(worker_error_);
+}
+
+void VideoRecorder::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (worker_.joinable()) {
+    {
+      std::lock_guard lock(mutex_);
+      closing_ = true;
+    }
+    changed_.notify_all();
+    worker_.join();  // every queued frame written
+  }
+  // The MP4's index is written even after an error, so that the frames before it play.
+  if (encoder_) encoder_->close();
+  rethrow_worker_error();
+}
+
+}  // namespace locsim::render

@@ -1,0 +1,153 @@
+#include "sim/run/frame_capture.hpp"
+
+#include <box2d/box2d.h>
+
+#include <cmath>
+
+#include "sim/sensors/models.hpp"
+
+namespace locsim {
+
+FrameCapture::FrameCapture(FrameSink& sink, const VideoOptions& options, const Simulation& sim)
+    : sink_(sink), frame_interval_s_(options.speed / options.fps), latest_(sim.robot_count()) {
+  for (std::size_t i = 0; i < sim.robot_count(); ++i) latest_[i].floor_pose = sim.robot(i).pose();
+  sink_.start(sim.world_def());
+}
+
+void FrameCapture::step(const Simulation& sim, const std::vector<Reading>& readings,
+                        std::vector<std::unique_ptr<LocalizerHost>>& hosts) {
+  for (const Reading& reading : readings) {
+    Latest& latest = latest_[static_cast<std::size_t>(reading.robot)];
+    std::visit(
+        [&](const auto& data) {
+          using T = std::decay_t<decltype(data)>;
+          if constexpr (std::is_same_v<T, EncoderReading>) latest.odometry = data.odometry;
+          if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
+          if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
+          if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;
+        },
+        reading.data);
+  }
+  // Kidnaps from the simulation's count (an instant one is never seen carried): picked up at the
+  // last pose on the floor, landed where put down.
+  for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+    Latest& latest = latest_[i];
+    const DiffDriveRobot& robot = sim.robot(i);
+    const bool carried = robot.carried();
+    const int kidnaps = sim.stats(i).kidnaps;
+    if (kidnaps != latest.kidnaps) {
+      kidnaps_.push_back({i, sim.time_s(), latest.floor_pose, robot.pose(), !carried});
+    } else if (!carried && latest.carried) {
+      for (KidnapMark& k : kidnaps_) {
+        if (k.robot == i && !k.landed) k.to = robot.pose(), k.landed = true;
+      }
+    }
+    latest.carried = carried;
+    latest.kidnaps = kidnaps;
+    if (!carried) latest.floor_pose = robot.pose();
+  }
+  // Every frame due by now (more than one only when frames are closer than physics steps).
+  while (static_cast<double>(next_frame_) * frame_interval_s_ <= sim.time_s() + 1e-9) {
+    FrameState frame = capture(sim, hosts);
+    frame.t_s = static_cast<double>(next_frame_) * frame_interval_s_;
+    sink_.frame(frame);
+    ++next_frame_;
+  }
+}
+
+FrameState FrameCapture::capture(const Simulation& sim,
+                                 std::vector<std::unique_ptr<LocalizerHost>>& hosts) {
+  FrameState frame;
+  frame.t_s = sim.time_s();
+  frame.kidnaps = kidnaps_;
+  for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+    const DiffDriveRobot& robot = sim.robot(i);
+    const RobotDef& def = robot.def();
+    const Latest& latest = latest_[i];
+    FrameRobot r;
+    r.name = robot.name();
+    r.pose = robot.pose();
+    r.carried = robot.carried();
+    r.kidnaps = latest.kidnaps;
+    r.footprint = def.footprint;
+    r.odometry = latest.odometry;
+    if (latest.laser && def.sensors.laser) {
+      const LaserDef& laser = *def.sensors.laser;
+      const Pose2& mount = laser.common.mount;
+      const Vec2 origin = r.pose.transform(mount.position());
+      r.laser_origin_m = origin;
+      const int beams = static_cast<int>(latest.laser->ranges_m.size());
+      for (int b = 0; b < beams; ++b) {
+        const double angle = r.pose.theta + mount.theta + laser_beam_angle(b, beams, laser.fov_rad);
+        const double range = latest.laser->ranges_m[static_cast<std::size_t>(b)];
+        if (range >= laser.max_range_m) continue;  // max range means nothing was hit
+        r.laser_hits_m.push_back(origin + range * Vec2(std::cos(angle), std::sin(angle)));
+      }
+    }
+    if (latest.ultrasonic && def.sensors.ultrasonic) {
+      const UltrasonicDef& us = *def.sensors.ultrasonic;
+      for (const BeaconRange& range : latest.ultrasonic->ranges) {
+        const BeaconDef* beacon = nullptr;
+        for (const BeaconDef& b : sim.world_def().beacons) {
+          if (b.id == range.beacon_id) beacon = &b;
+        }
+        if (beacon == nullptr || range.receiver < 0 ||
+            static_cast<std::size_t>(range.receiver) >= us.receivers.size() ||
+            range.truth_status == RangeStatus::kOutOfRange) {
+          continue;
+        }
+        r.ultrasonic.push_back(
+            {r.pose.transform(us.receivers[static_cast<std::size_t>(range.receiver)].position_m),
+             beacon->position_m, range.truth_status == RangeStatus::kLineOfSight});
+      }
+    }
+    if (def.sensors.ptz_camera) {
+      const PtzCameraDef& ptz = *def.sensors.ptz_camera;
+      const double pan = latest.ptz ? latest.ptz->pan_rad : 0.0;
+      const double zoom = latest.ptz ? latest.ptz->zoom : ptz.zoom;
+      FrameRobot::Camera camera;
+      const Vec2 at = r.pose.transform(ptz.common.mount.position());
+      camera.optical_axis = {at.x(), at.y(), r.pose.theta + ptz.common.mount.theta + pan};
+      camera.hfov_rad = 2.0 * std::atan(std::tan(0.5 * ptz.hfov_rad) / zoom);
+      camera.max_range_m = ptz.max_range_m;
+      if (latest.ptz) {
+        for (const Detection& d : latest.ptz->detections) {
+          const double bearing = r.pose.theta + d.bearing_rad;
+          camera.detections_m.push_back(r.pose.position() +
+                                        d.range_m * Vec2(std::cos(bearing), std::sin(bearing)));
+        }
+      }
+      r.camera = camera;
+    }
+    frame.robots.push_back(std::move(r));
+  }
+  for (const Mover& mover : sim.world().movers()) {
+    const b2Vec2 p = mover.body->GetPosition();
+    frame.movers.push_back(
+        {{p.x, p.y, mover.body->GetAngle()}, mover.def.footprint, mover.def.kind});
+  }
+  for (std::size_t i = 0; i < hosts.size(); ++i) {
+    const FrameRobot& truth = frame.robots[i];
+    for (const auto& instance : hosts[i]->instances()) {
+      FrameLocalizer l;
+      l.label = instance->label();
+      l.robot = i;
+      if (const auto estimate = instance->estimate(sim.time_s())) {
+        l.estimate = Pose2{estimate->pose.x, estimate->pose.y, estimate->pose.theta};
+        for (int k = 0; k < 9; ++k) l.covariance(k / 3, k % 3) = estimate->covariance[k];
+        if (!truth.carried) {
+          l.position_error_m =
+              std::hypot(l.estimate->x - truth.pose.x, l.estimate->y - truth.pose.y);
+          l.heading_error_rad = std::abs(wrap_angle(l.estimate->theta - truth.pose.theta));
+        }
+      }
+      for (const locsim_pose2& p : instance->particles(sim.time_s(), &l.weights))
+        l.particles.push_back({p.x, p.y, p.theta});
+      l.failed = instance->failed();
+      frame.localizers.push_back(std::move(l));
+    }
+  }
+  return frame;
+}
+
+}  // namespace locsim

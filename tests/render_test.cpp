@@ -1,0 +1,293 @@
+// Offscreen rendering: a known scene has the expected colours at the expected pixels; a video
+// decodes with the expected frame count and size; a run with a video keeps every other output
+// byte-identical; `locsim run --video` works headless and reports bad video options.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "render/gl_context.hpp"
+#include "render/top_down.hpp"
+#include "render/video_recorder.hpp"
+#include "sim/run/frame_capture.hpp"
+#include "sim/run/runner.hpp"
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A 4 x 3 m room: walls around, a red landmark at (1, 1), an icy patch in the top right corner,
+// the robot at (3, 1.5) facing +y.
+const char* kRoom = R"(
+name: room
+floor:
+  friction: 0.8
+  regions:
+    - {name: ice, friction: 0.1, polygon: [[2.5, 2.0], [4.0, 2.0], [4.0, 3.0], [2.5, 3.0]]}
+walls:
+  - {points: [[0, 0], [4, 0], [4, 3], [0, 3]], closed: true, thickness_m: 0.1}
+landmarks:
+  - {id: 1, position: [1.0, 1.0], color: red, radius_m: 0.15}
+robots:
+  - name: r
+    start: {x: 3.0, y: 1.5, theta_deg: 90}
+    footprint: {radius_m: 0.2}
+)";
+
+cv::Vec3b pixel_at(const cv::Mat& bgr, const render::View& view, double x, double y) {
+  const cv::Point2d p = view.to_pixel(x, y);
+  return bgr.at<cv::Vec3b>(static_cast<int>(p.y), static_cast<int>(p.x));
+}
+
+void expect_color(const cv::Vec3b& got, const render::Rgb& rgb, int tolerance,
+                  const std::string& what) {
+  const cv::Vec3b want(static_cast<std::uint8_t>(rgb[2] * 255),
+                       static_cast<std::uint8_t>(rgb[1] * 255),
+                       static_cast<std::uint8_t>(rgb[0] * 255));
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(got[c], want[c], tolerance)
+        << what << " channel " << c << ": got " << got << ", want " << want;
+  }
+}
+
+FrameState room_frame(const WorldDef& world) {
+  FrameState frame;
+  frame.t_s = 1.0;
+  FrameRobot robot;
+  robot.name = "r";
+  robot.pose = world.robots[0].start;
+  robot.footprint = world.robots[0].footprint;
+  frame.robots.push_back(robot);
+  FrameLocalizer filter;
+  filter.label = "pf";
+  filter.estimate = Pose2{2.0, 2.0, 0.0};
+  filter.covariance.diagonal() << 0.01, 0.01, 0.01;
+  // A tight cloud of 50 particles at (0.6, 2.4), and one of weight 0 alone at (1.6, 0.5).
+  for (int i = 0; i < 50; ++i) filter.particles.push_back({0.6, 2.4, 0.0});
+  filter.weights.assign(50, 1.0);
+  filter.particles.push_back({1.6, 0.5, 0.0});
+  filter.weights.push_back(0.0);
+  frame.localizers.push_back(filter);
+  return frame;
+}
+
+TEST(Render, KnownSceneHasTheExpectedColoursAtTheExpectedPixels) {
+  const WorldDef world = testing::world_from_yaml(kRoom);
+  const auto context = render::make_gl_context("osmesa", 320, 240);
+  render::TopDownRenderer renderer(world, 320, 240);
+  const FrameState frame = room_frame(world);
+  renderer.draw(frame);
+  cv::Mat bgr;
+  renderer.compose(frame, context->finish_frame(), bgr);
+  ASSERT_EQ(bgr.cols, 320);
+  ASSERT_EQ(bgr.rows, 240);
+  const render::View& view = renderer.view();
+  const render::Palette& palette = renderer.palette();
+  // Too small for the side panel: the map fills the image, world centred, scale preserved.
+  EXPECT_EQ(view.map_width_px, 320);
+  EXPECT_NEAR(view.to_pixel(2.0, 1.5).x, 160.0, 1.0);
+  EXPECT_NEAR(view.to_pixel(2.0, 1.5).y, 120.0, 1.0);
+  const auto& red = world.landmarks[0].color;
+  expect_color(pixel_at(bgr, view, 1.0, 1.0), {red[0] / 255.0f, red[1] / 255.0f, red[2] / 255.0f},
+               2, "landmark centre");
+  expect_color(pixel_at(bgr, view, 0.0, 1.5), palette.wall, 3, "west wall");
+  expect_color(pixel_at(bgr, view, 1.5, 2.5), palette.floor, 3, "plain floor");
+  expect_color(pixel_at(bgr, view, -0.28, 1.5), palette.floor, 3, "margin outside the walls");
+  // The icy patch (friction 0.1) is the slippery end's light blue, 55 % over the floor.
+  const render::Rgb floor = palette.floor, ice{0.55f, 0.75f, 0.95f};
+  const auto mix = [](const render::Rgb& under, const render::Rgb& over, float alpha) {
+    return render::Rgb{under[0] + alpha * (over[0] - under[0]),
+                       under[1] + alpha * (over[1] - under[1]),
+                       under[2] + alpha * (over[2] - under[2])};
+  };
+  expect_color(pixel_at(bgr, view, 3.5, 2.6), mix(floor, ice, 0.55f), 3, "icy patch");
+  // The robot's footprint is white inside a black outline; the estimate's arrow has the first
+  // filter's colour; the particles are that colour, half blended with the floor.
+  const cv::Vec3b robot = pixel_at(bgr, view, 3.0 - 0.1, 1.5);
+  for (int c = 0; c < 3; ++c) EXPECT_GT(robot[c], 230) << "robot footprint " << robot;
+  expect_color(pixel_at(bgr, view, 2.02, 2.0), palette.filter(0), 12, "estimate arrow");
+  // Fifty dots on one spot saturate to the colour; a lone one of the lowest weight is faint
+  // (opacity 0.2 + 0.7 w / w_max).
+  expect_color(pixel_at(bgr, view, 0.6, 2.4), palette.filter(0), 3, "particle cloud");
+  expect_color(pixel_at(bgr, view, 1.6, 0.5), mix(floor, palette.filter(0), 0.2f), 3,
+               "a particle of the lowest weight");
+}
+
+TEST(Render, VideoDecodesWithTheExpectedFrameCountAndSize) {
+  const WorldDef world = testing::world_from_yaml(kRoom);
+  for (const std::string name : {"room.mp4", "room.avi"}) {
+    SCOPED_TRACE(name);
+    const fs::path file = testing::temp_dir("video") / name;
+    VideoOptions options;
+    options.video_file = file;
+    options.width_px = 320;
+    options.height_px = 240;
+    render::VideoRecorder recorder(options);
+    recorder.start(world);
+    FrameState frame = room_frame(world);
+    cv::Mat first;
+    for (int k = 0; k < 48; ++k) {
+      frame.t_s = k / 30.0;
+      frame.robots[0].pose.x = 1.5 + 0.04 * k;  // the robot drives east
+      recorder.frame(frame);
+      if (k == 0) first = recorder.last_frame().clone();
+    }
+    recorder.finish();
+    EXPECT_EQ(recorder.codec(), name.ends_with(".mp4") ? "H.264" : "MPEG-4");
+    EXPECT_EQ(recorder.frames(), 48);
+
+    cv::VideoCapture video(file.string(), cv::CAP_FFMPEG);
+    ASSERT_TRUE(video.isOpened());
+    EXPECT_EQ(video.get(cv::CAP_PROP_FRAME_WIDTH), 320);
+    EXPECT_EQ(video.get(cv::CAP_PROP_FRAME_HEIGHT), 240);
+    EXPECT_NEAR(video.get(cv::CAP_PROP_FPS), 30.0, 1e-6);
+    int decoded = 0;
+    cv::Mat image, decoded_first;
+    while (video.read(image)) {
+      if (decoded == 0) decoded_first = image.clone();
+      ++decoded;
+    }
+    EXPECT_EQ(decoded, 48);
+    // Lossy, but the same picture: mean absolute difference of a few grey levels.
+    ASSERT_FALSE(decoded_first.empty());
+    EXPECT_LT(cv::norm(decoded_first, first, cv::NORM_L1) / static_cast<double>(first.total() * 3),
+              4.0);
+  }
+}
+
+TEST(Render, RunWithAVideoKeepsEveryOtherOutputAndLocksFramesToSimulatedTime) {
+  const fs::path dir = testing::temp_dir("run");
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.duration_s = 3.0;
+  options.seed = 4;
+  options.localizers = {"odometry", "ekf_landmarks", "asrl:particles=300"};
+  options.out_dir = dir / "plain";
+  run_simulation(options);
+
+  VideoOptions video;
+  video.video_file = dir / "with_video/run.mp4";
+  video.frames_dir = dir / "frames";
+  video.width_px = 640;
+  video.height_px = 360;
+  video.fps = 20.0;
+  video.speed = 2.0;  // 2 simulated seconds per video second: a frame every 0.1 s
+  render::VideoRecorder recorder(video);
+  options.out_dir = dir / "with_video";
+  options.video = &recorder;
+  options.video_options = video;
+  run_simulation(options);
+
+  // Frames at 0, 0.1, ..., 3.0 s: 31, none dropped or doubled whatever the machine's speed.
+  EXPECT_EQ(recorder.frames(), 31);
+  std::size_t pngs = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "frames")) pngs += entry.is_regular_file();
+  EXPECT_EQ(pngs, 31u);
+  EXPECT_EQ(cv::imread((dir / "frames/frame_000030.png").string()).size(), cv::Size(640, 360));
+  // Rendering only looks: the trajectories and readings are byte-identical, and so are the
+  // metrics but for the wall-clock cost of each update.
+  for (const char* file : {"groundtruth.tum", "asrl.tum", "ekf_landmarks.tum", "events.csv",
+                           "readings/ptz_camera.csv"}) {
+    EXPECT_EQ(testing::read_file(dir / "plain" / file),
+              testing::read_file(dir / "with_video" / file))
+        << file;
+  }
+  const auto without_costs = [](const fs::path& file) {
+    nlohmann::json metrics = nlohmann::json::parse(testing::read_file(file));
+    metrics.erase("timing");  // wall-clock costs, kept apart for this reason
+    return metrics.dump();
+  };
+  EXPECT_EQ(without_costs(dir / "plain/metrics.json"),
+            without_costs(dir / "with_video/metrics.json"));
+}
+
+/// Keeps every frame, for tests of what a frame shows.
+class KeepFrames final : public FrameSink {
+ public:
+  void start(const WorldDef&) override {}
+  void frame(const FrameState& f) override { frames_.push_back(f); }
+  void finish() override {}
+  long frames() const override { return static_cast<long>(frames_.size()); }
+  const std::vector<FrameState>& all() const { return frames_; }
+
+ private:
+  std::vector<FrameState> frames_;
+};
+
+TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
+  // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
+  // both are marked from where the robot was picked up to where it landed, and the true path
+  // breaks at each.
+  const fs::path dir = testing::temp_dir("kidnap_marks");
+  std::ofstream(dir / "world.yaml") << kRoom << R"(
+scenario:
+  duration_s: 3
+  drive: {mode: waypoints, path: [[3.0, 2.5]], speed_mps: 0.3}
+  events:
+    - at_s: 1
+      kidnap: {to: {x: 1.0, y: 2.0, theta_deg: 0}, carry_s: 1.0}
+    - at_s: 2.5
+      kidnap: {to: {x: 2.0, y: 1.0, theta_deg: 180}}
+)";
+  const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
+  Simulation sim(inputs.world, inputs.scenario, 1);
+  KeepFrames sink;
+  VideoOptions video;
+  video.fps = 10.0;
+  FrameCapture capture(sink, video, sim);
+  std::vector<std::unique_ptr<LocalizerHost>> no_filters;
+  std::vector<Pose2> floor;  // the true pose just before each kidnap
+  Pose2 last = sim.robot(0).pose();
+  int kidnaps = 0;
+  while (!sim.done()) {
+    sim.step();
+    if (sim.stats(0).kidnaps != kidnaps) floor.push_back(last), kidnaps = sim.stats(0).kidnaps;
+    if (!sim.robot(0).carried()) last = sim.robot(0).pose();
+    capture.step(sim, sim.take_readings(), no_filters);
+  }
+  ASSERT_EQ(floor.size(), 2u);
+  ASSERT_EQ(sink.all().size(), 31u);
+  const FrameState& middle = sink.all()[15];  // t = 1.5 s: in the air
+  ASSERT_EQ(middle.kidnaps.size(), 1u);
+  EXPECT_FALSE(middle.kidnaps[0].landed);
+  EXPECT_TRUE(middle.robots[0].carried);
+  const FrameState& end = sink.all().back();
+  ASSERT_EQ(end.kidnaps.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    const KidnapMark& mark = end.kidnaps[static_cast<std::size_t>(k)];
+    EXPECT_TRUE(mark.landed) << k;
+    EXPECT_NEAR(mark.from.x, floor[static_cast<std::size_t>(k)].x, 1e-9) << k;
+    EXPECT_NEAR(mark.from.y, floor[static_cast<std::size_t>(k)].y, 1e-9) << k;
+  }
+  EXPECT_NEAR(end.kidnaps[0].t_s, 1.0, 1e-9);
+  EXPECT_NEAR(end.kidnaps[0].to.x, 1.0, 0.05);
+  EXPECT_NEAR(end.kidnaps[1].t_s, 2.5, 1e-9);
+  EXPECT_NEAR(end.kidnaps[1].to.x, 2.0, 0.05);
+  EXPECT_NEAR(end.kidnaps[1].to.y, 1.0, 0.05);
+  EXPECT_EQ(end.robots[0].kidnaps, 2);
+}
+
+TEST(Render, BadBackendAndSizeAreReportedClearly) {
+  EXPECT_THROW(render::make_gl_context("egl", 64, 64), RenderError);
+  EXPECT_THROW(render::make_gl_context("osmesa", 8, 64), RenderError);
+  VideoOptions odd;
+  odd.video_file = "x.mp4";
+  odd.width_px = 641;
+  EXPECT_THROW(render::VideoRecorder{odd}, RenderError);
+  VideoOptions text;
+  text.video_file = testing::temp_dir("bad") / "run.txt";
+  render::VideoRecorder recorder(text);
+  try {
+    recorder.start(testing::world_from_yaml(kRoom));
+    FAIL() << "a .txt video was accepted";
+  } catch (const RenderError& e) {
+    EXPECT_NE(std::string(e.what()).find("run.txt"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace locsim
