@@ -12,8 +12,11 @@ namespace fs = std::filesystem;
 
 std::vector<fs::path> render_module_candidates() {
   std::vector<fs::path> out;
-  if (const char* env = std::getenv("LOCSIM_RENDER_MODULE"); env != nullptr && *env != '\0')
+  // Asked for by name: that one only (falling back to another would hide the mistake).
+  if (const char* env = std::getenv("LOCSIM_RENDER_MODULE"); env != nullptr && *env != '\0') {
     out.emplace_back(env);
+    return out;
+  }
   std::error_code error;
   const fs::path exe = fs::read_symlink("/proc/self/exe", error);
   if (!error) {
@@ -48,7 +51,12 @@ std::shared_ptr<RenderModule> RenderModule::load() {
         reinterpret_cast<decltype(module->create_)>(dlsym(handle, "locsim_render_create"));
     module->destroy_ =
         reinterpret_cast<decltype(module->destroy_)>(dlsym(handle, "locsim_render_destroy"));
-    if (abi == nullptr || module->create_ == nullptr || module->destroy_ == nullptr) {
+    module->create_imager_ = reinterpret_cast<decltype(module->create_imager_)>(
+        dlsym(handle, "locsim_render_create_imager"));
+    module->destroy_imager_ = reinterpret_cast<decltype(module->destroy_imager_)>(
+        dlsym(handle, "locsim_render_destroy_imager"));
+    if (abi == nullptr || module->create_ == nullptr || module->destroy_ == nullptr ||
+        module->create_imager_ == nullptr || module->destroy_imager_ == nullptr) {
       tried += "\n  " + candidate.string() + ": not a locsim render module";
       continue;
     }
@@ -58,7 +66,10 @@ std::shared_ptr<RenderModule> RenderModule::load() {
     }
     return module;
   }
-  throw RenderError("cannot load the renderer (liblocsim_render.so) for --video/--frames:" + tried);
+  throw RenderError(
+      "cannot load the renderer (liblocsim_render.so) for --video/--frames or a rendered "
+      "camera:" +
+      tried);
 }
 
 std::shared_ptr<FrameSink> RenderModule::make_recorder(const VideoOptions& options) {
@@ -69,6 +80,21 @@ std::shared_ptr<FrameSink> RenderModule::make_recorder(const VideoOptions& optio
   // The sink keeps the module loaded for as long as it lives.
   return std::shared_ptr<FrameSink>(
       sink, [module = shared_from_this(), destroy = destroy_](FrameSink* s) { destroy(s); });
+}
+
+std::shared_ptr<LandmarkImager> RenderModule::make_imager(const WorldDef& world,
+                                                          const PtzCameraDef& camera,
+                                                          const std::string& backend) {
+  LandmarkImager* imager = nullptr;
+  char error[1024] = {};
+  if (create_imager_(&world, &camera, backend.c_str(), &imager, error, sizeof error) != 0 ||
+      imager == nullptr) {
+    throw RenderError(std::string("rendered camera: ") +
+                      (error[0] != '\0' ? error : "the renderer could not be created"));
+  }
+  return std::shared_ptr<LandmarkImager>(
+      imager,
+      [module = shared_from_this(), destroy = destroy_imager_](LandmarkImager* i) { destroy(i); });
 }
 
 }  // namespace locsim::render

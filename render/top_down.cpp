@@ -496,7 +496,7 @@ void TopDownRenderer::compose(const FrameState& frame, const std::uint8_t* rgba,
   }
 }
 
-void TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
+int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
   const Palette& p = palette_;
   const int font = cv::FONT_HERSHEY_SIMPLEX;
   const auto text = [&](const std::string& s, cv::Point at, double size, const cv::Scalar& c,
@@ -527,7 +527,7 @@ void TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
   }
 
   // The side panel: legend and each filter's error now.
-  if (!panel) return;
+  if (!panel) return -1;
   const int x = view_.map_width_px + 16;
   int y = 34;
   text(world_.name, {x, y}, 0.6, grey, 1);
@@ -636,6 +636,43 @@ void TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
       marker("estimate, 95 % ellipse", [&](cv::Point c) {
         cv::ellipse(image, c, {11, 6}, 0, 0, 360, grey, 1, cv::LINE_AA);
       });
+  }
+  return y;
+}
+
+void TopDownRenderer::inset_camera(const FrameState& frame, const cv::Mat& camera_bgr,
+                                   int legend_end_y, cv::Mat& image) const {
+  if (frame.robots.empty() || !frame.robots[0].camera || camera_bgr.empty() || legend_end_y < 0)
+    return;
+  const FrameRobot::Camera& camera = *frame.robots[0].camera;
+  // As wide as the panel allows, the camera's aspect kept; at the panel's bottom, under the
+  // legend, or not at all when they would overlap.
+  const int x = view_.map_width_px + 16;
+  const int width = std::min(image.cols - x - 16, 3 * camera_bgr.cols / 2);
+  const int height = width * camera_bgr.rows / camera_bgr.cols;
+  const int top = image.rows - height - 16;
+  if (width < 64 || top - 26 < legend_end_y) return;
+  cv::Mat scaled;
+  cv::resize(camera_bgr, scaled, {width, height}, 0, 0, cv::INTER_NEAREST);
+  scaled.copyTo(image(cv::Rect(x, top, width, height)));
+  cv::rectangle(image, {x - 1, top - 1}, {x + width, top + height}, cv::Scalar(60, 60, 60), 1);
+  const double pan_deg =
+      rad_to_deg(wrap_angle(camera.optical_axis.theta - frame.robots[0].pose.theta));
+  cv::putText(image,
+              format("camera %.0fx%.0f", camera.shot.width_px, camera.shot.height_px) +
+                  format(", pan %+.0f deg", pan_deg),
+              {x, top - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
+  // Each detection's bearing as a tick above the picture, in the camera's colour.
+  const double scale = static_cast<double>(width) / camera.shot.width_px;
+  for (const Vec2& d : camera.detections_m) {
+    const Vec2 offset = d - camera.optical_axis.position();
+    const double bearing =
+        wrap_angle(std::atan2(offset.y(), offset.x()) - camera.optical_axis.theta);
+    if (std::abs(bearing) >= 0.5 * std::numbers::pi) continue;
+    const double u = 0.5 * camera.shot.width_px - camera.shot.focal_px * std::tan(bearing);
+    if (u < 0.0 || u > camera.shot.width_px) continue;
+    const int px = x + static_cast<int>(std::lround(u * scale));
+    cv::line(image, {px, top + 1}, {px, top + 12}, bgr(palette_.camera), 3);
   }
 }
 

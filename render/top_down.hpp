@@ -58,8 +58,13 @@ class TopDownRenderer {
   /// The frame's image (BGR): the static world, the particle clouds, and over them the drawn layer
   /// (RGBA, premultiplied, rows from the top, as the context returns it).
   void compose(const FrameState& frame, const std::uint8_t* rgba, cv::Mat& bgr) const;
-  /// Text, legend and labels onto the composed image (BGR).
-  void overlay(const FrameState& frame, cv::Mat& bgr) const;
+  /// Text, legend and labels onto the composed image (BGR). Returns the row under the legend
+  /// (-1: no side panel).
+  int overlay(const FrameState& frame, cv::Mat& bgr) const;
+  /// The first robot's camera view (BGR, its own resolution) at the side panel's bottom, when it
+  /// fits under the legend, with a tick over each detection's bearing.
+  void inset_camera(const FrameState& frame, const cv::Mat& camera_bgr, int legend_end_y,
+                    cv::Mat& bgr) const;
 
   const View& view() const { return view_; }
   const Palette& palette() const { return palette_; }

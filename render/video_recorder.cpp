@@ -32,6 +32,7 @@ VideoRecorder::~VideoRecorder() {
 
 void VideoRecorder::start(const WorldDef& world) {
   context_ = make_gl_context(options_.backend, options_.width_px, options_.height_px);
+  world_ = world;
   renderer_ = std::make_unique<TopDownRenderer>(world, options_.width_px, options_.height_px,
                                                 options_.particles);
   if (options_.video_file) {
@@ -50,7 +51,25 @@ void VideoRecorder::frame(const FrameState& frame) {
   renderer_->draw(frame);
   cv::Mat bgr;  // a new buffer per frame: the worker owns the queued ones
   renderer_->compose(frame, context_->finish_frame(), bgr);
-  renderer_->overlay(frame, bgr);
+  const int legend_end_y = renderer_->overlay(frame, bgr);
+  if (options_.camera_view && !frame.robots.empty() && frame.robots[0].camera) {
+    const CameraShot& shot = frame.robots[0].camera->shot;
+    if (!camera_context_) {
+      camera_context_ = make_gl_context(options_.backend, shot.width_px, shot.height_px);
+      camera_renderer_ = std::make_unique<CameraViewRenderer>(world_);
+    }
+    camera_context_->make_current();
+    std::vector<ScenePrism> moving;
+    for (const FrameMover& m : frame.movers)
+      moving.push_back({m.name, m.kind, m.pose, m.footprint, m.height_m});
+    for (const FrameRobot& r : frame.robots)
+      if (!r.carried) moving.push_back({r.name, "robot", r.pose, r.footprint, r.height_m});
+    camera_renderer_->draw(shot, moving, frame.robots[0].name);
+    const cv::Mat rgba(shot.height_px, shot.width_px, CV_8UC4,
+                       const_cast<std::uint8_t*>(camera_context_->finish_frame()));
+    cv::cvtColor(rgba, camera_bgr_, cv::COLOR_RGBA2BGR);
+    renderer_->inset_camera(frame, camera_bgr_, legend_end_y, bgr);
+  }
   bgr_ = bgr;
   {
     std::unique_lock lock(mutex_);

@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "render/camera_view.hpp"
 #include "render/gl_context.hpp"
 #include "render/top_down.hpp"
 #include "render/video_encoder.hpp"
@@ -42,6 +43,11 @@ class VideoRecorder final : public FrameSink {
   VideoOptions options_;
   std::unique_ptr<GlContext> context_;
   std::unique_ptr<TopDownRenderer> renderer_;
+  WorldDef world_;
+  // The camera's view for the panel: its own context at the camera's resolution.
+  std::unique_ptr<GlContext> camera_context_;
+  std::unique_ptr<CameraViewRenderer> camera_renderer_;
+  cv::Mat camera_bgr_;
   std::unique_ptr<VideoEncoder> encoder_;
   std::string codec_;
   cv::Mat bgr_;

@@ -188,5 +188,29 @@ TEST(Cli, RunRendersAVideoWithNoDisplayAndReportsBadVideoOptions) {
             std::string::npos);
 }
 
+TEST(Cli, RunAndValidateLoadTheRendererForARenderedCamera) {
+  // mode: rendered needs the renderer: `locsim run` and `locsim validate` load it without being
+  // asked, and the detections come from the images (the field's landmarks, with their ids).
+  unsetenv("DISPLAY");
+  const fs::path dir = testing::temp_dir("cli-rendered");
+  const std::string world =
+      (fs::path(LOCSIM_SOURCE_DIR) / "worlds/asrl/field_rendered.yaml").string();
+  const Outcome check = locsim("validate " + world);
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  const Outcome o = locsim("run " + world + " --duration 2 --out " + (dir / "out").string());
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const std::string ptz = testing::read_file(dir / "out/readings/ptz_camera.csv");
+  EXPECT_NE(ptz.find(",green,"), std::string::npos) << ptz;
+  EXPECT_NE(testing::read_file(dir / "out/run.json").find("\"mode\": \"rendered\""),
+            std::string::npos);
+  // A renderer that cannot be found: exit 4, the message says where it looked.
+  setenv("LOCSIM_RENDER_MODULE", (dir / "missing.so").c_str(), 1);
+  const Outcome missing =
+      locsim("run " + world + " --duration 1 --out " + (dir / "missing").string());
+  unsetenv("LOCSIM_RENDER_MODULE");
+  EXPECT_EQ(missing.exit_code, 4) << missing.output;
+  EXPECT_NE(missing.output.find("missing.so"), std::string::npos) << missing.output;
+}
+
 }  // namespace
 }  // namespace locsim

@@ -3,6 +3,7 @@
 // is reproducible to the byte.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "sim/run/runner.hpp"
@@ -70,6 +71,44 @@ TEST(ParticleFilters, AsrlRecoversFromKidnapsWhereMclCannot) {
   }
   EXPECT_EQ(mcl_recovered, 0);
   EXPECT_GE(asrl_recovered, kidnaps - 1);
+}
+
+TEST(ParticleFilters, FalseDetectionsAreRejectedOrOutwaitedInsteadOfResetOnto) {
+  // The field with a phantom in 3 % of the camera's frames (a landmark's colour at a random range
+  // and bearing). As the paper has it, ASRL resets onto the phantom's ring and loses the pose; with
+  // the consistency test (a phantom beside a good detection is dropped) and resetting only after
+  // three low steps in a row (a lone phantom lasts one), it keeps tracking.
+  const fs::path dir = testing::temp_dir("pf-phantoms");
+  std::string world = testing::read_file(fs::path(LOCSIM_SOURCE_DIR) / "worlds/asrl/field.yaml");
+  const std::string no_phantoms = "false_detections_per_frame: 0}";
+  ASSERT_NE(world.find(no_phantoms), std::string::npos);
+  world.replace(world.find(no_phantoms), no_phantoms.size(), "false_detections_per_frame: 0.03}");
+  std::ofstream(dir / "field.yaml") << world;
+  double paper_rms = 0.0, robust_rms = 0.0, rejected = 0.0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    RunOptions options;
+    options.world_file = dir / "field.yaml";
+    options.seed = seed;
+    options.out_dir = dir / ("seed" + std::to_string(seed));
+    options.localizers = {"asrl:reject_inconsistent=0," + kCalibrated + "@paper",
+                          "asrl:reset_after_steps=3," + kCalibrated + "@robust"};
+    run_simulation(options);
+    const auto metrics =
+        nlohmann::json::parse(testing::read_file(options.out_dir / "metrics.json"));
+    for (const auto& l : metrics["localizers"]) {
+      ASSERT_EQ(l["status"], "ok");
+      const double rms = l["position_error_m"]["rms"].get<double>();
+      if (l["label"] == "paper") {
+        paper_rms += rms;
+      } else {
+        robust_rms += rms;
+        rejected += l["diagnostics_mean"]["rejected"].get<double>();
+      }
+    }
+  }
+  EXPECT_GT(rejected, 0.0);                // some phantoms came beside a good detection
+  EXPECT_GT(paper_rms / 3.0, 0.5);         // the paper's filter loses the pose
+  EXPECT_LT(robust_rms, 0.5 * paper_rms);  // the robust one far less
 }
 
 TEST(ParticleFilters, GlobalLocalizationFindsThePoseAndRunsAreReproducible) {

@@ -22,6 +22,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     k_right_ = params.number("k_right");
     sigma_range_m_ = params.number("sigma_range_m");
     sigma_range_per_m_ = params.number("sigma_range_per_m");
+    sigma_range_per_m2_ = params.number("sigma_range_per_m2");
     sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
     gate_ = params.number("gate_chi2");
     use_ptz_ = params.flag("use_ptz");
@@ -69,7 +70,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 
   void correct(const locsim_detection& detection) {
     const Eigen::Vector2d z(detection.range_m, detection.bearing_rad);
-    const double sigma_r = sigma_range_m_ + sigma_range_per_m_ * detection.range_m;
+    const double sigma_r =
+        sigma_range_m_ +
+        (sigma_range_per_m_ + sigma_range_per_m2_ * detection.range_m) * detection.range_m;
     const Eigen::Matrix2d R =
         Eigen::Vector2d(sigma_r * sigma_r, sigma_bearing_rad_ * sigma_bearing_rad_).asDiagonal();
     // Association: the candidate with the smallest Mahalanobis distance of the innovation.
@@ -103,8 +106,8 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
   }
 
-  double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_bearing_rad_, gate_,
-      wheel_base_m_;
+  double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_,
+      sigma_bearing_rad_, gate_, wheel_base_m_;
   bool use_ptz_, use_omni_;
   std::vector<Landmark> landmarks_;
   Pose x_;
@@ -116,10 +119,11 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 constexpr locsim_param_decl kParams[] = {
     {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr, "left wheel random error [m^1/2]"},
     {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr, "right wheel random error [m^1/2]"},
-    {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.05, 1e-6, 10.0, nullptr,
+    {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 10.0, nullptr,
      "range noise at zero range [m]"},
-    {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.05, 0.0, 10.0, nullptr,
-     "range noise growth [m/m]"},
+    {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr, "range noise growth [m/m]"},
+    {"sigma_range_per_m2", LOCSIM_PARAM_DOUBLE, 0.015, 0.0, 10.0, nullptr,
+     "range noise growth with the square of the range (PTZ camera rows) [1/m]"},
     {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr, "bearing noise [deg]"},
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},

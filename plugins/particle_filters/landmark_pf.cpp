@@ -13,6 +13,10 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
             params.number("alpha4"), params.flag("variance_form")};
   sigma_range_m_ = params.number("sigma_range_m");
   sigma_range_per_m_ = params.number("sigma_range_per_m");
+  sigma_range_per_m2_ = params.number("sigma_range_per_m2");
+  reject_inconsistent_ = params.flag("reject_inconsistent");
+  consistency_level_ = params.number("consistency_level");
+  reset_after_steps_ = params.integer("reset_after_steps");
   sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
   const std::string resampler = params.string("resampler");
   if (resampler != "roulette" && resampler != "low_variance") {
@@ -96,7 +100,8 @@ void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
     s.range_m = d.range_m;
     s.bearing_rad = d.bearing_rad;
     // The range noise follows the measured range, the same for every particle.
-    s.sigma_range_m = sigma_range_m_ + sigma_range_per_m_ * d.range_m;
+    s.sigma_range_m =
+        sigma_range_m_ + (sigma_range_per_m_ + sigma_range_per_m2_ * d.range_m) * d.range_m;
     ++step_count_;
   }
 }
@@ -119,23 +124,60 @@ double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) 
 void LandmarkParticleFilter::weigh_particles() {
   const auto n = static_cast<Eigen::Index>(particles_.size());
   headings_.compute(particles_);
-  log_weights_.assign(particles_.size(), 0.0);
-  Eigen::Map<Eigen::ArrayXd> log_w(log_weights_.data(), n);
+  if (detection_match_.size() < step_count_) detection_match_.resize(step_count_);
+  // Each detection's log match at every particle, with its best-matching candidate.
   for (std::size_t k = 0; k < step_count_; ++k) {
     const StepDetection& d = step_[k];
+    std::vector<double>& match = detection_match_[k];
     for (std::size_t c = 0; c < d.candidates.size(); ++c) {
       const Landmark& l = landmarks_[d.candidates[c]];
       sdk::landmark_log_match(particles_, headings_, d.range_m, d.bearing_rad, l.x, l.y,
                               d.sigma_range_m, sigma_bearing_rad_,
-                              c == 0 ? match_ : candidate_match_);
+                              c == 0 ? match : candidate_match_);
       if (c > 0) {  // an ambiguous colour: the best-matching landmark of that colour
-        Eigen::Map<Eigen::ArrayXd>(match_.data(), n) =
-            Eigen::Map<Eigen::ArrayXd>(match_.data(), n)
+        Eigen::Map<Eigen::ArrayXd>(match.data(), n) =
+            Eigen::Map<Eigen::ArrayXd>(match.data(), n)
                 .max(Eigen::Map<Eigen::ArrayXd>(candidate_match_.data(), n));
       }
     }
-    log_w += Eigen::Map<Eigen::ArrayXd>(match_.data(), n);
   }
+  // A false detection among good ones: the particles explain the others and not it. Dropped, it
+  // cannot pull the weights, nor make the filter reset onto its ring; a lone detection the
+  // particles do not explain is kept (a kidnapping looks the same).
+  rejected_ = 0.0;
+  if (reject_inconsistent_ && step_count_ >= 2) {
+    std::vector<bool> consistent(step_count_);
+    std::size_t consistent_count = 0;
+    // The mean over at most 256 particles, evenly strided: after resampling their order is
+    // random, and the test is against a level, not a fine value.
+    const Eigen::Index stride = std::max<Eigen::Index>(1, n / 256);
+    const Eigen::Index samples = (n + stride - 1) / stride;
+    for (std::size_t k = 0; k < step_count_; ++k) {
+      const double mean = Eigen::Map<const Eigen::ArrayXd, 0, Eigen::InnerStride<>>(
+                              detection_match_[k].data(), samples, Eigen::InnerStride<>(stride))
+                              .exp()
+                              .mean();
+      consistent[k] = mean >= consistency_level_;
+      consistent_count += consistent[k] ? 1 : 0;
+    }
+    if (consistent_count > 0 && consistent_count < step_count_) {
+      std::size_t kept = 0;
+      for (std::size_t k = 0; k < step_count_; ++k) {
+        if (!consistent[k]) continue;
+        if (kept != k) {
+          std::swap(step_[kept], step_[k]);
+          std::swap(detection_match_[kept], detection_match_[k]);
+        }
+        ++kept;
+      }
+      rejected_ = static_cast<double>(step_count_ - kept);
+      step_count_ = kept;
+    }
+  }
+  log_weights_.assign(particles_.size(), 0.0);
+  Eigen::Map<Eigen::ArrayXd> log_w(log_weights_.data(), n);
+  for (std::size_t k = 0; k < step_count_; ++k)
+    log_w += Eigen::Map<const Eigen::ArrayXd>(detection_match_[k].data(), n);
 }
 
 bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& theta) {
@@ -238,6 +280,9 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
       break;
     }
   }
+  // A lone false detection looks, for one frame, like a kidnapping; a kidnapping lasts.
+  low_steps_ = fraction > 0.0 ? low_steps_ + 1 : 0;
+  if (low_steps_ < reset_after_steps_) fraction = 0.0;
   const auto resets =
       static_cast<std::size_t>(std::floor(static_cast<double>(n) * std::clamp(fraction, 0.0, 1.0)));
   resets_ = static_cast<double>(resets);
@@ -292,6 +337,7 @@ std::vector<std::pair<std::string, double>> LandmarkParticleFilter::diagnostics(
   return {{"n_eff", n_eff_},
           {"particles", static_cast<double>(particles_.size())},
           {"resets", resets_},
+          {"rejected", rejected_},
           {"mean_likelihood", mean_likelihood_},
           {"steps", static_cast<double>(steps_)}};
 }

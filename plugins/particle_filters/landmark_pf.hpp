@@ -20,8 +20,9 @@ namespace locsim::particle_filters {
 enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmented };
 
 /// Parameters every variant declares; each adds its recovery's. The detection noise defaults fit
-/// locsim's PTZ camera at 160 x 120 (range from the blob's height in rows: its error grows with
-/// distance; docs/sensors.md), not the paper's unpublished deltas.
+/// locsim's PTZ camera at 160 x 120: range from the blob's height in rows, so one row is about
+/// r^2 / (f h) of range and the measured error is 0.012 r^2 (docs/sensors.md); the default
+/// 0.02 + 0.015 r^2 leaves a margin. Not the paper's unpublished deltas.
 // clang-format off
 #define LOCSIM_LANDMARK_PF_PARAMS                                                                  \
   {"particles", LOCSIM_PARAM_INT, 200, 1, 1000000, nullptr, "number of particles n [-]"},          \
@@ -32,16 +33,25 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
   {"alpha4", LOCSIM_PARAM_DOUBLE, 0.26, 0, 10, nullptr, "translation noise from rotation [m/rad]"}, \
   {"variance_form", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                          \
    "Thrun's variance form of the motion noise"},                                                   \
-  {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.05, 1e-6, 100, nullptr,                                 \
+  {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 100, nullptr,                                 \
    "range noise of a detection at zero range [m]"},                                                \
-  {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.05, 0, 10, nullptr,                                 \
+  {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                  \
    "growth of the range noise with the measured range [m/m]"},                                     \
+  {"sigma_range_per_m2", LOCSIM_PARAM_DOUBLE, 0.015, 0, 10, nullptr,                               \
+   "growth with the square of the range (a row of a pinhole image) [1/m]"},                        \
   {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 2.0, 1e-6, 180, nullptr,                              \
    "bearing noise of a detection [deg]"},                                                          \
   {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
    "roulette (as in the paper) or low_variance"},                                                  \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
-  {"use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the omnidirectional camera's detections"}
+  {"use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the omnidirectional camera's detections"}, \
+  {"reject_inconsistent", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                     \
+   "in a frame with several detections, drop one that the particles explain on average below "    \
+   "consistency_level while another is above it (a false detection, not a kidnapping)"},          \
+  {"consistency_level", LOCSIM_PARAM_DOUBLE, 0.05, 0, 1, nullptr,                                  \
+   "mean per-detection likelihood (1 = perfect match) under which a detection is inconsistent [-]"}, \
+  {"reset_after_steps", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,                                     \
+   "resetting starts when the likelihood has been low this many steps in a row (1: the paper)"}
 // clang-format on
 
 class LandmarkParticleFilter : public sdk::Localizer {
@@ -70,7 +80,9 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// log of the match of all this step's detections at one pose (sdk::landmark_log_match, 0 =
   /// perfect), each with its best-matching candidate.
   double log_likelihood(double x, double y, double theta) const;
-  /// The same for every particle, into log_weights_ (vectorised, the step's inner loop).
+  /// The same for every particle, into log_weights_ (vectorised, the step's inner loop). With
+  /// reject_inconsistent, first drops the detections inconsistent with the others (step_ and
+  /// step_count_ then hold the kept ones).
   void weigh_particles();
   /// A pose consistent with the detections (a ring around one landmark, weighted by the others).
   bool sample_from_sensors(double& x, double& y, double& theta);
@@ -80,8 +92,10 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::Random random_;
   sdk::ParticleSet particles_, scratch_;
   sdk::OdometryNoise noise_;
-  double sigma_range_m_, sigma_range_per_m_, sigma_bearing_rad_;
-  bool low_variance_, use_ptz_, use_omni_;
+  double sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_, sigma_bearing_rad_;
+  bool low_variance_, use_ptz_, use_omni_, reject_inconsistent_;
+  double consistency_level_;
+  long reset_after_steps_ = 1, low_steps_ = 0;
   // Recovery parameters.
   double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
   double w_slow_ = 0.0, w_fast_ = 0.0;
@@ -94,7 +108,8 @@ class LandmarkParticleFilter : public sdk::Localizer {
   void apply_pending_motion();
   std::optional<sdk::Pose> odometry_now_, odometry_applied_;
   std::vector<std::size_t> chosen_;
-  std::vector<double> spacings_, log_weights_, match_, candidate_match_;
+  std::vector<double> spacings_, log_weights_, candidate_match_;
+  std::vector<std::vector<double>> detection_match_;  // per detection of the step, per particle
   sdk::Headings headings_;
   std::vector<StepDetection> step_;  // capacity reused from step to step
   std::size_t step_count_ = 0;       // detections in step_ this step
@@ -103,7 +118,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// estimate is taken after resampling, step 4, before resetting, step 5).
   std::size_t injected_ = 0;
   // Diagnostics of the last step.
-  double n_eff_ = 0.0, mean_likelihood_ = 0.0, resets_ = 0.0;
+  double n_eff_ = 0.0, mean_likelihood_ = 0.0, resets_ = 0.0, rejected_ = 0.0;
   long steps_ = 0;
 };
 

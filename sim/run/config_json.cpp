@@ -59,23 +59,25 @@ json sensors(const SensorsDef& s) {
   if (s.ptz_camera) {
     const PtzCameraDef& d = *s.ptz_camera;
     out["ptz_camera"] = common(d.common);
-    out["ptz_camera"].update({{"height_m", d.height_m},
-                              {"width_px", d.width_px},
-                              {"height_px", d.height_px},
-                              {"hfov", d.hfov_rad},
-                              {"zoom_max", d.zoom_max},
-                              {"pan_min", d.pan_min_rad},
-                              {"pan_max", d.pan_max_rad},
-                              {"max_pan_rate", d.max_pan_rate_radps},
-                              {"tilt", d.tilt_rad},
-                              {"zoom", d.zoom},
-                              {"min_range_m", d.min_range_m},
-                              {"max_range_m", d.max_range_m},
-                              {"pixel_noise_px", d.pixel_noise_px},
-                              {"min_blob_px", d.min_blob_px},
-                              {"miss_probability", d.miss_probability},
-                              {"false_detections_per_frame", d.false_detections_per_frame},
-                              {"report_ids", d.report_ids}});
+    out["ptz_camera"].update(
+        {{"height_m", d.height_m},
+         {"width_px", d.width_px},
+         {"height_px", d.height_px},
+         {"hfov", d.hfov_rad},
+         {"zoom_max", d.zoom_max},
+         {"pan_min", d.pan_min_rad},
+         {"pan_max", d.pan_max_rad},
+         {"max_pan_rate", d.max_pan_rate_radps},
+         {"tilt", d.tilt_rad},
+         {"zoom", d.zoom},
+         {"min_range_m", d.min_range_m},
+         {"max_range_m", d.max_range_m},
+         {"pixel_noise_px", d.pixel_noise_px},
+         {"min_blob_px", d.min_blob_px},
+         {"miss_probability", d.miss_probability},
+         {"false_detections_per_frame", d.false_detections_per_frame},
+         {"report_ids", d.report_ids},
+         {"mode", d.mode == PtzCameraDef::Mode::kRendered ? "rendered" : "analytic"}});
   }
   if (s.omni_camera) {
     const OmniCameraDef& d = *s.omni_camera;

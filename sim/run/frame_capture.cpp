@@ -69,6 +69,7 @@ FrameState FrameCapture::capture(const Simulation& sim,
     r.pose = robot.pose();
     r.carried = robot.carried();
     r.kidnaps = latest.kidnaps;
+    r.height_m = def.height_m;
     r.footprint = def.footprint;
     r.odometry = latest.odometry;
     if (latest.laser && def.sensors.laser) {
@@ -110,6 +111,13 @@ FrameState FrameCapture::capture(const Simulation& sim,
       camera.optical_axis = {at.x(), at.y(), r.pose.theta + ptz.common.mount.theta + pan};
       camera.hfov_rad = 2.0 * std::atan(std::tan(0.5 * ptz.hfov_rad) / zoom);
       camera.max_range_m = ptz.max_range_m;
+      const double focal_px = 0.5 * ptz.width_px / std::tan(0.5 * ptz.hfov_rad) * zoom;
+      camera.shot = {camera.optical_axis,
+                     ptz.height_m,
+                     latest.ptz ? latest.ptz->tilt_rad : ptz.tilt_rad,
+                     focal_px,
+                     ptz.width_px,
+                     ptz.height_px};
       if (latest.ptz) {
         for (const Detection& d : latest.ptz->detections) {
           const double bearing = r.pose.theta + d.bearing_rad;
@@ -123,8 +131,11 @@ FrameState FrameCapture::capture(const Simulation& sim,
   }
   for (const Mover& mover : sim.world().movers()) {
     const b2Vec2 p = mover.body->GetPosition();
-    frame.movers.push_back(
-        {{p.x, p.y, mover.body->GetAngle()}, mover.def.footprint, mover.def.kind});
+    frame.movers.push_back({{p.x, p.y, mover.body->GetAngle()},
+                            mover.def.footprint,
+                            mover.def.kind,
+                            mover.def.height_m,
+                            mover.def.name});
   }
   for (std::size_t i = 0; i < hosts.size(); ++i) {
     const FrameRobot& truth = frame.robots[i];

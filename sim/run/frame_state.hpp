@@ -14,15 +14,17 @@
 
 #include "sim/common/math.hpp"
 #include "sim/robot/robot_def.hpp"
+#include "sim/sensors/camera_image.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
 
 struct FrameRobot {
   std::string name;
-  Pose2 pose;            // true pose in the world
-  bool carried = false;  // in the air (kidnapped): drawn as a ghost
-  int kidnaps = 0;       // kidnaps so far: the true path breaks where this changes
+  Pose2 pose;             // true pose in the world
+  bool carried = false;   // in the air (kidnapped): drawn as a ghost
+  int kidnaps = 0;        // kidnaps so far: the true path breaks where this changes
+  double height_m = 0.4;  // body height, for cameras' views [m]
   FootprintDef footprint;
   std::optional<Pose2> odometry;  // the base's dead-reckoned pose (odom frame = world at t = 0)
   // Sensor visuals from the latest readings, world frame.
@@ -38,6 +40,7 @@ struct FrameRobot {
     double hfov_rad = 0.0;
     double max_range_m = 0.0;
     std::vector<Vec2> detections_m;  // where each detection puts its landmark
+    CameraShot shot;                 // for drawing the camera's own view
   };
   std::optional<Camera> camera;
 };
@@ -45,7 +48,9 @@ struct FrameRobot {
 struct FrameMover {
   Pose2 pose;
   FootprintDef footprint;
-  std::string kind;  // "person" or "cart"
+  std::string kind;       // "person" or "cart"
+  double height_m = 1.7;  // [m]
+  std::string name;
 };
 
 struct FrameLocalizer {
@@ -86,6 +91,7 @@ struct VideoOptions {
   double speed = 1.0;              // simulated seconds per video second [-]
   bool particles = true;           // draw the particle clouds
   std::string backend = "osmesa";  // GL context: osmesa (software, no display needed)
+  bool camera_view = true;         // the first robot's PTZ camera view in the panel, if it has one
 };
 
 /// Receives the frames of a run, in order, each at its simulated time k * speed / fps.

@@ -298,7 +298,7 @@ fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
 RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt) {
   // Everything that can be wrong with the input is found before the folder is made.
   RunInputs inputs = load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
-  Simulation sim(inputs.world, inputs.scenario, options.seed);
+  Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
   // Plugins are loaded and created before anything is written too (exit 3 leaves no folder).
   std::vector<std::unique_ptr<LocalizerHost>> hosts;
   if (!options.localizers.empty()) {

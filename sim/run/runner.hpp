@@ -12,6 +12,7 @@
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/run/frame_state.hpp"
 #include "sim/scenario/scenario_def.hpp"
+#include "sim/sensors/camera_image.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
@@ -30,6 +31,7 @@ struct RunOptions {
   std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
   FrameSink* video = nullptr;  // frames of the run (render/), at video_options' frame times
   VideoOptions video_options;
+  LandmarkImagerFactory make_landmark_imager;  // for PTZ cameras in mode: rendered (render/)
 };
 
 struct RunResult {

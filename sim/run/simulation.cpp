@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstring>
 
+#include "sim/common/errors.hpp"
+#include "sim/sensors/models.hpp"
+
 namespace locsim {
 
 void append_fixed(std::string& out, double value, int decimals) {
@@ -34,7 +37,8 @@ std::string format_pose(const Pose2& pose) {
   return "(" + fixed(pose.x, 4) + "," + fixed(pose.y, 4) + "," + fixed(pose.theta, 4) + ")";
 }
 
-Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
+Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
+                       const LandmarkImagerFactory& make_imager)
     : world_def_(std::move(world)),
       scenario_(std::move(scenario)),
       seed_(seed),
@@ -83,6 +87,17 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
     }
     slot.sensors = make_sensors(slot.robot->def(), seed, policy);
     for (const auto& sensor : slot.sensors) {
+      auto* ptz = dynamic_cast<PtzCameraSensor*>(sensor.get());
+      if (ptz == nullptr || ptz->def().mode != PtzCameraDef::Mode::kRendered) continue;
+      if (!make_imager) {
+        throw RenderError("robot '" + slot.robot->name() +
+                          "': ptz_camera mode: rendered needs the renderer, which this program "
+                          "does not load (`locsim run` and `locsim experiment` do)");
+      }
+      ptz->set_imager(make_imager(world_def_, ptz->def()));
+      renders_images_ = true;
+    }
+    for (const auto& sensor : slot.sensors) {
       slot.sensor_strides.push_back(
           std::llround(world_def_.physics.step_hz / sensor->common().rate_hz));
     }
@@ -91,10 +106,30 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed)
   run_sensors(false);
 }
 
+void Simulation::refresh_moving_prisms() {
+  moving_prisms_.clear();
+  for (const Mover& mover : world_->movers()) {
+    const b2Vec2 p = mover.body->GetPosition();
+    moving_prisms_.push_back({mover.def.name, mover.def.kind,
+                              Pose2{p.x, p.y, mover.body->GetAngle()}, mover.def.footprint,
+                              mover.def.height_m});
+  }
+  for (const RobotSlot& slot : robots_) {
+    if (slot.robot->carried()) continue;  // in the air, above the cameras
+    moving_prisms_.push_back({slot.robot->name(), "robot", slot.robot->pose(),
+                              slot.robot->def().footprint, slot.robot->def().height_m});
+  }
+}
+
 void Simulation::run_sensors(bool physics_stepped) {
+  bool refreshed = false;
   for (std::size_t i = 0; i < robots_.size(); ++i) {
     RobotSlot& slot = robots_[i];
-    const SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
+    SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
+    if (renders_images_) {
+      if (!refreshed) refresh_moving_prisms(), refreshed = true;
+      context.moving = &moving_prisms_;
+    }
     for (std::size_t k = 0; k < slot.sensors.size(); ++k) {
       Sensor& sensor = *slot.sensors[k];
       if (physics_stepped) sensor.on_physics_step(context);

@@ -44,7 +44,10 @@ class Simulation {
  public:
   /// `world` and `scenario` must have been checked (bind_scenario). Throws InputError when a
   /// robot starts in collision.
-  Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed);
+  /// `make_imager` renders the images of PTZ cameras in mode: rendered (none: such a camera
+  /// throws RenderError at construction).
+  Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
+             const LandmarkImagerFactory& make_imager = {});
   ~Simulation();
 
   /// Advances one physics step, then applies the scenario events due at the new time, so that
@@ -100,6 +103,7 @@ class Simulation {
 
   void fire_due_events();
   void run_sensors(bool physics_stepped);
+  void refresh_moving_prisms();
   void fire(const EventDef& event);
   void put_down(RobotSlot& slot);
   Pose2 random_free_pose(RobotSlot& slot, const EventDef& event);
@@ -122,6 +126,8 @@ class Simulation {
   std::vector<SimEvent> events_;
   std::unique_ptr<StaticRaycaster> static_rays_;
   std::unique_ptr<SceneRays> rays_;
+  bool renders_images_ = false;            // a camera in mode: rendered
+  std::vector<ScenePrism> moving_prisms_;  // refreshed for each sensor round when it does
   std::vector<Reading> readings_;
 };
 

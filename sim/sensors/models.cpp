@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "sim/common/errors.hpp"
+
 namespace locsim {
 
 namespace {
@@ -14,17 +16,6 @@ Pose2 sensor_pose(const DiffDriveRobot& robot, const Pose2& mount) {
   const Pose2 body = robot.pose();
   const Vec2 position = body.transform(mount.position());
   return {position.x(), position.y(), wrap_angle(body.theta + mount.theta)};
-}
-
-std::string color_label(const LandmarkDef& landmark) {
-  if (!landmark.color_name.empty()) return landmark.color_name;
-  static const char* kHex = "0123456789abcdef";
-  std::string out = "#";
-  for (const unsigned char c : landmark.color) {
-    out += kHex[c >> 4];
-    out += kHex[c & 15];
-  }
-  return out;
 }
 
 /// Range and bearing in the robot frame of a point given in the sensor (mount) frame.
@@ -226,11 +217,16 @@ std::optional<Detection> PtzCameraSensor::look_at(const SensorContext& context, 
   const int first_column = std::max(0, static_cast<int>(std::lround(u_left)));
   const int end_column = std::min(def_.width_px, static_cast<int>(std::lround(u_right)));
   if (end_column - first_column < def_.min_blob_px) return std::nullopt;
+  if (def_.reject_border_blobs && (first_column == 0 || end_column == def_.width_px))
+    return std::nullopt;
 
-  // Rows of the landmark's top and bottom at its near face, with tilt.
+  // Rows of the landmark's top and bottom where it is nearest along the optical axis: a pinhole
+  // image scales heights by the depth along the axis, range cos(bearing) - radius, not by the
+  // distance (off-axis landmarks look taller). With tilt.
   const double tilt = def_.tilt_rad;
+  const double depth_m = range * std::cos(bearing) - landmark.radius_m;
   const auto row_of = [&](double z_m) {
-    return cy - f * std::tan(std::atan((z_m - def_.height_m) / surface_m) - tilt);
+    return cy - f * std::tan(std::atan((z_m - def_.height_m) / depth_m) - tilt);
   };
   const double v_top =
       std::clamp(row_of(landmark.height_m) + rng().normal(0.0, def_.pixel_noise_px), 0.0,
@@ -239,6 +235,8 @@ std::optional<Detection> PtzCameraSensor::look_at(const SensorContext& context, 
                                      static_cast<double>(def_.height_px));
   const double top_row = std::round(v_top), bottom_row = std::round(v_bottom);
   if (bottom_row - top_row < def_.min_blob_px) return std::nullopt;
+  if (def_.reject_border_blobs && (top_row <= 0.0 || bottom_row >= def_.height_px))
+    return std::nullopt;
 
   // Occlusion: the longest run of columns whose ray reaches the landmark. At most 16 rays;
   // columns between rays take the nearer ray's answer.
@@ -267,14 +265,21 @@ std::optional<Detection> PtzCameraSensor::look_at(const SensorContext& context, 
   }
   if (best_length < def_.min_blob_px) return std::nullopt;
 
-  // Back-projection: bearing from the visible blob's centre column; distance from the rows,
-  // knowing the landmark's height: d = h / (tan(e_top) - tan(e_bottom)).
-  const double u_centre = first_column + best_start + 0.5 * best_length;
+  return back_project(first_column + best_start + 0.5 * best_length, top_row, bottom_row, landmark);
+}
+
+Detection PtzCameraSensor::back_project(double u_centre, double top_row, double bottom_row,
+                                        const LandmarkDef& landmark) const {
+  // Bearing from the blob's centre column; from its rows, knowing the landmark's height, the
+  // depth of its near side along the optical axis, x = h / (tan(e_top) - tan(e_bottom)); the
+  // centre is a radius deeper, and its distance is that depth over cos(bearing).
+  const double f = focal_px();
+  const double cx = 0.5 * def_.width_px, cy = 0.5 * def_.height_px;
   const double bearing_estimate = std::atan((cx - u_centre) / f);
-  const double e_top = tilt + std::atan((cy - top_row) / f);
-  const double e_bottom = tilt + std::atan((cy - bottom_row) / f);
-  const double surface_estimate = landmark.height_m / (std::tan(e_top) - std::tan(e_bottom));
-  const double centre_estimate = surface_estimate + landmark.radius_m;
+  const double e_top = def_.tilt_rad + std::atan((cy - top_row) / f);
+  const double e_bottom = def_.tilt_rad + std::atan((cy - bottom_row) / f);
+  const double depth_estimate = landmark.height_m / (std::tan(e_top) - std::tan(e_bottom));
+  const double centre_estimate = (depth_estimate + landmark.radius_m) / std::cos(bearing_estimate);
 
   Detection detection;
   detection.color = color_label(landmark);
@@ -289,6 +294,65 @@ std::optional<Detection> PtzCameraSensor::look_at(const SensorContext& context, 
   return detection;
 }
 
+void PtzCameraSensor::look_rendered(const SensorContext& context, const Pose2& camera,
+                                    PtzReading& reading) {
+  if (!imager_) {
+    throw RenderError("ptz_camera of robot '" + context.robot.name() +
+                      "': mode: rendered needs the renderer, which this program did not load "
+                      "(`locsim run` does)");
+  }
+  static const std::vector<ScenePrism> kNothingMoves;
+  const CameraShot shot{camera,     def_.height_m, def_.tilt_rad,
+                        focal_px(), def_.width_px, def_.height_px};
+  const std::vector<ImageBlob> blobs = imager_->look(
+      shot, context.moving != nullptr ? *context.moving : kNothingMoves, context.robot.name());
+  const double f = focal_px();
+  const double cx = 0.5 * def_.width_px;
+  for (const ImageBlob& blob : blobs) {
+    if (blob.end_column - blob.first_column < def_.min_blob_px ||
+        blob.bottom_row - blob.top_row < def_.min_blob_px) {
+      continue;
+    }
+    if (def_.reject_border_blobs && (blob.first_column == 0 || blob.end_column == def_.width_px ||
+                                     blob.top_row == 0 || blob.bottom_row == def_.height_px)) {
+      continue;
+    }
+    // The colour says which landmarks it may be; their shape (height, radius) is the first's.
+    const LandmarkDef* shape = nullptr;
+    for (const LandmarkDef& l : context.world.landmarks) {
+      if (color_label(l) == blob.color) {
+        shape = &l;
+        break;
+      }
+    }
+    if (shape == nullptr) continue;
+    const double u_centre = 0.5 * (blob.first_column + blob.end_column);
+    Detection detection = back_project(u_centre, blob.top_row, blob.bottom_row, *shape);
+    // The recognition range, on the estimate (the image is all the detector has).
+    const double surface_m = detection.range_m - shape->radius_m;
+    if (surface_m < def_.min_range_m || surface_m > def_.max_range_m) continue;
+    // For the logs and metrics only: the landmark of that colour whose silhouette overlaps the
+    // blob's columns most (one cut by the image border counts), else -1 (a false detection).
+    detection.truth_id = -1;
+    double best_overlap_px = 0.0;
+    for (const LandmarkDef& l : context.world.landmarks) {
+      if (color_label(l) != blob.color) continue;
+      const Vec2 offset = l.position_m - camera.position();
+      const double distance = offset.norm();
+      if (distance <= l.radius_m) continue;
+      const double bearing = wrap_angle(std::atan2(offset.y(), offset.x()) - camera.theta);
+      const double half_width = std::asin(l.radius_m / distance);
+      if (std::abs(bearing) + half_width >= 0.5 * std::numbers::pi) continue;
+      const double u_left = cx - f * std::tan(bearing + half_width);
+      const double u_right = cx - f * std::tan(bearing - half_width);
+      const double overlap = std::min<double>(u_right + 1.0, blob.end_column) -
+                             std::max<double>(u_left - 1.0, blob.first_column);
+      if (overlap > best_overlap_px) best_overlap_px = overlap, detection.truth_id = l.id;
+    }
+    reading.detections.push_back(std::move(detection));
+  }
+}
+
 std::optional<ReadingData> PtzCameraSensor::measure(const SensorContext& context) {
   steer(context);
   PtzReading reading;
@@ -298,6 +362,10 @@ std::optional<ReadingData> PtzCameraSensor::measure(const SensorContext& context
   if (context.robot.carried()) return reading;  // in the air: sees nothing useful
   const Pose2 base = sensor_pose(context.robot, def_.common.mount);
   const Pose2 camera{base.x, base.y, wrap_angle(base.theta + pan_rad_)};
+  if (def_.mode == PtzCameraDef::Mode::kRendered) {
+    look_rendered(context, camera, reading);
+    return reading;
+  }
   for (const LandmarkDef& landmark : context.world.landmarks) {
     std::optional<Detection> detection = look_at(context, camera, landmark);
     if (detection && rng().uniform() >= def_.miss_probability) {

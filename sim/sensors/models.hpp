@@ -57,6 +57,9 @@ class PtzCameraSensor final : public Sensor {
   PtzCameraSensor(const PtzCameraDef& def, const PanPolicyDef& policy, RandomStream rng);
   double pan_rad() const { return pan_rad_; }
   double focal_px() const;
+  const PtzCameraDef& def() const { return def_; }
+  /// The renderer for mode: rendered (required before the first sample in that mode).
+  void set_imager(std::shared_ptr<LandmarkImager> imager) { imager_ = std::move(imager); }
 
  protected:
   std::optional<ReadingData> measure(const SensorContext& context) override;
@@ -66,12 +69,19 @@ class PtzCameraSensor final : public Sensor {
   void steer(const SensorContext& context);
   std::optional<Detection> look_at(const SensorContext& context, const Pose2& camera,
                                    const LandmarkDef& landmark);
+  /// mode: rendered: the blobs of the rendered image, back-projected.
+  void look_rendered(const SensorContext& context, const Pose2& camera, PtzReading& reading);
+  /// A detection from a blob's centre column and top and bottom rows, knowing the landmark's
+  /// height (and radius).
+  Detection back_project(double u_centre, double top_row, double bottom_row,
+                         const LandmarkDef& landmark) const;
 
   PtzCameraDef def_;
   PanPolicyDef policy_;
   double pan_rad_ = 0.0;
   double last_steer_s_ = 0.0;
   int sweep_direction_ = 1;
+  std::shared_ptr<LandmarkImager> imager_;
 };
 
 /// 360 deg range-bearing to landmarks with a Gaussian in the local frame (paper 002).

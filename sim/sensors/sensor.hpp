@@ -10,6 +10,7 @@
 #include "sim/common/random.hpp"
 #include "sim/robot/diff_drive.hpp"
 #include "sim/scenario/scenario_def.hpp"
+#include "sim/sensors/camera_image.hpp"
 #include "sim/sensors/readings.hpp"
 #include "sim/sensors/scene_rays.hpp"
 #include "sim/sensors/sensor_defs.hpp"
@@ -24,6 +25,8 @@ struct SensorContext {
   const DiffDriveRobot& robot;
   const WorldDef& world;
   const SceneRays& rays;
+  // Everything that moves, for a camera that renders its image; null unless one does.
+  const std::vector<ScenePrism>* moving = nullptr;
 };
 
 class Sensor {

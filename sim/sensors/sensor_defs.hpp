@@ -62,6 +62,13 @@ struct PtzCameraDef {
   double miss_probability = 0.02;  // a visible landmark is not reported [-]
   double false_detections_per_frame = 0.01;  // Poisson mean of phantom detections [-]
   bool report_ids = false;  // false: only colours (association is the filter's job)
+  // A blob that touches the image border is cut: its centre column (bearing) or its rows
+  // (distance) are wrong, so a careful detector drops it.
+  bool reject_border_blobs = true;
+  // analytic: each landmark projected through the pinhole model (noise, miss and phantoms as
+  // above); rendered: the image is rendered and segmented by colour (sim/sensors/camera_image.hpp)
+  enum class Mode { kAnalytic, kRendered };
+  Mode mode = Mode::kAnalytic;
 };
 
 /// Omnidirectional camera: 360 deg range-bearing to landmarks (paper 002).

@@ -76,14 +76,29 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
   if (const auto n = node.find("ptz_camera")) {
     sensors.ptz_camera = parse_section(
         *n, PtzCameraDef{}, step_hz,
-        {"height_m",    "width_px",         "height_px",
-         "hfov",        "hfov_deg",         "zoom_max",
-         "pan_min",     "pan_min_deg",      "pan_max",
-         "pan_max_deg", "max_pan_rate",     "max_pan_rate_deg",
-         "tilt",        "tilt_deg",         "zoom",
-         "min_range_m", "max_range_m",      "pixel_noise_px",
-         "min_blob_px", "miss_probability", "false_detections_per_frame",
-         "report_ids"},
+        {"height_m",
+         "width_px",
+         "height_px",
+         "hfov",
+         "hfov_deg",
+         "zoom_max",
+         "pan_min",
+         "pan_min_deg",
+         "pan_max",
+         "pan_max_deg",
+         "max_pan_rate",
+         "max_pan_rate_deg",
+         "tilt",
+         "tilt_deg",
+         "zoom",
+         "min_range_m",
+         "max_range_m",
+         "pixel_noise_px",
+         "min_blob_px",
+         "miss_probability",
+         "false_detections_per_frame",
+         "report_ids",
+         "mode"},
         [&](PtzCameraDef& d) {
           d.height_m = n->get_double("height_m", d.height_m, Check::kNonNegative);
           d.width_px = static_cast<int>(n->get_int("width_px", d.width_px, 8, 100000));
@@ -110,6 +125,13 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
           d.false_detections_per_frame = n->get_double(
               "false_detections_per_frame", d.false_detections_per_frame, Check::kNonNegative);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
+          d.reject_border_blobs = n->get_bool("reject_border_blobs", d.reject_border_blobs);
+          const std::string mode = n->get_string("mode", "analytic");
+          if (mode == "rendered") {
+            d.mode = PtzCameraDef::Mode::kRendered;
+          } else if (mode != "analytic") {
+            n->find("mode")->fail("must be analytic or rendered, not '" + mode + "'");
+          }
         });
   }
   if (const auto n = node.find("omni_camera")) {

@@ -76,6 +76,18 @@ struct LandmarkDef {
   double height_m = 0.5;           // cylinder height [m]
 };
 
+/// What a camera reports of a landmark's colour: its name, or "#rrggbb" when given as numbers.
+inline std::string color_label(const LandmarkDef& landmark) {
+  if (!landmark.color_name.empty()) return landmark.color_name;
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out = "#";
+  for (const unsigned char c : landmark.color) {
+    out += kHex[c >> 4];
+    out += kHex[c & 15];
+  }
+  return out;
+}
+
 struct BeaconDef {
   int id = 0;
   Vec2 position_m{0.0, 0.0};

@@ -40,12 +40,26 @@ constexpr const char* kExitCodes = R"(Exit codes:
        cannot be opened or written (frames written before stay; the video is closed and plays)
   130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted")";
 
+/// The renderer, loaded on first use (it brings OpenGL, OpenCV and FFmpeg along): for --video and
+/// --frames, and for PTZ cameras in mode: rendered.
+std::shared_ptr<locsim::render::RenderModule> renderer() {
+  static std::shared_ptr<locsim::render::RenderModule> module;
+  if (!module) module = locsim::render::RenderModule::load();
+  return module;
+}
+
+locsim::LandmarkImagerFactory imager_factory(const std::string& gl_backend) {
+  return [gl_backend](const locsim::WorldDef& world, const locsim::PtzCameraDef& camera) {
+    return renderer()->make_imager(world, camera, gl_backend);
+  };
+}
+
 int validate(const std::string& world, const std::optional<std::string>& scenario) {
   const locsim::RunInputs inputs = locsim::load_run_inputs(
       world, scenario ? std::optional<std::filesystem::path>(*scenario) : std::nullopt,
       std::nullopt);
   // Building the world checks what only the physics can: robots starting in collision.
-  const locsim::Simulation sim(inputs.world, inputs.scenario, 1);
+  const locsim::Simulation sim(inputs.world, inputs.scenario, 1, imager_factory("osmesa"));
   std::printf(
       "%s: ok (%zu robot%s, %d static fixtures, %zu movers, %zu landmarks, %zu beacons, "
       "scenario '%s' %.1f s, %zu events)\n",
@@ -204,6 +218,8 @@ int main(int argc, char** argv) {
       ->group("Video");
   run->add_flag("!--no-particles", video.particles, "Do not draw the particle clouds")
       ->group("Video");
+  run->add_flag("!--no-camera-view", video.camera_view,
+                "Do not show the PTZ camera's own view in the video's side panel");
   run->add_option("--gl-backend", video.backend, "Offscreen GL: osmesa (software; the default)")
       ->group("Video");
   run->footer(
@@ -336,7 +352,7 @@ int main(int argc, char** argv) {
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
     options.progress = !quiet && isatty(STDERR_FILENO);
-    // The renderer is loaded only when asked for (it brings OpenGL, OpenCV and FFmpeg along).
+    options.make_landmark_imager = imager_factory(video.backend);
     std::shared_ptr<locsim::FrameSink> recorder;
     if (!video_file.empty() || !frames_dir.empty()) {
       int width = 0, height = 0;
@@ -347,7 +363,7 @@ int main(int argc, char** argv) {
       video.width_px = width, video.height_px = height;
       if (!video_file.empty()) video.video_file = video_file;
       if (!frames_dir.empty()) video.frames_dir = frames_dir;
-      recorder = locsim::render::RenderModule::load()->make_recorder(video);
+      recorder = renderer()->make_recorder(video);
       options.video = recorder.get();
     }
     std::signal(SIGINT, on_sigint);
