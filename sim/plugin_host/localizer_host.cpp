@@ -159,13 +159,7 @@ LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
                                RandomStream& initial_rng)
     : grid(std::move(occupancy)) {
   for (const LandmarkDef& l : world.landmarks) {
-    std::string color = l.color_name;
-    if (color.empty()) {
-      char hex[8];
-      std::snprintf(hex, sizeof(hex), "#%02x%02x%02x", l.color[0], l.color[1], l.color[2]);
-      color = hex;
-    }
-    colors.push_back(color);
+    colors.push_back(color_label(l));
     landmarks.push_back(
         {l.id, l.position_m.x(), l.position_m.y(), l.radius_m, l.height_m, colors.back().c_str()});
   }

@@ -10,8 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/plugin_host/localizer_host.hpp"
-#include "sim/plugin_host/plugin_library.hpp"
+#include "plugin_fixture.hpp"
 
 namespace {
 
@@ -37,27 +36,10 @@ struct Field {
 };
 
 void BM_LandmarkPluginUpdate(benchmark::State& state, const char* plugin) {
-  const PluginLibrary library(
-      find_plugin(std::string(LOCSIM_BUILD_PLUGIN_DIR) + "/locsim_" + plugin + ".so"));
-  LocalizerSpec spec;
-  spec.plugin = plugin;
-  spec.params = {{"particles", std::to_string(state.range(0))}};
-  const ParamSet params(library.table(), spec);
   const Field field;
-  locsim_init init{};
-  init.struct_size = sizeof(init);
-  init.params = params.values().data();
-  init.param_count = params.values().size();
-  init.map = &field.map;
-  init.robot = &field.robot;
-  init.initial_pose_known = 1;
-  init.initial_pose = {3.0, 2.0, 0.0};
-  init.initial_covariance[0] = init.initial_covariance[4] = 0.01;
-  init.initial_covariance[8] = 0.01;
-  init.seed = 1;
-  char error[256] = {};
-  void* filter = library.table().create(&init, error, sizeof error);
-  if (filter == nullptr) throw std::runtime_error(error);
+  bench::PluginFixture plugin_fixture(plugin, {{"particles", std::to_string(state.range(0))}},
+                                      field.map, field.robot, {3.0, 2.0, 0.0}, 0.01, 0.01);
+  bench::PluginFixture& f = plugin_fixture;
 
   // The robot drives a 1 m circle about the field's centre at 0.3 m/s; a frame every 0.2 s.
   double t_s = 0.0;
@@ -77,34 +59,33 @@ void BM_LandmarkPluginUpdate(benchmark::State& state, const char* plugin) {
       const double dx = field.posts[i][0] - x, dy = field.posts[i][1] - y;
       detections[i] = {field.colors[i], -1, std::hypot(dx, dy), std::atan2(dy, dx) - theta};
     }
-    return library.table().update(filter, &odometry, error, sizeof error) == 0 &&
-           library.table().update(filter, &frame, error, sizeof error) == 0;
+    return f.update(odometry) && f.update(frame);
   };
   // Steady-state tracking: the first steps, in which sensor resetting still replaces particles
   // drawn about the initial guess, are left out of the timing.
   for (int warm_up = 0; warm_up < 25; ++warm_up) {
     if (!step()) {
-      state.SkipWithError(error);
+      state.SkipWithError(f.error());
       return;
     }
   }
   for (auto _ : state) {
     if (!step()) {
-      state.SkipWithError(error);
+      state.SkipWithError(f.error());
       break;
     }
   }
   // How many particles sensor resetting replaced per step (its share of the time).
   std::array<locsim_diagnostic, 16> diagnostics{};
   std::size_t count = 0;
-  if (library.table().diagnostics != nullptr &&
-      library.table().diagnostics(filter, diagnostics.data(), diagnostics.size(), &count, error,
-                                  sizeof error) == 0) {
+  char error[256] = {};
+  if (f.table().diagnostics != nullptr &&
+      f.table().diagnostics(f.filter(), diagnostics.data(), diagnostics.size(), &count, error,
+                            sizeof error) == 0) {
     for (std::size_t i = 0; i < count; ++i)
       if (std::string(diagnostics[i].name) == "resets")
         state.counters["resets"] = diagnostics[i].value;
   }
-  library.table().destroy(filter);
   state.counters["particle_updates_per_s"] = benchmark::Counter(
       static_cast<double>(state.range(0)) * static_cast<double>(state.iterations()),
       benchmark::Counter::kIsRate);

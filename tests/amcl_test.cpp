@@ -1,0 +1,146 @@
+// AMCL on the laser and the SDK pieces it is made of: the exact distance transform, the
+// likelihood field, the normal quantile and KLD sampling's bound against the chi-square table;
+// then the plugin tracks from a known start, localizes globally and shrinks its particle count
+// once it has.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <locsim/laser.hpp>
+#include <locsim/particles.hpp>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "sim/run/runner.hpp"
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(LikelihoodField, DistanceTransformIsExact) {
+  constexpr int kWidth = 37, kHeight = 23;
+  std::mt19937 random(7);
+  std::vector<bool> occupied(kWidth * kHeight);
+  for (std::size_t i = 0; i < occupied.size(); ++i) occupied[i] = random() % 17 == 0;
+  const auto is_occupied = [&](int c, int r) { return occupied[r * kWidth + c]; };
+  const std::vector<double> d2 = sdk::squared_distance_transform(kWidth, kHeight, is_occupied);
+  for (int r = 0; r < kHeight; ++r) {
+    for (int c = 0; c < kWidth; ++c) {
+      double best = std::numeric_limits<double>::infinity();
+      for (int rr = 0; rr < kHeight; ++rr)
+        for (int cc = 0; cc < kWidth; ++cc)
+          if (is_occupied(cc, rr))
+            best = std::min(best, static_cast<double>((c - cc) * (c - cc) + (r - rr) * (r - rr)));
+      ASSERT_EQ(d2[r * kWidth + c], best) << c << ", " << r;
+    }
+  }
+  // Nothing occupied: infinitely far.
+  const auto none = sdk::squared_distance_transform(5, 4, [](int, int) { return false; });
+  for (const double v : none) EXPECT_TRUE(std::isinf(v));
+}
+
+TEST(LikelihoodField, IsTheHitAndRandomMixtureOfTheDistance) {
+  // A 4 x 4 m room at 10 cm with one occupied cell at its centre.
+  std::vector<std::uint8_t> cells(40 * 40, 0);
+  cells[20 * 40 + 20] = 100;
+  const locsim_occupancy_grid grid{-2.0, -2.0, 0.1, 40, 40, cells.data()};
+  sdk::LikelihoodFieldDef def;
+  def.sigma_hit_m = 0.2, def.z_hit = 0.9, def.z_rand = 0.1, def.range_max_m = 10.0;
+  def.max_dist_m = 1.0;
+  const sdk::LikelihoodField field(grid, def);
+  const double uniform = 0.1 / 10.0;
+  const auto expected = [&](double d) {
+    return std::log(
+        0.9 / (std::sqrt(2.0 * std::numbers::pi) * 0.2) * std::exp(-0.5 * d * d / 0.04) + uniform);
+  };
+  EXPECT_NEAR(field.log_p(0.05, 0.05), expected(0.0), 1e-5);    // the occupied cell
+  EXPECT_NEAR(field.log_p(0.35, 0.05), expected(0.3), 1e-5);    // three cells away
+  EXPECT_NEAR(field.log_p(0.35, 0.45), expected(0.5), 1e-5);    // (3, 4) cells: 0.5 m
+  EXPECT_NEAR(field.log_p(1.85, 1.85), expected(1.0), 1e-5);    // beyond max_dist: capped
+  EXPECT_NEAR(field.log_p(5.0, 0.0), std::log(uniform), 1e-6);  // off the map
+  EXPECT_NEAR(field.log_p(-2.01, 0.0), std::log(uniform), 1e-6);
+}
+
+TEST(Kld, NormalQuantileAndSampleCountMatchTheTables) {
+  EXPECT_NEAR(sdk::normal_quantile(0.99), 2.3263478740408408, 1e-12);
+  EXPECT_NEAR(sdk::normal_quantile(0.975), 1.959963984540054, 1e-12);
+  EXPECT_NEAR(sdk::normal_quantile(0.5), 0.0, 1e-15);
+  EXPECT_NEAR(sdk::normal_quantile(1e-6), -4.753424308822899, 1e-10);
+  EXPECT_TRUE(std::isnan(sdk::normal_quantile(1.0)));
+  // The bound is chi-square(k - 1, 1 - delta) / (2 epsilon) by the Wilson-Hilferty
+  // approximation; against the exact quantiles of the table (delta = 0.01):
+  // chi2(9) = 21.666, chi2(99) = 134.642, chi2(999) = 1106.969.
+  const double z = sdk::normal_quantile(0.99);
+  for (const auto& [bins, chi2] : {std::pair{10, 21.666}, {100, 134.642}, {1000, 1106.969}}) {
+    const double exact = chi2 / (2.0 * 0.05);
+    EXPECT_NEAR(static_cast<double>(sdk::kld_sample_count(bins, 0.05, z)), exact, 0.005 * exact)
+        << bins << " bins";
+  }
+  EXPECT_EQ(sdk::kld_sample_count(1, 0.05, z), 1u);
+  // nav2's slip, 0.99 taken as the quantile itself: 16 % too few particles at 100 bins.
+  EXPECT_LT(static_cast<double>(sdk::kld_sample_count(100, 0.05, 0.99)),
+            0.9 * static_cast<double>(sdk::kld_sample_count(100, 0.05, z)));
+}
+
+nlohmann::json run_demo(const std::string& scenario_yaml, std::uint64_t seed, double duration_s,
+                        const std::vector<std::string>& localizers, const fs::path& out) {
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  if (!scenario_yaml.empty()) {
+    std::ofstream(out.string() + ".yaml") << scenario_yaml;
+    options.scenario_file = out.string() + ".yaml";
+  }
+  options.duration_s = duration_s;
+  options.seed = seed;
+  options.out_dir = out;
+  options.localizers = localizers;
+  run_simulation(options);
+  return nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+}
+
+TEST(Amcl, TracksFromAKnownStartToCentimetres) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const auto metrics =
+        run_demo("", seed, 20.0, {"amcl"}, testing::temp_dir("amcl-track") / std::to_string(seed));
+    const auto& l = metrics["localizers"][0];
+    ASSERT_EQ(l["status"], "ok");
+    EXPECT_LT(l["position_error_m"]["rms"].get<double>(), 0.08) << "seed " << seed;
+    EXPECT_LT(l["heading_error_deg"]["rms"].get<double>(), 3.0) << "seed " << seed;
+  }
+}
+
+TEST(Amcl, LocalizesGloballyAndThenNeedsFewParticles) {
+  // The demo building from no idea where the robot is: 20 000 particles uniform over the free
+  // cells. Most seeds converge (10 cm, 10 deg, held 10 samples) within 5 s; in this nearly
+  // rectangular room some lock onto the mirror pose instead, as AMCL does (6 of 8 seeds converge
+  // by the command line; here seeds 1 and 3 of 1-4). Either way KLD sampling then keeps the
+  // minimum: the cloud has collapsed to one mode.
+  const std::string scenario = R"(
+name: global
+duration_s: 20
+drive:
+  mode: waypoints
+  path: [[8.5, 1.5], [8.5, 5.0], [6.0, 5.0], [6.0, 3.2], [1.5, 3.2], [1.5, 1.5]]
+  loop: true
+  speed_mps: 0.4
+localization: {initial_pose: unknown}
+)";
+  int converged = 0;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const auto metrics =
+        run_demo(scenario, seed, 20.0, {"amcl:max_particles=20000,min_particles=500"},
+                 testing::temp_dir("amcl-global") / std::to_string(seed));
+    const auto& l = metrics["localizers"][0];
+    ASSERT_EQ(l["status"], "ok");
+    if (!l["convergence"]["time_s"].is_null() && l["convergence"]["time_s"].get<double>() < 5.0)
+      ++converged;
+    EXPECT_EQ(l["diagnostics"]["particles"].get<double>(), 500.0) << "seed " << seed;
+    EXPECT_GT(l["diagnostics"]["updates"].get<double>(), 20.0) << "seed " << seed;
+  }
+  EXPECT_GE(converged, 2);
+}
+
+}  // namespace
+}  // namespace locsim
