@@ -11,8 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "sim/run/runner.hpp"
-#include "test_support.hpp"
+#include "run_support.hpp"
 
 namespace locsim {
 namespace {
@@ -96,8 +95,7 @@ nlohmann::json run_demo(const std::string& scenario_yaml, std::uint64_t seed, do
   options.seed = seed;
   options.out_dir = out;
   options.localizers = localizers;
-  run_simulation(options);
-  return nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+  return testing::run_metrics(options);
 }
 
 TEST(Amcl, TracksFromAKnownStartToCentimetres) {

@@ -6,8 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "sim/run/runner.hpp"
-#include "test_support.hpp"
+#include "run_support.hpp"
 
 namespace locsim {
 namespace {
@@ -28,8 +27,7 @@ nlohmann::json run_field(const std::string& scenario, std::uint64_t seed, double
   options.out_dir = out;
   options.localizers = localizers;
   options.convergence.hold_samples = 5;  // the experiments': 5 steps (a sample per camera frame)
-  run_simulation(options);
-  return nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+  return testing::run_metrics(options);
 }
 
 TEST(ParticleFilters, TrackFromAKnownStartToCentimetres) {
@@ -92,9 +90,7 @@ TEST(ParticleFilters, FalseDetectionsAreRejectedOrOutwaitedInsteadOfResetOnto) {
     options.out_dir = dir / ("seed" + std::to_string(seed));
     options.localizers = {"asrl:reject_inconsistent=0," + kCalibrated + "@paper",
                           "asrl:reset_after_steps=3," + kCalibrated + "@robust"};
-    run_simulation(options);
-    const auto metrics =
-        nlohmann::json::parse(testing::read_file(options.out_dir / "metrics.json"));
+    const auto metrics = testing::run_metrics(options);
     for (const auto& l : metrics["localizers"]) {
       ASSERT_EQ(l["status"], "ok");
       const double rms = l["position_error_m"]["rms"].get<double>();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -108,6 +109,51 @@ inline Pose between(const Pose& a, const Pose& b) {
   const double c = std::cos(a(2)), s = std::sin(a(2));
   const double dx = b(0) - a(0), dy = b(1) - a(1);
   return {c * dx + s * dy, -s * dx + c * dy, wrap(b(2) - a(2))};
+}
+
+/// The robot pose in the world from two landmarks a, b at known world positions and their
+/// positions pa, pb in the robot frame: position from the ranges |pa|, |pb| (intersection of
+/// the two circles, on the side where b lies as seen from the robot: the sign of pa x pb), the
+/// heading as the circular mean of the two bearing-implied headings. nullopt when the circles do
+/// not meet (ranges inconsistent with the landmarks' distance) by more than 10 %.
+inline std::optional<Pose> two_landmark_pose(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                                             const Eigen::Vector2d& pa, const Eigen::Vector2d& pb) {
+  const double da = pa.norm(), db = pb.norm();
+  const Eigen::Vector2d ab = b - a;
+  const double l = ab.norm();
+  if (l <= 0.0 || da <= 0.0 || db <= 0.0) return std::nullopt;
+  // Angle at a between a->b and a->robot (law of cosines), clamped where noise breaks it.
+  double cos_alpha = (l * l + da * da - db * db) / (2.0 * l * da);
+  if (std::abs(cos_alpha) > 1.1) return std::nullopt;
+  cos_alpha = std::clamp(cos_alpha, -1.0, 1.0);
+  const double alpha = std::acos(cos_alpha);
+  // pa x pb = (a - r) x (b - r) = (b - a) x (r - a), whatever the heading: positive when the
+  // robot r is left of a->b, so the direction a->r turns from a->b by +alpha.
+  const double cross = pa.x() * pb.y() - pa.y() * pb.x();
+  const double side = cross > 0.0 ? 1.0 : -1.0;
+  const double direction = std::atan2(ab.y(), ab.x()) + side * alpha;
+  const Eigen::Vector2d position =
+      a + da * Eigen::Vector2d(std::cos(direction), std::sin(direction));
+  const auto heading_from = [&](const Eigen::Vector2d& landmark, const Eigen::Vector2d& seen) {
+    const Eigen::Vector2d d = landmark - position;
+    return std::atan2(d.y(), d.x()) - std::atan2(seen.y(), seen.x());
+  };
+  const double ha = heading_from(a, pa), hb = heading_from(b, pb);
+  const double heading = std::atan2(std::sin(ha) + std::sin(hb), std::cos(ha) + std::cos(hb));
+  return Pose(position.x(), position.y(), heading);
+}
+
+/// A 2D point estimate with its covariance.
+struct PointEstimate {
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d c = Eigen::Matrix2d::Identity();
+};
+
+/// Two independent estimates of one point combined (paper 002): with K = C1 (C1 + C2)^-1,
+/// x' = x1 + K (x2 - x1) and C' = C1 - K C1.
+inline PointEstimate kalman_combine(const PointEstimate& e1, const PointEstimate& e2) {
+  const Eigen::Matrix2d gain = e1.c * (e1.c + e2.c).inverse();
+  return {e1.p + gain * (e2.p - e1.p), e1.c - gain * e1.c};
 }
 
 }  // namespace locsim::sdk
