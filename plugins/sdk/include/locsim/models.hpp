@@ -9,6 +9,7 @@
 #include <numbers>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include "locsim/localizer.h"
 
@@ -154,6 +155,87 @@ struct PointEstimate {
 inline PointEstimate kalman_combine(const PointEstimate& e1, const PointEstimate& e2) {
   const Eigen::Matrix2d gain = e1.c * (e1.c + e2.c).inverse();
   return {e1.p + gain * (e2.p - e1.p), e1.c - gain * e1.c};
+}
+
+/// A position from its distances to three or more known points (paper 003's ultrasonic beacons,
+/// horizontal distances): the least-squares solution of the circle equations' differences,
+/// 2 (x_i - x_0) . p = r_0^2 - r_i^2 + |x_i|^2 - |x_0|^2, refined by Gauss-Newton on the
+/// distances themselves. nullopt with fewer than three points or when they are collinear.
+inline std::optional<Eigen::Vector2d> trilaterate(const std::vector<Eigen::Vector2d>& anchors,
+                                                  const std::vector<double>& ranges) {
+  const auto n = static_cast<Eigen::Index>(std::min(anchors.size(), ranges.size()));
+  if (n < 3) return std::nullopt;
+  Eigen::MatrixXd a(n - 1, 2);
+  Eigen::VectorXd b(n - 1);
+  for (Eigen::Index i = 1; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    a.row(i - 1) = 2.0 * (anchors[k] - anchors[0]).transpose();
+    b(i - 1) = ranges[0] * ranges[0] - ranges[k] * ranges[k] + anchors[k].squaredNorm() -
+               anchors[0].squaredNorm();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  if (qr.rank() < 2) return std::nullopt;
+  Eigen::Vector2d p = qr.solve(b);
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::MatrixXd j(n, 2);
+    Eigen::VectorXd residual(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector2d d = p - anchors[static_cast<std::size_t>(i)];
+      const double distance = std::max(d.norm(), 1e-12);
+      j.row(i) = d.transpose() / distance;
+      residual(i) = distance - ranges[static_cast<std::size_t>(i)];
+    }
+    const Eigen::Vector2d step = (j.transpose() * j).ldlt().solve(-j.transpose() * residual);
+    p += step;
+    if (step.norm() < 1e-12) break;
+  }
+  return p;
+}
+
+/// The pose that maps two points given in the robot frame (r1, r2) onto where they were found
+/// in the world (w1, w2): heading from the direction between them, position from their midpoint
+/// (paper 003's two receivers: x0 = (x_A1 + x_A2) / 2, yaw from A1 -> A2).
+inline Pose align_two_points(const Eigen::Vector2d& w1, const Eigen::Vector2d& w2,
+                             const Eigen::Vector2d& r1, const Eigen::Vector2d& r2) {
+  const Eigen::Vector2d dw = w2 - w1, dr = r2 - r1;
+  const double heading = wrap(std::atan2(dw.y(), dw.x()) - std::atan2(dr.y(), dr.x()));
+  const double c = std::cos(heading), s = std::sin(heading);
+  const Eigen::Vector2d mid_r = 0.5 * (r1 + r2), mid_w = 0.5 * (w1 + w2);
+  return {mid_w.x() - (c * mid_r.x() - s * mid_r.y()), mid_w.y() - (s * mid_r.x() + c * mid_r.y()),
+          heading};
+}
+
+/// Paper 003's IMU motion over the state s = (x, y, vx, vy, theta): forward acceleration a
+/// [m/s^2] along the heading and yaw rate omega [rad/s] held for dt [s],
+///   theta' = theta + omega dt,  x' = x + vx dt + a cos(theta) dt^2 / 2,  vx' = vx + a cos(theta)
+///   dt
+/// (y, vy with sin). The paper prints vx' = vx + a cos(theta) dt / 2; we take the kinematics.
+using ImuState = Eigen::Matrix<double, 5, 1>;
+inline ImuState imu_motion(const ImuState& s, double a, double omega, double dt) {
+  const double c = std::cos(s(4)), sn = std::sin(s(4));
+  ImuState out;
+  out << s(0) + s(2) * dt + 0.5 * a * c * dt * dt, s(1) + s(3) * dt + 0.5 * a * sn * dt * dt,
+      s(2) + a * c * dt, s(3) + a * sn * dt, wrap(s(4) + omega * dt);
+  return out;
+}
+
+/// d imu_motion / d s.
+inline Eigen::Matrix<double, 5, 5> imu_motion_jacobian(const ImuState& s, double a, double dt) {
+  const double c = std::cos(s(4)), sn = std::sin(s(4));
+  Eigen::Matrix<double, 5, 5> f = Eigen::Matrix<double, 5, 5>::Identity();
+  f(0, 2) = dt, f(1, 3) = dt;
+  f(0, 4) = -0.5 * a * sn * dt * dt, f(1, 4) = 0.5 * a * c * dt * dt;
+  f(2, 4) = -a * sn * dt, f(3, 4) = a * c * dt;
+  return f;
+}
+
+/// d imu_motion / d (a, omega): how the IMU's noise enters the state.
+inline Eigen::Matrix<double, 5, 2> imu_noise_jacobian(const ImuState& s, double dt) {
+  const double c = std::cos(s(4)), sn = std::sin(s(4));
+  Eigen::Matrix<double, 5, 2> g = Eigen::Matrix<double, 5, 2>::Zero();
+  g(0, 0) = 0.5 * c * dt * dt, g(1, 0) = 0.5 * sn * dt * dt, g(2, 0) = c * dt, g(3, 0) = sn * dt;
+  g(4, 1) = dt;
+  return g;
 }
 
 }  // namespace locsim::sdk
