@@ -309,6 +309,20 @@ scenario:
   EXPECT_LT((sim.robot(0).pose().position() - targets[2]).norm(), 0.06);  // stopped at the end
 }
 
+TEST(Drivers, StartAfterHoldsTheRobotStillThenDrives) {
+  Simulation sim = make_sim(R"(
+robots:
+  - start: {x: 0, y: 0}
+scenario:
+  duration_s: 4
+  drive: {mode: waypoints, start_after_s: 2, path: [[3, 0]], loop: false, speed_mps: 0.5}
+)");
+  while (sim.time_s() < 1.99) sim.step();
+  EXPECT_LT(sim.robot(0).pose().position().norm(), 1e-6);  // still standing
+  while (!sim.done()) sim.step();
+  EXPECT_GT(sim.robot(0).pose().position().x(), 0.5);  // then off at 0.5 m/s
+}
+
 TEST(Drivers, WanderNeverLeavesAClosedRoom) {
   Simulation sim = make_sim(R"(
 walls:

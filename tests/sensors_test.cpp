@@ -392,6 +392,26 @@ TEST(Ultrasonic, AWallBetweenGivesLongerRangesOrNothing) {
   EXPECT_NEAR(nlos / static_cast<double>(all.size()), 0.5, 0.06);
 }
 
+TEST(Ultrasonic, InjectedErrorsLengthenThatShareOfClearReadings) {
+  // Paper 003's MATLAB simulation: no obstacle, yet 20 % of the readings come back long.
+  std::string robot = kBeaconRobot;
+  robot += "        outlier_probability: 0.2\n";
+  const auto all =
+      ranges(std::string("beacons:\n  - {id: 4, position: [4, 0], height_m: 3.5}\n") + robot, 50.0);
+  int outliers = 0, answered = 0;
+  for (const BeaconRange& r : all) {
+    if (std::isnan(r.range_m)) continue;
+    ++answered;
+    if (r.truth_status == RangeStatus::kNonLineOfSight) {
+      ++outliers;
+      EXPECT_GT(r.range_m, 5.0 + 0.1 - 0.15);  // bias_min less 5 sigma of noise
+    } else {
+      EXPECT_NEAR(r.range_m, 5.0, 0.15);
+    }
+  }
+  EXPECT_NEAR(outliers / static_cast<double>(answered), 0.2, 0.03);
+}
+
 TEST(Ultrasonic, LowObstaclesAreOverlookedAndOutOfRangeIsReported) {
   // A 0.3 m box between a receiver at 0.5 m and a beacon at 2.5 m does not block.
   auto all = ranges(std::string("beacons:\n  - {id: 1, position: [4, 0]}\nboxes:\n  - {center: [2, "

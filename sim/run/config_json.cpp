@@ -243,6 +243,7 @@ json to_json(const ScenarioDef& s) {
   json drives = json::array();
   for (const DriveDef& d : s.drives) {
     json drive = {{"robot", d.robot}, {"mode", mode_name(d.mode)}};
+    if (d.start_after_s > 0.0) drive["start_after_s"] = d.start_after_s;
     switch (d.mode) {
       case DriveDef::Mode::kIdle:
         break;

@@ -101,9 +101,24 @@ class WanderDriver final : public Driver {
   double turn_direction_ = 1.0;
 };
 
-}  // namespace
+/// Holds the robot still until `start_after_s`, then hands over.
+class DelayedDriver final : public Driver {
+ public:
+  DelayedDriver(double start_after_s, std::unique_ptr<Driver> driver)
+      : start_after_s_(start_after_s), driver_(std::move(driver)) {}
 
-std::unique_ptr<Driver> make_driver(const DriveDef& def, RandomStream rng) {
+  VelocityCommand update(double t_s, const DiffDriveRobot& robot,
+                         const PhysicsWorld& world) override {
+    if (t_s < start_after_s_) return {t_s, 0.0, 0.0};
+    return driver_->update(t_s, robot, world);
+  }
+
+ private:
+  double start_after_s_;
+  std::unique_ptr<Driver> driver_;
+};
+
+std::unique_ptr<Driver> make_undelayed_driver(const DriveDef& def, RandomStream rng) {
   switch (def.mode) {
     case DriveDef::Mode::kIdle:
       return std::make_unique<IdleDriver>();
@@ -115,6 +130,15 @@ std::unique_ptr<Driver> make_driver(const DriveDef& def, RandomStream rng) {
       return std::make_unique<WanderDriver>(def, rng);
   }
   return std::make_unique<IdleDriver>();
+}
+
+}  // namespace
+
+std::unique_ptr<Driver> make_driver(const DriveDef& def, RandomStream rng) {
+  std::unique_ptr<Driver> driver = make_undelayed_driver(def, rng);
+  if (def.start_after_s > 0.0)
+    return std::make_unique<DelayedDriver>(def.start_after_s, std::move(driver));
+  return driver;
 }
 
 }  // namespace locsim

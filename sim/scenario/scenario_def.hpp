@@ -23,6 +23,7 @@ struct DriveDef {
   enum class Mode { kIdle, kWaypoints, kVelocity, kWander };
   Mode mode = Mode::kIdle;
   std::string robot;  // which robot; may be empty when the world has one
+  double start_after_s = 0.0;  // stands still until then, whatever the mode [s]
   // kWaypoints
   std::vector<Vec2> path_m;
   bool loop = true;

@@ -12,11 +12,12 @@ namespace {
 
 DriveDef parse_drive(const YamlNode& node) {
   node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
-                   "tolerance_m", "heading_gain", "commands", "clearance_m"});
+                   "tolerance_m", "heading_gain", "commands", "clearance_m", "start_after_s"});
   DriveDef drive;
   drive.where = node.where();
   drive.key_path = node.path();
   drive.robot = node.get_string("robot", "");
+  drive.start_after_s = node.get_double("start_after_s", 0.0, Check::kNonNegative);
   const YamlNode mode = node["mode"];
   const std::string mode_name = mode.as_string();
   const auto only = [&](std::initializer_list<std::string_view> keys) {

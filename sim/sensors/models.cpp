@@ -456,10 +456,7 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
       } else if (context.rays.blocked(at, receiver.height_m, beacon.position_m, beacon.height_m,
                                       context.robot.body())) {
         if (rng().uniform() < def_.nlos_probability) {
-          // Reflected path: longer by at least the minimum, exponentially distributed beyond.
-          const double extra =
-              def_.nlos_bias_min_m -
-              (def_.nlos_bias_mean_m - def_.nlos_bias_min_m) * std::log(1.0 - rng().uniform());
+          const double extra = reflected_extra_m();  // drawn before the noise: sequenced
           range.range_m = distance + extra + rng().normal(0.0, def_.sigma_m);
           range.truth_status = RangeStatus::kNonLineOfSight;
         } else {
@@ -469,6 +466,11 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
       } else if (rng().uniform() < def_.dropout_probability) {
         range.range_m = nan;
         range.truth_status = RangeStatus::kDropped;
+      } else if (def_.outlier_probability > 0.0 && rng().uniform() < def_.outlier_probability) {
+        // Drawn only when asked for: worlds without injected errors keep their random streams.
+        const double extra = reflected_extra_m();  // drawn before the noise: sequenced
+        range.range_m = distance + extra + rng().normal(0.0, def_.sigma_m);
+        range.truth_status = RangeStatus::kNonLineOfSight;
       } else {
         range.range_m = distance + rng().normal(0.0, def_.sigma_m);
         range.truth_status = RangeStatus::kLineOfSight;
@@ -477,6 +479,12 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
     }
   }
   return reading;
+}
+
+double UltrasonicSensor::reflected_extra_m() {
+  // Longer by at least the minimum, exponentially distributed beyond.
+  return def_.nlos_bias_min_m -
+         (def_.nlos_bias_mean_m - def_.nlos_bias_min_m) * std::log(1.0 - rng().uniform());
 }
 
 void UltrasonicSensor::apply_bias(ReadingData& data, double bias) const {

@@ -110,6 +110,7 @@ class UltrasonicSensor final : public Sensor {
   void apply_bias(ReadingData& data, double bias) const override;
 
  private:
+  double reflected_extra_m();  // a reflected path's extra length [m]
   UltrasonicDef def_;
 };
 

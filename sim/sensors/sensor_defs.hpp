@@ -100,6 +100,9 @@ struct UltrasonicDef {
   double nlos_probability = 0.5;  // [-]
   double nlos_bias_min_m = 0.1;   // shortest extra path [m]
   double nlos_bias_mean_m = 0.6;  // mean extra path (min + exponential) [m]
+  // Injected ranging errors (paper 003's MATLAB simulation): a line-of-sight reading lengthened
+  // as a non-line-of-sight one, with this probability, whatever the geometry.
+  double outlier_probability = 0.0;  // [-]
 };
 
 /// 2D laser scanner with the beam-model mixture (Thrun et al., Probabilistic Robotics 6.3).

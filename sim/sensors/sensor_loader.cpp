@@ -151,7 +151,7 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
     sensors.ultrasonic = parse_section(
         *n, UltrasonicDef{}, step_hz,
         {"receivers", "sigma_m", "max_range_m", "dropout_probability", "nlos_probability",
-         "nlos_bias_min_m", "nlos_bias_mean_m"},
+         "nlos_bias_min_m", "nlos_bias_mean_m", "outlier_probability"},
         [&](UltrasonicDef& d) {
           if (const auto receivers = n->find("receivers")) {
             d.receivers.clear();
@@ -172,6 +172,8 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_double("nlos_bias_min_m", d.nlos_bias_min_m, Check::kNonNegative);
           d.nlos_bias_mean_m =
               n->get_double("nlos_bias_mean_m", d.nlos_bias_mean_m, Check::kNonNegative);
+          d.outlier_probability =
+              n->get_double("outlier_probability", d.outlier_probability, Check::kUnitInterval);
           if (d.nlos_bias_mean_m < d.nlos_bias_min_m) {
             (*n)["nlos_bias_mean_m"].fail("must be >= nlos_bias_min_m");
           }

@@ -212,11 +212,11 @@ constexpr locsim_localizer make_table(const char* name, const char* description,
 }  // namespace locsim::sdk
 
 /// Registers `Class` (constructible from `const locsim_init&`) as the plugin's localizer.
-#define LOCSIM_LOCALIZER(Class, name, description, params)                                      \
-  extern "C" LOCSIM_EXPORT const locsim_localizer* locsim_localizer_entry(uint32_t) {           \
-    static const locsim_localizer table =                                                       \
-        ::locsim::sdk::detail::make_table<Class>(name, description, params, std::size(params)); \
-    return &table;                                                                              \
+#define LOCSIM_LOCALIZER(Class, name, description, params)                            \
+  extern "C" LOCSIM_EXPORT const locsim_localizer* locsim_localizer_entry(uint32_t) { \
+    static const locsim_localizer table = ::locsim::sdk::detail::make_table<Class>(   \
+        name, description, std::data(params), std::size(params));                     \
+    return &table;                                                                    \
   }
 
 /// The same for a localizer without parameters.

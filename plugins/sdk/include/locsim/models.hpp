@@ -205,36 +205,68 @@ inline Pose align_two_points(const Eigen::Vector2d& w1, const Eigen::Vector2d& w
           heading};
 }
 
-/// Paper 003's IMU motion over the state s = (x, y, vx, vy, theta): forward acceleration a
-/// [m/s^2] along the heading and yaw rate omega [rad/s] held for dt [s],
-///   theta' = theta + omega dt,  x' = x + vx dt + a cos(theta) dt^2 / 2,  vx' = vx + a cos(theta)
-///   dt
-/// (y, vy with sin). The paper prints vx' = vx + a cos(theta) dt / 2; we take the kinematics.
+/// The slant range [m] from a receiver mounted at `receiver` (robot frame) on a robot at `pose`
+/// to a beacon at `beacon` (world), `dz` [m] above the receiver, and its gradient d range /
+/// d (x, y, theta): with p = (x, y) + R(theta) receiver and e = p - beacon,
+///   range = sqrt(|e|^2 + dz^2),  d/d(x, y) = e / range,  d/dtheta = e . (R'(theta) receiver) /
+///   range.
+struct BeaconRangeModel {
+  double range_m;
+  Eigen::RowVector3d jacobian;
+};
+inline BeaconRangeModel beacon_range(const Pose& pose, const Eigen::Vector2d& receiver,
+                                     const Eigen::Vector2d& beacon, double dz) {
+  const double c = std::cos(pose(2)), s = std::sin(pose(2));
+  const Eigen::Vector2d rotated(c * receiver.x() - s * receiver.y(),
+                                s * receiver.x() + c * receiver.y());
+  const Eigen::Vector2d e = pose.head<2>() + rotated - beacon;
+  const double range = std::max(std::sqrt(e.squaredNorm() + dz * dz), 1e-9);
+  // R'(theta) receiver is the rotated offset turned a further 90 degrees.
+  const Eigen::Vector2d d_rotated(-rotated.y(), rotated.x());
+  return {range, Eigen::RowVector3d(e.x() / range, e.y() / range, e.dot(d_rotated) / range)};
+}
+
+/// Paper 003's IMU motion over the state s = (x, y, vx, vy, theta): the body-frame acceleration
+/// a = (forward, left) [m/s^2] turned into the world by the heading, and the yaw rate omega
+/// [rad/s], held for dt [s]. With (ax, ay) = R(theta) a:
+///   x' = x + vx dt + ax dt^2 / 2,  vx' = vx + ax dt  (y, vy likewise),  theta' = theta + omega dt.
+/// The paper has the forward acceleration only, and prints vx' = vx + a cos(theta) dt / 2; we
+/// take the kinematics, and the lateral (centripetal) part without which every turn at speed
+/// sends the prediction straight on.
 using ImuState = Eigen::Matrix<double, 5, 1>;
-inline ImuState imu_motion(const ImuState& s, double a, double omega, double dt) {
+inline ImuState imu_motion(const ImuState& s, const Eigen::Vector2d& accel_body, double omega,
+                           double dt) {
   const double c = std::cos(s(4)), sn = std::sin(s(4));
+  const double ax = c * accel_body.x() - sn * accel_body.y();
+  const double ay = sn * accel_body.x() + c * accel_body.y();
   ImuState out;
-  out << s(0) + s(2) * dt + 0.5 * a * c * dt * dt, s(1) + s(3) * dt + 0.5 * a * sn * dt * dt,
-      s(2) + a * c * dt, s(3) + a * sn * dt, wrap(s(4) + omega * dt);
+  out << s(0) + s(2) * dt + 0.5 * ax * dt * dt, s(1) + s(3) * dt + 0.5 * ay * dt * dt,
+      s(2) + ax * dt, s(3) + ay * dt, wrap(s(4) + omega * dt);
   return out;
 }
 
 /// d imu_motion / d s.
-inline Eigen::Matrix<double, 5, 5> imu_motion_jacobian(const ImuState& s, double a, double dt) {
+inline Eigen::Matrix<double, 5, 5> imu_motion_jacobian(const ImuState& s,
+                                                       const Eigen::Vector2d& accel_body,
+                                                       double dt) {
   const double c = std::cos(s(4)), sn = std::sin(s(4));
+  // d (ax, ay) / d theta: the world acceleration turned a further 90 degrees.
+  const double dax = -sn * accel_body.x() - c * accel_body.y();
+  const double day = c * accel_body.x() - sn * accel_body.y();
   Eigen::Matrix<double, 5, 5> f = Eigen::Matrix<double, 5, 5>::Identity();
   f(0, 2) = dt, f(1, 3) = dt;
-  f(0, 4) = -0.5 * a * sn * dt * dt, f(1, 4) = 0.5 * a * c * dt * dt;
-  f(2, 4) = -a * sn * dt, f(3, 4) = a * c * dt;
+  f(0, 4) = 0.5 * dax * dt * dt, f(1, 4) = 0.5 * day * dt * dt;
+  f(2, 4) = dax * dt, f(3, 4) = day * dt;
   return f;
 }
 
-/// d imu_motion / d (a, omega): how the IMU's noise enters the state.
-inline Eigen::Matrix<double, 5, 2> imu_noise_jacobian(const ImuState& s, double dt) {
+/// d imu_motion / d (a_forward, a_left, omega): how the IMU's noise enters the state.
+inline Eigen::Matrix<double, 5, 3> imu_noise_jacobian(const ImuState& s, double dt) {
   const double c = std::cos(s(4)), sn = std::sin(s(4));
-  Eigen::Matrix<double, 5, 2> g = Eigen::Matrix<double, 5, 2>::Zero();
+  Eigen::Matrix<double, 5, 3> g = Eigen::Matrix<double, 5, 3>::Zero();
   g(0, 0) = 0.5 * c * dt * dt, g(1, 0) = 0.5 * sn * dt * dt, g(2, 0) = c * dt, g(3, 0) = sn * dt;
-  g(4, 1) = dt;
+  g(0, 1) = -0.5 * sn * dt * dt, g(1, 1) = 0.5 * c * dt * dt, g(2, 1) = -sn * dt, g(3, 1) = c * dt;
+  g(4, 2) = dt;
   return g;
 }
 

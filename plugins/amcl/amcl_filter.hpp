@@ -1,0 +1,402 @@
+// The filter of the amcl plugin, also the laser half of the ultrasonic_amcl fusion: adaptive
+// Monte Carlo localization on the laser (Thrun, Burgard and Fox, Probabilistic Robotics 8.3 and
+// 6.4; Fox 2003 for KLD sampling), with the parameter names AMCL users know:
+//  - motion: the odometry model with odom_alpha1..4 (Thrun's variance form, as AMCL's "diff"),
+//    applied once the robot has moved update_min_d or turned update_min_a since the last update;
+//  - sensor: the likelihood field over the host's occupancy grid, laser_max_beams beams evenly
+//    spread over the scan, max-range readings skipped, log likelihoods summed per particle;
+//  - resampling (every resample_interval updates): low-variance draws with KLD sampling, the count
+//    growing until it covers the occupied (x, y, theta) bins, kld_z a probability turned into the
+//    normal quantile (0.99 -> 2.33), between min_particles and max_particles;
+//  - recovery (optional): w_slow / w_fast, uniform poses over the free cells.
+// The estimate is the weighted mean of the heaviest cluster (occupied bins joined to neighbours),
+// so that a multimodal cloud reports its best mode rather than the space between modes.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <locsim/laser.hpp>
+#include <locsim/localizer.hpp>
+#include <locsim/particles.hpp>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace amcl {
+
+namespace sdk = locsim::sdk;
+
+// AMCL's names and defaults (ROS 1 amcl / nav2), but kld_z is the probability 1 - delta whose
+// normal quantile the bound uses.
+inline constexpr locsim_param_decl kAmclParams[] = {
+    {"min_particles", LOCSIM_PARAM_INT, 500, 1, 10000000, nullptr, "fewest particles [-]"},
+    {"max_particles", LOCSIM_PARAM_INT, 5000, 1, 10000000, nullptr,
+     "most particles, and the initial count [-]"},
+    {"kld_err", LOCSIM_PARAM_DOUBLE, 0.01, 1e-6, 1.0, nullptr,
+     "KLD bound epsilon between true and sampled posterior [-]"},
+    {"kld_z", LOCSIM_PARAM_DOUBLE, 0.99, 0.5, 0.999999, nullptr,
+     "probability 1 - delta that the bound holds; its normal quantile (0.99 -> 2.33) is used [-]"},
+    {"kld_bin_xy", LOCSIM_PARAM_DOUBLE, 0.5, 1e-3, 100.0, nullptr, "KLD bin size in x and y [m]"},
+    {"kld_bin_theta_deg", LOCSIM_PARAM_DOUBLE, 10.0, 0.1, 180.0, nullptr,
+     "KLD bin size in heading [deg]"},
+    {"update_min_d", LOCSIM_PARAM_DOUBLE, 0.25, 0.0, 100.0, nullptr,
+     "travel before a filter update [m]"},
+    {"update_min_a", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
+     "rotation before a filter update [rad]"},
+    {"resample_interval", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,
+     "filter updates between resamplings [-]"},
+    {"recovery_alpha_slow", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1.0, nullptr,
+     "slow average of the beam likelihood (0: no random injection) [-]"},
+    {"recovery_alpha_fast", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1.0, nullptr,
+     "fast average of the beam likelihood [-]"},
+    {"laser_max_beams", LOCSIM_PARAM_INT, 60, 1, 100000, nullptr,
+     "beams used per scan, evenly spread [-]"},
+    {"laser_z_hit", LOCSIM_PARAM_DOUBLE, 0.95, 0.0, 1.0, nullptr, "hit weight [-]"},
+    {"laser_z_rand", LOCSIM_PARAM_DOUBLE, 0.05, 1e-9, 1.0, nullptr, "random-reading weight [-]"},
+    {"laser_sigma_hit", LOCSIM_PARAM_DOUBLE, 0.2, 1e-4, 10.0, nullptr,
+     "spread of a hit about the nearest obstacle [m]"},
+    {"laser_likelihood_max_dist", LOCSIM_PARAM_DOUBLE, 2.0, 0.0, 100.0, nullptr,
+     "distance to obstacles beyond which it makes no difference [m]"},
+    {"odom_alpha1", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
+     "rotation noise from rotation [-]"},
+    {"odom_alpha2", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
+     "rotation noise from translation [rad^2/m^2]"},
+    {"odom_alpha3", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
+     "translation noise from translation [-]"},
+    {"odom_alpha4", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
+     "translation noise from rotation [m^2/rad^2]"}};
+
+/// A particle's KLD / cluster bin: (x, y, theta) cells of bin_xy_m and bin_theta_rad.
+struct Bin {
+  std::int64_t x, y, theta;
+  bool operator==(const Bin&) const = default;
+};
+struct BinHash {
+  std::size_t operator()(const Bin& b) const {
+    std::uint64_t h = 1469598103934665603ull;
+    for (const std::int64_t v : {b.x, b.y, b.theta}) {
+      h ^= static_cast<std::uint64_t>(v);
+      h *= 1099511628211ull;
+    }
+    return static_cast<std::size_t>(h);
+  }
+};
+
+class AmclFilter {
+ public:
+  /// `params` holds the kAmclParams (among others); `seed` drives its random stream.
+  AmclFilter(const sdk::Params& params, const locsim_init& init, std::uint64_t seed)
+      : random_(seed) {
+    min_particles_ = static_cast<std::size_t>(params.integer("min_particles"));
+    max_particles_ = static_cast<std::size_t>(params.integer("max_particles"));
+    if (min_particles_ > max_particles_)
+      throw std::invalid_argument("min_particles exceeds max_particles");
+    kld_err_ = params.number("kld_err");
+    kld_z_ = sdk::normal_quantile(params.number("kld_z"));
+    bin_xy_m_ = params.number("kld_bin_xy");
+    bin_theta_rad_ = params.number("kld_bin_theta_deg") * std::numbers::pi / 180.0;
+    update_min_d_ = params.number("update_min_d");
+    update_min_a_ = params.number("update_min_a");
+    resample_interval_ = static_cast<int>(params.integer("resample_interval"));
+    alpha_slow_ = params.number("recovery_alpha_slow");
+    alpha_fast_ = params.number("recovery_alpha_fast");
+    if (alpha_slow_ > 0.0 && alpha_fast_ <= alpha_slow_)
+      throw std::invalid_argument("recovery_alpha_fast must exceed recovery_alpha_slow");
+    max_beams_ = static_cast<std::size_t>(params.integer("laser_max_beams"));
+    noise_ = {params.number("odom_alpha1"), params.number("odom_alpha2"),
+              params.number("odom_alpha3"), params.number("odom_alpha4"), true};
+    field_def_.z_hit = params.number("laser_z_hit");
+    field_def_.z_rand = params.number("laser_z_rand");
+    field_def_.sigma_hit_m = params.number("laser_sigma_hit");
+    field_def_.max_dist_m = params.number("laser_likelihood_max_dist");
+    if (init.map == nullptr || init.map->grid.cells == nullptr || init.map->grid.width <= 0 ||
+        init.map->grid.height <= 0) {
+      throw std::invalid_argument("needs the occupancy grid, and this world has none");
+    }
+    grid_ = init.map->grid;
+    grid_cells_.assign(grid_.cells,
+                       grid_.cells + static_cast<std::size_t>(grid_.width) * grid_.height);
+    grid_.cells = grid_cells_.data();
+    for (std::size_t i = 0; i < grid_cells_.size(); ++i)
+      if (grid_cells_[i] == 0) free_cells_.push_back(i);
+    if (free_cells_.empty()) throw std::invalid_argument("the occupancy grid has no free cell");
+
+    const std::size_t n = max_particles_;
+    particles_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (init.initial_pose_known) {
+        particles_.x[i] =
+            init.initial_pose.x + random_.normal(std::sqrt(init.initial_covariance[0]));
+        particles_.y[i] =
+            init.initial_pose.y + random_.normal(std::sqrt(init.initial_covariance[4]));
+        particles_.theta[i] = sdk::wrap(init.initial_pose.theta +
+                                        random_.normal(std::sqrt(init.initial_covariance[8])));
+      } else {
+        sample_free(particles_.x[i], particles_.y[i], particles_.theta[i]);
+      }
+    }
+    compute_estimate();
+  }
+
+  void on_odometry(const locsim_odometry& odometry) {
+    odom_now_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+    if (!odom_at_update_) odom_at_update_ = odom_now_;
+  }
+
+  /// A filter update when the robot has moved enough since the last one: true if it did.
+  bool on_laser(const locsim_laser_scan& scan) {
+    if (!odom_now_ || !odom_at_update_) return false;
+    const sdk::OdometryDelta delta = sdk::decompose(*odom_at_update_, *odom_now_);
+    const bool moved =
+        delta.trans >= update_min_d_ ||
+        std::abs(sdk::wrap((*odom_now_)(2) - (*odom_at_update_)(2))) >= update_min_a_;
+    // AMCL updates after motion, and once at start or after a reseed.
+    if (!moved && updates_ > 0 && !update_pending_) return false;
+    update_pending_ = false;
+    if (!field_ready_ || scan.range_max != field_def_.range_max_m) {
+      field_def_.range_max_m = scan.range_max;
+      field_ = sdk::LikelihoodField(grid_, field_def_);
+      field_ready_ = true;
+    }
+    sdk::sample_motion(particles_, delta, noise_, random_);
+    odom_at_update_ = odom_now_;
+    weigh(scan);
+    ++updates_;
+    if (resample_interval_ > 0 && updates_ % resample_interval_ == 0) resample();
+    compute_estimate();
+    return true;
+  }
+
+  /// Replaces the particles by max_particles draws from N(pose, covariance) at the latest
+  /// odometry (the fusion's start from an ultrasonic fix); KLD sampling thins them later.
+  void reseed(const sdk::Pose& pose, const Eigen::Matrix3d& covariance) {
+    const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
+    const Eigen::Matrix3d l = llt.matrixL();
+    particles_.resize(max_particles_);
+    for (std::size_t i = 0; i < max_particles_; ++i) {
+      const Eigen::Vector3d z(random_.normal(1.0), random_.normal(1.0), random_.normal(1.0));
+      const Eigen::Vector3d p = pose + l * z;
+      particles_.x[i] = p(0), particles_.y[i] = p(1), particles_.theta[i] = sdk::wrap(p(2));
+    }
+    particles_.weight.assign(max_particles_, 1.0 / static_cast<double>(max_particles_));
+    if (odom_now_) odom_at_update_ = odom_now_;
+    w_slow_ = w_fast_ = 0.0;
+    update_pending_ = true;  // the next scan weighs them, moving or not
+    ++reseeds_;
+    compute_estimate();
+  }
+
+  sdk::Estimate estimate() const {
+    sdk::Pose mean = mean_;
+    if (odom_now_ && odom_at_update_)
+      mean = sdk::compose(mean, sdk::between(*odom_at_update_, *odom_now_));
+    return {{mean(0), mean(1), mean(2)}, covariance_};
+  }
+
+  void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const {
+    for (std::size_t i = 0; i < particles_.size(); ++i) {
+      poses.push_back({particles_.x[i], particles_.y[i], particles_.theta[i]});
+      weights.push_back(particles_.weight[i]);
+    }
+  }
+
+  std::vector<std::pair<std::string, double>> diagnostics() const {
+    return {{"particles", static_cast<double>(particles_.size())},
+            {"n_eff", n_eff_},
+            {"kld_bins", static_cast<double>(last_bins_)},
+            {"injected", static_cast<double>(injected_)},
+            {"updates", static_cast<double>(updates_)},
+            {"reseeds", static_cast<double>(reseeds_)}};
+  }
+
+ private:
+  void sample_free(double& x, double& y, double& theta) {
+    const std::size_t cell = free_cells_[std::min(
+        free_cells_.size() - 1,
+        static_cast<std::size_t>(random_.uniform() * static_cast<double>(free_cells_.size())))];
+    const auto col = static_cast<double>(cell % static_cast<std::size_t>(grid_.width));
+    const auto row = static_cast<double>(cell / static_cast<std::size_t>(grid_.width));
+    x = grid_.origin_x + (col + random_.uniform()) * grid_.resolution_m;
+    y = grid_.origin_y + (row + random_.uniform()) * grid_.resolution_m;
+    theta = random_.uniform(-std::numbers::pi, std::numbers::pi);
+  }
+
+  /// Each particle's weight *= p(scan | particle) over the chosen beams: the end points in the
+  /// robot frame once per scan, then per particle a rotation, a translation and a table lookup
+  /// per beam.
+  void weigh(const locsim_laser_scan& scan) {
+    beam_x_.clear(), beam_y_.clear();
+    const std::size_t count = scan.count;
+    const std::size_t step = std::max<std::size_t>(1, (count + max_beams_ - 1) / max_beams_);
+    const double cm = std::cos(scan.mount.theta), sm = std::sin(scan.mount.theta);
+    for (std::size_t b = 0; b < count; b += step) {
+      const double r = scan.ranges[b];
+      if (!(r < scan.range_max) || r < scan.range_min) continue;  // max range: no return
+      const double a = scan.angles[b];
+      const double sx = r * std::cos(a), sy = r * std::sin(a);
+      beam_x_.push_back(scan.mount.x + cm * sx - sm * sy);
+      beam_y_.push_back(scan.mount.y + sm * sx + cm * sy);
+    }
+    const std::size_t n = particles_.size();
+    log_w_.resize(n);
+    const double ox = field_.origin_x(), oy = field_.origin_y(), inv = field_.inv_resolution();
+    const std::int64_t width = field_.width();
+    const auto fwidth = static_cast<double>(width), fheight = static_cast<double>(field_.height());
+    const float* table = field_.table().data();
+    const float off_map = field_.log_off_map();
+    const std::size_t beams = beam_x_.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double c = std::cos(particles_.theta[i]), s = std::sin(particles_.theta[i]);
+      // Grid coordinates of the robot, and the beam end points rotated into grid units.
+      const double px = (particles_.x[i] - ox) * inv, py = (particles_.y[i] - oy) * inv;
+      const double cx = c * inv, sx = s * inv;
+      float sum = 0.0f;
+      for (std::size_t b = 0; b < beams; ++b) {
+        const double gx = px + cx * beam_x_[b] - sx * beam_y_[b];
+        const double gy = py + sx * beam_x_[b] + cx * beam_y_[b];
+        // Compared as doubles first: truncation is then floor, without a libm call.
+        const bool on_map = gx >= 0.0 && gy >= 0.0 && gx < fwidth && gy < fheight;
+        const std::int64_t col = on_map ? static_cast<std::int64_t>(gx) : 0;
+        const std::int64_t row = on_map ? static_cast<std::int64_t>(gy) : 0;
+        sum += on_map ? table[row * width + col] : off_map;
+      }
+      log_w_[i] = std::log(std::max(particles_.weight[i], 1e-300)) + static_cast<double>(sum);
+    }
+    const double top = *std::max_element(log_w_.begin(), log_w_.end());
+    double total = 0.0;
+    for (std::size_t i = 0; i < n; ++i) total += particles_.weight[i] = std::exp(log_w_[i] - top);
+    // The mean over particles of p(scan | x) (the prior weights are in log_w_), per beam as a
+    // geometric mean: w_slow / w_fast compare scans with different numbers of valid beams.
+    const double log_mean = top + std::log(total);
+    w_avg_ = beams > 0 ? std::exp(log_mean / static_cast<double>(beams)) : 0.0;
+    sdk::normalize(particles_.weight);
+    n_eff_ = sdk::effective_sample_size(particles_.weight);
+  }
+
+  Bin bin_of(double x, double y, double theta) const {
+    return {static_cast<std::int64_t>(std::floor(x / bin_xy_m_)),
+            static_cast<std::int64_t>(std::floor(y / bin_xy_m_)),
+            static_cast<std::int64_t>(std::floor(sdk::wrap(theta) / bin_theta_rad_))};
+  }
+
+  /// Low-variance draws, as many as KLD sampling asks for; with recovery, some uniform poses.
+  void resample() {
+    double inject_probability = 0.0;
+    if (alpha_slow_ > 0.0) {
+      w_slow_ = w_slow_ == 0.0 ? w_avg_ : w_slow_ + alpha_slow_ * (w_avg_ - w_slow_);
+      w_fast_ = w_fast_ == 0.0 ? w_avg_ : w_fast_ + alpha_fast_ * (w_avg_ - w_fast_);
+      inject_probability = std::max(0.0, 1.0 - w_fast_ / w_slow_);
+    }
+    const std::size_t n = particles_.size();
+    cumulative_.resize(n);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < n; ++i) cumulative_[i] = sum += particles_.weight[i];
+    next_.resize(0);
+    next_.x.reserve(max_particles_), next_.y.reserve(max_particles_),
+        next_.theta.reserve(max_particles_);
+    bins_.clear();
+    std::size_t needed = min_particles_;
+    injected_ = 0;
+    // One low-variance comb of max_particles teeth, walked until KLD says stop: the draws so far
+    // are always an even spread over the weights.
+    const double spacing = sum / static_cast<double>(max_particles_);
+    double pointer = random_.uniform() * spacing;
+    std::size_t i = 0;
+    while (next_.x.size() < std::max(needed, min_particles_) && next_.x.size() < max_particles_) {
+      double x, y, theta;
+      if (inject_probability > 0.0 && random_.uniform() < inject_probability) {
+        sample_free(x, y, theta);
+        ++injected_;
+      } else {
+        while (i + 1 < n && cumulative_[i] < pointer) ++i;
+        x = particles_.x[i], y = particles_.y[i], theta = particles_.theta[i];
+        pointer += spacing;
+      }
+      next_.x.push_back(x), next_.y.push_back(y), next_.theta.push_back(theta);
+      if (bins_.emplace(bin_of(x, y, theta), 0).second)
+        needed = sdk::kld_sample_count(bins_.size(), kld_err_, kld_z_);
+    }
+    last_bins_ = bins_.size();
+    std::swap(particles_.x, next_.x), std::swap(particles_.y, next_.y),
+        std::swap(particles_.theta, next_.theta);
+    particles_.weight.assign(particles_.x.size(), 1.0 / static_cast<double>(particles_.x.size()));
+  }
+
+  /// Mean and covariance of the heaviest cluster of occupied bins (26-connected).
+  void compute_estimate() {
+    const std::size_t n = particles_.size();
+    bins_.clear();
+    particle_bin_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto [it, added] = bins_.emplace(
+          bin_of(particles_.x[i], particles_.y[i], particles_.theta[i]), bins_.size());
+      particle_bin_[i] = it->second;
+    }
+    // Union-find over the bins and their neighbours.
+    parent_.resize(bins_.size());
+    for (std::size_t b = 0; b < parent_.size(); ++b) parent_[b] = b;
+    const auto root = [&](std::size_t b) {
+      while (parent_[b] != b) b = parent_[b] = parent_[parent_[b]];
+      return b;
+    };
+    const std::int64_t theta_bins =
+        static_cast<std::int64_t>(std::ceil(2.0 * std::numbers::pi / bin_theta_rad_));
+    for (const auto& [bin, index] : bins_) {
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy)
+          for (std::int64_t dt = -1; dt <= 1; ++dt) {
+            Bin other{bin.x + dx, bin.y + dy, bin.theta + dt};
+            // Headings wrap around.
+            const std::int64_t low =
+                static_cast<std::int64_t>(std::floor(-std::numbers::pi / bin_theta_rad_));
+            if (other.theta < low) other.theta += theta_bins;
+            if (other.theta >= low + theta_bins) other.theta -= theta_bins;
+            const auto it = bins_.find(other);
+            if (it != bins_.end()) parent_[root(index)] = root(it->second);
+          }
+    }
+    cluster_weight_.assign(bins_.size(), 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      cluster_weight_[root(particle_bin_[i])] += particles_.weight[i];
+    const std::size_t best = static_cast<std::size_t>(
+        std::max_element(cluster_weight_.begin(), cluster_weight_.end()) - cluster_weight_.begin());
+    cluster_.resize(0);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (root(particle_bin_[i]) != best) continue;
+      cluster_.x.push_back(particles_.x[i]), cluster_.y.push_back(particles_.y[i]),
+          cluster_.theta.push_back(particles_.theta[i]),
+          cluster_.weight.push_back(particles_.weight[i]);
+    }
+    sdk::mean_and_covariance(cluster_, mean_, covariance_);
+  }
+
+  sdk::Random random_;
+  sdk::ParticleSet particles_, next_, cluster_;
+  sdk::OdometryNoise noise_;
+  sdk::LikelihoodFieldDef field_def_;
+  sdk::LikelihoodField field_;
+  bool field_ready_ = false, update_pending_ = false;
+  locsim_occupancy_grid grid_{};
+  std::vector<std::uint8_t> grid_cells_;
+  std::vector<std::size_t> free_cells_;
+  std::size_t min_particles_, max_particles_, max_beams_;
+  double kld_err_, kld_z_, bin_xy_m_, bin_theta_rad_, update_min_d_, update_min_a_;
+  int resample_interval_;
+  double alpha_slow_, alpha_fast_, w_slow_ = 0.0, w_fast_ = 0.0, w_avg_ = 0.0;
+  std::optional<sdk::Pose> odom_now_, odom_at_update_;
+  std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
+  std::unordered_map<Bin, std::size_t, BinHash> bins_;
+  std::vector<std::size_t> particle_bin_, parent_;
+  sdk::Pose mean_ = sdk::Pose::Zero();
+  Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Identity();
+  long updates_ = 0, reseeds_ = 0;
+  std::size_t last_bins_ = 0, injected_ = 0;
+  double n_eff_ = 0.0;
+};
+
+}  // namespace amcl

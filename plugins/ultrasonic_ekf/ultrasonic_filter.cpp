@@ -1,0 +1,283 @@
+#include "ultrasonic_filter.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace ultrasonic {
+
+namespace {
+double sq(double v) {
+  return v * v;
+}
+}  // namespace
+
+UltrasonicEkfDef ultrasonic_def(const sdk::Params& params) {
+  UltrasonicEkfDef def;
+  const std::string mode = params.string("mode");
+  if (mode == "trilateration")
+    def.mode = UltrasonicEkfDef::Mode::kTrilateration;
+  else if (mode == "ranges")
+    def.mode = UltrasonicEkfDef::Mode::kRanges;
+  else
+    throw std::invalid_argument("mode must be trilateration or ranges, not '" + mode + "'");
+  def.sigma_accel = params.number("sigma_accel");
+  def.sigma_gyro = params.number("sigma_gyro");
+  def.sigma_position_m = params.number("sigma_position_m");
+  def.sigma_yaw_rad = params.number("sigma_yaw_deg") * std::numbers::pi / 180.0;
+  def.sigma_velocity = params.number("sigma_velocity");
+  def.sigma_range_m = params.number("sigma_range_m");
+  def.gate_chi2 = params.number("gate_chi2");
+  def.fix_gate_chi2 = params.number("fix_gate_chi2");
+  def.lost_after_rounds = static_cast<int>(params.integer("lost_after_rounds"));
+  return def;
+}
+
+UltrasonicEkf::UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& init) : def_(def) {
+  if (init.map == nullptr || init.map->beacon_count < 3)
+    throw std::invalid_argument("needs at least three ultrasonic beacons on the map");
+  for (std::size_t i = 0; i < init.map->beacon_count; ++i) {
+    const locsim_beacon& b = init.map->beacons[i];
+    beacons_[b.id] = {Eigen::Vector2d(b.x, b.y), b.height_m};
+  }
+  if (init.initial_pose_known) {
+    Eigen::Matrix3d c;
+    for (int i = 0; i < 9; ++i) c(i / 3, i % 3) = init.initial_covariance[i];
+    reset({init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta}, c);
+    covariance_(2, 2) = covariance_(3, 3) = 0.01;  // it starts standing
+  }
+}
+
+void UltrasonicEkf::on_imu(double t_s, const locsim_imu& imu) {
+  if (last_imu_s_ && initialised_) {
+    const double dt = t_s - *last_imu_s_;
+    if (dt > 0.0) predict(dt);
+  }
+  last_imu_s_ = t_s;
+  // The IMU's axes turned into the robot's (forward, left).
+  const double c = std::cos(imu.mount_theta), sn = std::sin(imu.mount_theta);
+  accel_ = {c * imu.accel_x_mps2 - sn * imu.accel_y_mps2,
+            sn * imu.accel_x_mps2 + c * imu.accel_y_mps2};
+  yaw_rate_ = imu.yaw_rate_radps;
+}
+
+void UltrasonicEkf::predict(double dt) {
+  const Covariance f = sdk::imu_motion_jacobian(state_, accel_, dt);
+  const Eigen::Matrix<double, 5, 3> g = sdk::imu_noise_jacobian(state_, dt);
+  state_ = sdk::imu_motion(state_, accel_, yaw_rate_, dt);
+  const Eigen::Vector3d noise(sq(def_.sigma_accel), sq(def_.sigma_accel), sq(def_.sigma_gyro));
+  covariance_ = f * covariance_ * f.transpose() + g * noise.asDiagonal() * g.transpose();
+}
+
+void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading) {
+  std::vector<Range> ranges;
+  for (std::size_t i = 0; i < reading.count; ++i) {
+    const locsim_beacon_range& r = reading.ranges[i];
+    const auto beacon = beacons_.find(r.beacon_id);
+    if (!std::isfinite(r.range_m) || beacon == beacons_.end()) continue;
+    ranges.push_back({Eigen::Vector2d(r.receiver_x, r.receiver_y), r.receiver, &beacon->second,
+                      beacon->second.height_m - r.receiver_height_m, r.range_m});
+  }
+  round_ranges_ = static_cast<int>(ranges.size());
+  round_accepted_ = 0;
+  if (def_.mode == UltrasonicEkfDef::Mode::kTrilateration) {
+    update_trilateration(t_s, ranges);
+  } else if (!initialised_) {
+    restart(ranges);
+  } else {
+    update_ranges(ranges);
+  }
+}
+
+bool UltrasonicEkf::restart(const std::vector<Range>& ranges) {
+  const std::optional<sdk::Pose> fix = trilaterate_pose(ranges);
+  if (!fix) return false;
+  // Only from a round that the fix explains: a non-line-of-sight range drags the least-squares
+  // solution (and the yaw, from receivers 0.3 m apart, most), so such a round is skipped.
+  const double tolerance = std::sqrt(def_.gate_chi2) * def_.sigma_range_m;
+  int inliers = 0;
+  for (const Range& r : ranges) {
+    const double predicted =
+        sdk::beacon_range(*fix, r.receiver, r.beacon->position, r.dz_m).range_m;
+    if (std::abs(r.range_m - predicted) <= tolerance) ++inliers;
+  }
+  if (inliers < 4 || 4 * inliers < 3 * static_cast<int>(ranges.size())) return false;
+  // Wider than one fix's noise, so that the gate lets the next rounds' good ranges in.
+  const double sigma = 3.0 * def_.sigma_position_m;
+  reset(*fix, Eigen::Vector3d(sq(sigma), sq(sigma), sq(def_.sigma_yaw_rad)).asDiagonal());
+  return true;
+}
+
+std::optional<sdk::Pose> UltrasonicEkf::trilaterate_pose(const std::vector<Range>& ranges) const {
+  // Per receiver: the beacons' positions and the horizontal distances to them.
+  struct Receiver {
+    Eigen::Vector2d in_robot;
+    std::vector<Eigen::Vector2d> anchors;
+    std::vector<double> distances;
+  };
+  std::map<int, Receiver> receivers;
+  for (const Range& r : ranges) {
+    Receiver& receiver = receivers[r.receiver_index];
+    receiver.in_robot = r.receiver;
+    receiver.anchors.push_back(r.beacon->position);
+    receiver.distances.push_back(std::sqrt(std::max(0.0, sq(r.range_m) - sq(r.dz_m))));
+  }
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> found;  // (world, robot frame)
+  for (const auto& [index, receiver] : receivers) {
+    if (const auto p = sdk::trilaterate(receiver.anchors, receiver.distances))
+      found.emplace_back(*p, receiver.in_robot);
+  }
+  if (found.size() < 2) return std::nullopt;
+  return sdk::align_two_points(found[0].first, found[1].first, found[0].second, found[1].second);
+}
+
+void UltrasonicEkf::update_trilateration(double t_s, const std::vector<Range>& ranges) {
+  const std::optional<sdk::Pose> fix = trilaterate_pose(ranges);
+  if (!fix) {
+    ++missed_;
+    return;
+  }
+  const sdk::Pose& pose = *fix;
+  Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
+  if (last_fix_ && t_s > last_fix_s_)
+    velocity = (pose.head<2>() - last_fix_->head<2>()) / (t_s - last_fix_s_);
+  const bool had_fix = last_fix_.has_value();
+  last_fix_ = pose, last_fix_s_ = t_s;
+  ++fixes_;
+  if (!initialised_) {
+    reset(pose, Eigen::Vector3d(sq(def_.sigma_position_m), sq(def_.sigma_position_m),
+                                sq(def_.sigma_yaw_rad))
+                    .asDiagonal());
+    return;
+  }
+  // z = (x, y, theta, vx, vy) observes the state directly: H picks the components.
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(5, 5);
+  h(0, 0) = h(1, 1) = h(2, 4) = h(3, 2) = h(4, 3) = 1.0;
+  Eigen::VectorXd z(5);
+  z << pose(0), pose(1), pose(2), velocity.x(), velocity.y();
+  const double sigma_v = had_fix ? def_.sigma_velocity : 1e3;  // no velocity from the first fix
+  const Eigen::Vector<double, 5> r(sq(def_.sigma_position_m), sq(def_.sigma_position_m),
+                                   sq(def_.sigma_yaw_rad), sq(sigma_v), sq(sigma_v));
+  Eigen::VectorXd innovation = z - h * state_;
+  innovation(2) = sdk::wrap(innovation(2));
+  if (def_.fix_gate_chi2 > 0.0) {
+    const Eigen::Vector2d d = innovation.head<2>();
+    const Eigen::Matrix2d s =
+        covariance_.topLeftCorner<2, 2>() + Eigen::Matrix2d::Identity() * sq(def_.sigma_position_m);
+    if (d.dot(s.ldlt().solve(d)) > def_.fix_gate_chi2) {
+      ++fixes_gated_;
+      last_fix_.reset();  // the next velocity would difference against a bad fix
+      // Fix after fix refused: the estimate is what is wrong (a kidnapping); start over.
+      if (++lost_rounds_ >= def_.lost_after_rounds && restart(ranges)) ++restarts_;
+      return;
+    }
+  }
+  lost_rounds_ = 0;
+  correct(h, innovation, r.asDiagonal().toDenseMatrix());
+  round_accepted_ = round_ranges_;
+}
+
+void UltrasonicEkf::update_ranges(const std::vector<Range>& ranges) {
+  // Each range gated alone against the prediction, then the accepted ones in one update.
+  const sdk::Pose prior = pose();
+  const double r = sq(def_.sigma_range_m);
+  std::vector<Eigen::Matrix<double, 1, 5>> rows;
+  std::vector<double> innovations;
+  for (const Range& range : ranges) {
+    const sdk::BeaconRangeModel model =
+        sdk::beacon_range(prior, range.receiver, range.beacon->position, range.dz_m);
+    Eigen::Matrix<double, 1, 5> h = Eigen::Matrix<double, 1, 5>::Zero();
+    h(0) = model.jacobian(0), h(1) = model.jacobian(1), h(4) = model.jacobian(2);
+    const double s = (h * covariance_ * h.transpose())(0, 0) + r;
+    const double innovation = range.range_m - model.range_m;
+    if (innovation * innovation > def_.gate_chi2 * s) {
+      ++ranges_gated_;
+      continue;
+    }
+    rows.push_back(h);
+    innovations.push_back(innovation);
+  }
+  round_accepted_ = static_cast<int>(rows.size());
+  ranges_used_ += round_accepted_;
+  // Lost: most of a round's ranges disagree with the estimate, round after round. People block a
+  // few beams at a time; a kidnapping moves all of them.
+  if (round_ranges_ >= 3 && 2 * round_accepted_ < round_ranges_) {
+    if (++lost_rounds_ >= def_.lost_after_rounds && restart(ranges)) {
+      ++restarts_;
+      return;
+    }
+  } else {
+    lost_rounds_ = 0;
+  }
+  if (rows.empty()) return;
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  Eigen::MatrixXd h(m, 5);
+  Eigen::VectorXd innovation(m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    h.row(i) = rows[static_cast<std::size_t>(i)];
+    innovation(i) = innovations[static_cast<std::size_t>(i)];
+  }
+  correct(h, innovation, Eigen::MatrixXd::Identity(m, m) * r);
+}
+
+void UltrasonicEkf::correct(const Eigen::MatrixXd& h, const Eigen::VectorXd& innovation,
+                            const Eigen::MatrixXd& r) {
+  const Eigen::MatrixXd s = h * covariance_ * h.transpose() + r;
+  const Eigen::MatrixXd gain = covariance_ * h.transpose() * s.inverse();
+  state_ += gain * innovation;
+  state_(4) = sdk::wrap(state_(4));
+  // Joseph form: stays symmetric and positive.
+  const Covariance i_kh = Covariance::Identity() - gain * h;
+  covariance_ = i_kh * covariance_ * i_kh.transpose() + gain * r * gain.transpose();
+}
+
+bool UltrasonicEkf::update_pose(const sdk::Pose& pose, const Eigen::Matrix3d& covariance,
+                                double gate_chi2) {
+  if (!initialised_) return false;
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(3, 5);
+  h(0, 0) = h(1, 1) = h(2, 4) = 1.0;
+  Eigen::VectorXd innovation(3);
+  innovation << pose(0) - state_(0), pose(1) - state_(1), sdk::wrap(pose(2) - state_(4));
+  const Eigen::MatrixXd s = h * covariance_ * h.transpose() + covariance;
+  if (innovation.dot(s.ldlt().solve(innovation)) > gate_chi2) return false;
+  correct(h, innovation, covariance);
+  return true;
+}
+
+void UltrasonicEkf::reset(const sdk::Pose& pose, const Eigen::Matrix3d& covariance) {
+  state_ << pose(0), pose(1), 0.0, 0.0, sdk::wrap(pose(2));
+  covariance_.setZero();
+  const int index[3] = {0, 1, 4};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) covariance_(index[i], index[j]) = covariance(i, j);
+  covariance_(2, 2) = covariance_(3, 3) = 1.0;
+  lost_rounds_ = 0;
+  last_fix_.reset();
+  initialised_ = true;
+}
+
+Eigen::Matrix3d UltrasonicEkf::pose_covariance() const {
+  const int index[3] = {0, 1, 4};
+  Eigen::Matrix3d c;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) c(i, j) = covariance_(index[i], index[j]);
+  return c;
+}
+
+sdk::Estimate UltrasonicEkf::estimate() const {
+  sdk::Estimate e;
+  e.pose = {state_(0), state_(1), state_(4)};
+  e.covariance = pose_covariance();
+  return e;
+}
+
+std::vector<std::pair<std::string, double>> UltrasonicEkf::diagnostics() const {
+  return {{"fixes", static_cast<double>(fixes_)},
+          {"missed", static_cast<double>(missed_)},
+          {"fixes_gated", static_cast<double>(fixes_gated_)},
+          {"ranges_used", static_cast<double>(ranges_used_)},
+          {"ranges_gated", static_cast<double>(ranges_gated_)},
+          {"restarts", static_cast<double>(restarts_)}};
+}
+
+}  // namespace ultrasonic
