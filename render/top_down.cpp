@@ -36,6 +36,22 @@ void circle(const Vec2& center, double radius, bool filled, int segments = 40) {
   glEnd();
 }
 
+/// The 95 % ellipse of a 2D position covariance (nothing when it is not positive semi-definite).
+void ellipse_95(const Vec2& center, const Eigen::Matrix2d& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(covariance);
+  if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 0.0) return;
+  const double chi2_95 = 5.991;  // 2 degrees of freedom
+  const Eigen::Vector2d axes = (eig.eigenvalues() * chi2_95).cwiseSqrt();
+  glBegin(GL_LINE_LOOP);
+  for (int i = 0; i < 48; ++i) {
+    const double t = 2.0 * std::numbers::pi * i / 48.0;
+    const Eigen::Vector2d q =
+        eig.eigenvectors() * Eigen::Vector2d(axes(0) * std::cos(t), axes(1) * std::sin(t));
+    glVertex2d(center.x() + q.x(), center.y() + q.y());
+  }
+  glEnd();
+}
+
 /// A polygon that may be concave: the stencil counts how often each pixel is covered by the
 /// fan's triangles (odd: inside), then one quad fills where the count is odd.
 void fill_simple_polygon(const std::vector<Vec2>& points) {
@@ -435,21 +451,26 @@ void TopDownRenderer::draw(const FrameState& frame) {
     vertex(e.transform({len, 0.0})), vertex(e.transform({-0.4 * len, wid})),
         vertex(e.transform({-0.4 * len, -wid}));
     glEnd();
-    const Eigen::Matrix2d cov = l.covariance.topLeftCorner<2, 2>();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
-    if (eig.info() == Eigen::Success && eig.eigenvalues().minCoeff() >= 0.0) {
-      const double chi2_95 = 5.991;  // 2 degrees of freedom
-      const Eigen::Vector2d axes = (eig.eigenvalues() * chi2_95).cwiseSqrt();
-      color(c, 0.95f);
+    color(c, 0.95f);
+    glLineWidth(2.0f);
+    ellipse_95(e.position(), l.covariance.topLeftCorner<2, 2>());
+  }
+  // SLAM filters' landmark maps: a cross in the filter's colour at each mapped landmark, with its
+  // 95 % ellipse.
+  for (std::size_t k = 0; k < frame.localizers.size(); ++k) {
+    const Rgb c = p.filter(k);
+    const double s = 5.0 * px;
+    for (const FrameLocalizer::MappedLandmark& m : frame.localizers[k].landmark_map) {
+      const Vec2& q = m.position_m;
+      color(c);
       glLineWidth(2.0f);
-      glBegin(GL_LINE_LOOP);
-      for (int i = 0; i < 48; ++i) {
-        const double t = 2.0 * std::numbers::pi * i / 48.0;
-        const Eigen::Vector2d q =
-            eig.eigenvectors() * Eigen::Vector2d(axes(0) * std::cos(t), axes(1) * std::sin(t));
-        glVertex2d(e.x + q.x(), e.y + q.y());
-      }
+      glBegin(GL_LINES);
+      glVertex2d(q.x() - s, q.y() - s), glVertex2d(q.x() + s, q.y() + s);
+      glVertex2d(q.x() - s, q.y() + s), glVertex2d(q.x() + s, q.y() - s);
       glEnd();
+      color(c, 0.8f);
+      glLineWidth(1.0f);
+      ellipse_95(q, m.covariance);
     }
   }
   glLineWidth(1.0f);
@@ -628,6 +649,15 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
   if (camera) {
     marker("camera view, detections", [&](cv::Point c) {
       cv::rectangle(image, c - cv::Point(10, 6), c + cv::Point(10, 6), bgr(p.camera), cv::FILLED);
+    });
+  }
+  bool mapped = false;
+  for (const FrameLocalizer& l : frame.localizers) mapped = mapped || !l.landmark_map.empty();
+  if (mapped) {
+    marker("SLAM map, 95 % ellipse", [&](cv::Point c) {
+      cv::line(image, c - cv::Point(5, 5), c + cv::Point(5, 5), grey, 2, cv::LINE_AA);
+      cv::line(image, c + cv::Point(-5, 5), c + cv::Point(5, -5), grey, 2, cv::LINE_AA);
+      cv::ellipse(image, c, {10, 7}, 0, 0, 360, grey, 1, cv::LINE_AA);
     });
   }
   if (draw_particles_) {

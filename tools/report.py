@@ -209,6 +209,19 @@ def run_report(root, out_dir):
                              for s in l["segments"])
         lines.append(f"| {l['label']} | {l['status']} | {l['position_error_m']['rms']:.3f} | "
                      f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | {segments} |")
+    mapping = [l for l in metrics["localizers"] if "landmark_map" in l]
+    if mapping:
+        lines += ["", "Landmark maps (SLAM filters; matched to the true landmarks within "
+                  f"{mapping[0]['landmark_map']['gate_m']:g} m):", "",
+                  "| localizer | mapped | matched | error RMS [m] | max [m] | spurious | missed of observed |",
+                  "|---|---|---|---|---|---|---|"]
+        for l in mapping:
+            m = l["landmark_map"]
+            rms, top = m["error_m"]["rms"], m["error_m"]["max"]
+            lines.append(f"| {l['label']} | {m['mapped']} | {m['matched']} | "
+                         f"{'—' if rms is None else format(rms, '.3f')} | "
+                         f"{'—' if top is None else format(top, '.3f')} | {m['spurious']} | "
+                         f"{m['missed']} of {m['observed']} |")
     fig, ax = plt.subplots(figsize=(10, 4.5))
     for i, l in enumerate(metrics["localizers"]):
         times, errors = error_series(root, l["label"])

@@ -155,7 +155,7 @@ void write_tables(const fs::path& out_dir) {
     std::ofstream csv(out_dir / "results.csv", std::ios::binary);
     csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
-           "converged_steps,time_lost_s,recovery_s,recovery_steps\n";
+           "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
       std::string recoveries, recovery_steps;  // one per kidnap: the segments after the first
@@ -172,6 +172,9 @@ void write_tables(const fs::path& out_dir) {
       const json p = m.value("position_error_m", json::object());
       const json h = m.value("heading_error_deg", json::object());
       const json c = m.value("convergence", json::object());
+      // SLAM filters only: the RMS distance of their mapped landmarks to the true ones matched.
+      const json landmark_error =
+          m.value("landmark_map", json::object()).value("error_m", json::object());
       csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
           << csv_field(r["config"]) << ',' << r["seed"].get<std::uint64_t>() << ','
           << r["status"].get<std::string>() << ',' << csv_field(r.value("reason", "")) << ','
@@ -183,7 +186,7 @@ void write_tables(const fs::path& out_dir) {
           << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
                                                    : std::string())
           << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
-          << recovery_steps << '\n';
+          << recovery_steps << ',' << number(landmark_error.value("rms", json())) << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).

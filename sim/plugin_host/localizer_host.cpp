@@ -166,8 +166,9 @@ LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
   for (const BeaconDef& b : world.beacons) {
     beacons.push_back({b.id, b.position_m.x(), b.position_m.y(), b.height_m});
   }
-  map.landmarks = landmarks.data();
-  map.landmark_count = landmarks.size();
+  // SLAM: the landmarks' positions are what the filter has to find out.
+  map.landmarks = localization.landmarks_known ? landmarks.data() : nullptr;
+  map.landmark_count = localization.landmarks_known ? landmarks.size() : 0;
   map.beacons = beacons.data();
   map.beacon_count = beacons.size();
   map.grid = {grid.origin_m.x(), grid.origin_m.y(), grid.resolution_m,
@@ -352,6 +353,34 @@ std::vector<std::pair<std::string, double>> LocalizerInstance::diagnostics(doubl
   return last_diagnostics_;
 }
 
+std::vector<locsim_mapped_landmark> LocalizerInstance::landmark_map(double t_s) {
+  if (failure_ || table().landmark_map == nullptr) return {};
+  locsim_landmark_map out{};
+  error_[0] = '\0';
+  if (table().landmark_map(instance_, &out, error_, sizeof(error_)) != 0) {
+    fail(t_s, "landmark_map", error_[0] != '\0' ? error_ : "returned an error without a message");
+    return {};
+  }
+  if (out.count == 0) return {};
+  if (out.landmarks == nullptr) {
+    fail(t_s, "landmark_map",
+         "returned " + std::to_string(out.count) + " landmarks and a NULL pointer");
+    return {};
+  }
+  std::vector<locsim_mapped_landmark> landmarks(out.landmarks, out.landmarks + out.count);
+  for (const locsim_mapped_landmark& l : landmarks) {
+    bool finite = std::isfinite(l.x) && std::isfinite(l.y);
+    for (const double c : l.covariance) finite = finite && std::isfinite(c);
+    if (!finite) {
+      fail(t_s, "landmark_map",
+           "returned a non-finite (NaN or inf) position or covariance for landmark " +
+               std::to_string(l.id));
+      return {};
+    }
+  }
+  return landmarks;
+}
+
 namespace {
 json error_json(const ErrorSummary& e) {
   return {{"samples", e.samples},
@@ -426,6 +455,9 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
                              const OccupancyGrid& grid, std::uint64_t run_seed,
                              const ConvergenceCriterion& criterion)
     : translator_(robot) {
+  for (const LandmarkDef& l : world.landmarks) {
+    true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
+  }
   RandomStream initial_rng = make_stream(run_seed, "localization/" + robot.name);
   world_ = std::make_unique<LocalizerWorld>(world, robot, grid, localization, initial_rng);
   std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;
@@ -449,6 +481,16 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
 
 void LocalizerHost::deliver(const Reading& reading) {
   if (instances_.empty()) return;
+  // What the cameras have shown the robot: a SLAM filter's map is judged against these.
+  if (const auto* ptz = std::get_if<PtzReading>(&reading.data)) {
+    for (const Detection& d : ptz->detections) {
+      if (d.truth_id >= 0) observed_landmarks_.insert(d.truth_id);
+    }
+  } else if (const auto* omni = std::get_if<OmniReading>(&reading.data)) {
+    for (const Detection& d : omni->detections) {
+      if (d.truth_id >= 0) observed_landmarks_.insert(d.truth_id);
+    }
+  }
   const locsim_reading& translated = translator_.translate(reading);
   for (const auto& instance : instances_) instance->deliver(translated);
 }

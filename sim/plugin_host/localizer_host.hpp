@@ -9,12 +9,14 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "locsim/localizer.h"
 #include "sim/common/random.hpp"
 #include "sim/metrics/error_metrics.hpp"
+#include "sim/metrics/landmark_metrics.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/robot/robot_def.hpp"
 #include "sim/scenario/scenario_def.hpp"
@@ -44,7 +46,8 @@ class ParamSet {
   std::vector<locsim_param_value> values_;
 };
 
-/// Everything a plugin is told at creation (owns the storage the C structs point into).
+/// Everything a plugin is told at creation (owns the storage the C structs point into). With
+/// `localization.landmarks_known` false the map's landmarks are NULL with count 0 (SLAM).
 struct LocalizerWorld {
   LocalizerWorld(const WorldDef& world, const RobotDef& robot, OccupancyGrid grid,
                  const LocalizationDef& localization, RandomStream& initial_rng);
@@ -96,6 +99,10 @@ class LocalizerInstance {
   std::vector<locsim_pose2> particles(double t_s, std::vector<double>* weights = nullptr);
   /// The plugin's diagnostics, named.
   std::vector<std::pair<std::string, double>> diagnostics(double t_s);
+  /// The plugin's landmark map (SLAM filters), copied; empty when the plugin has no
+  /// `landmark_map` entry, maps nothing, or has failed. An error return or a non-finite position
+  /// or covariance fails the filter like any other call.
+  std::vector<locsim_mapped_landmark> landmark_map(double t_s);
 
   void add_error(ErrorSample sample) {
     sample.steps = perception_updates_;
@@ -141,8 +148,16 @@ class LocalizerHost {
   void deliver(const Reading& reading);
   std::vector<std::unique_ptr<LocalizerInstance>>& instances() { return instances_; }
 
+  /// The world's landmarks, true positions (for metrics; whatever the plugins were given).
+  const std::vector<LandmarkPoint>& true_landmarks() const { return true_landmarks_; }
+  /// Ids of the true landmarks this robot's cameras have detected so far (the readings' truth_id;
+  /// false detections aside).
+  const std::set<int>& observed_landmarks() const { return observed_landmarks_; }
+
  private:
   std::unique_ptr<LocalizerWorld> world_;
+  std::vector<LandmarkPoint> true_landmarks_;
+  std::set<int> observed_landmarks_;
   ReadingTranslator translator_;
   std::vector<std::unique_ptr<LocalizerInstance>> instances_;
 };

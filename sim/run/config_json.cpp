@@ -327,6 +327,8 @@ json to_json(const ScenarioDef& s) {
                         {"sweep_rate", p.sweep_rate_radps}});
   }
   out["ptz"] = policies;
+  // Only when not the default, so that the runs made before this key existed stay byte-identical.
+  if (!s.localization.landmarks_known) out["localization"] = {{"landmarks_known", false}};
   return out;
 }
 

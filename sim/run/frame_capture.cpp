@@ -154,6 +154,11 @@ FrameState FrameCapture::capture(const Simulation& sim,
       }
       for (const locsim_pose2& p : instance->particles(sim.time_s(), &l.weights))
         l.particles.push_back({p.x, p.y, p.theta});
+      for (const locsim_mapped_landmark& m : instance->landmark_map(sim.time_s())) {
+        FrameLocalizer::MappedLandmark& mapped = l.landmark_map.emplace_back();
+        mapped.position_m = {m.x, m.y};
+        mapped.covariance << m.covariance[0], m.covariance[1], m.covariance[2], m.covariance[3];
+      }
       l.failed = instance->failed();
       frame.localizers.push_back(std::move(l));
     }

@@ -1,7 +1,8 @@
 // What a picture of a run needs at one instant: the truth (robots, people), each localizer's
-// belief (estimate, covariance, particles) and the sensors' latest readings as world-frame
-// geometry. Plain values, built by the runner at each video frame's simulated time; the renderer
-// (render/, loaded only when a video is asked for) draws them. Nothing here links OpenGL or OpenCV.
+// belief (estimate, covariance, particles, a SLAM filter's landmark map) and the sensors' latest
+// readings as world-frame geometry. Plain values, built by the runner at each video frame's
+// simulated time; the renderer (render/, loaded only when a video is asked for) draws them. Nothing
+// here links OpenGL or OpenCV.
 #pragma once
 
 #include <Eigen/Core>
@@ -61,6 +62,11 @@ struct FrameLocalizer {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   std::vector<Pose2> particles;
   std::vector<double> weights;  // empty: equal weights
+  struct MappedLandmark {
+    Vec2 position_m{0.0, 0.0};
+    Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();  // [m^2]
+  };
+  std::vector<MappedLandmark> landmark_map;  // SLAM filters: the landmarks as mapped now
   double position_error_m = std::numeric_limits<double>::quiet_NaN();
   double heading_error_rad = std::numeric_limits<double>::quiet_NaN();
 };

@@ -19,7 +19,9 @@ void write_json_atomically(const std::filesystem::path& file,
 
 /// Writes `dir`/metrics.json for one robot's localizers (their wall-clock costs in the last block,
 /// "timing", so that the rest is byte-identical for the same inputs); warns on stderr of failed
-/// filters. Returns their one-line summaries for run.json.
+/// filters. Each localizer whose final landmark map (asked at `t_end_s`) is not empty also gets
+/// `dir`/LABEL_map.csv and a "landmark_map" block in its entry, the map matched to the true
+/// landmarks. Returns their one-line summaries for run.json.
 nlohmann::ordered_json write_localizer_metrics(const std::filesystem::path& dir,
                                                const std::string& robot, LocalizerHost& host,
                                                const std::vector<double>& kidnaps_s,

@@ -22,7 +22,7 @@ struct VelocityCommand {
 struct DriveDef {
   enum class Mode { kIdle, kWaypoints, kVelocity, kWander };
   Mode mode = Mode::kIdle;
-  std::string robot;  // which robot; may be empty when the world has one
+  std::string robot;           // which robot; may be empty when the world has one
   double start_after_s = 0.0;  // stands still until then, whatever the mode [s]
   // kWaypoints
   std::vector<Vec2> path_m;
@@ -88,6 +88,7 @@ struct EventDef {
 /// What localizers are told at the start.
 struct LocalizationDef {
   bool initial_pose_known = true;  // false: global localization, no initial pose
+  bool landmarks_known = true;     // false: SLAM, the map given to localizers has no landmarks
   double sigma_xy_m = 0.1;         // the initial guess is the truth plus N(0, sigma^2) [m]
   double sigma_theta_rad = 0.08726646259971647;  // 5 deg [rad]
   double grid_resolution_m = 0.05;               // of the occupancy grid given to localizers [m]

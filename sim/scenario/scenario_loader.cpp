@@ -207,14 +207,15 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
     }
   }
   if (const auto localization = node.find("localization")) {
-    localization->allow_keys(
-        {"initial_pose", "sigma_xy_m", "sigma_theta", "sigma_theta_deg", "grid_resolution_m"});
+    localization->allow_keys({"initial_pose", "landmarks_known", "sigma_xy_m", "sigma_theta",
+                              "sigma_theta_deg", "grid_resolution_m"});
     LocalizationDef& l = scenario.localization;
     if (const auto initial = localization->find("initial_pose")) {
       const std::string value = initial->as_string();
       if (value != "known" && value != "unknown") initial->fail("expected 'known' or 'unknown'");
       l.initial_pose_known = value == "known";
     }
+    l.landmarks_known = localization->get_bool("landmarks_known", l.landmarks_known);
     l.sigma_xy_m = localization->get_double("sigma_xy_m", l.sigma_xy_m, Check::kNonNegative);
     l.sigma_theta_rad = localization->get_angle("sigma_theta", l.sigma_theta_rad);
     if (l.sigma_theta_rad < 0.0) localization->fail("sigma_theta must be >= 0");

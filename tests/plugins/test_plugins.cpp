@@ -1,6 +1,8 @@
 // Plugins that misbehave on purpose, one per failure the host must survive or report, plus a
-// no-op (host overhead) and a hashing one (every filter sees the same readings). Each is built
-// from this file with LOCSIM_TEST_PLUGIN set to its kind.
+// no-op (host overhead), a hashing one (every filter sees the same readings) and a fake SLAM
+// filter with a known landmark map. Each is built from this file with LOCSIM_TEST_PLUGIN set to
+// its kind.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -8,6 +10,7 @@
 #include <limits>
 #include <locsim/localizer.hpp>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 namespace {
@@ -95,6 +98,49 @@ class Plugin final : public Probe {
     while (r.t_s >= 1.0) std::this_thread::sleep_for(std::chrono::seconds(1));  // never returns
   }
 };
+#elif defined(LOCSIM_TEST_SLAM_MAP)
+/// A fake SLAM filter whose landmark map is the known map's first `count` landmarks shifted by
+/// (`offset_x`, `offset_y`), the one at index `skip` left out, optionally one far from every
+/// landmark (`spurious`); ids 100 + index (999 for the spurious one), covariance
+/// [[0.01, 0.002], [0.002, 0.02]]. `fail`: "none", "throw" or "nan" (from landmark_map). Its
+/// diagnostics say what map it was given.
+class Plugin final : public Probe {
+ public:
+  explicit Plugin(const locsim_init& init)
+      : Probe(init),
+        map_count_(static_cast<double>(init.map->landmark_count)),
+        map_null_(init.map->landmarks == nullptr ? 1.0 : 0.0) {
+    const locsim::sdk::Params params(init);
+    const double dx = params.number("offset_x"), dy = params.number("offset_y");
+    const auto count = static_cast<std::size_t>(params.integer("count"));
+    const long long skip = params.integer("skip");
+    fail_ = params.string("fail");
+    for (std::size_t i = 0; i < std::min(count, init.map->landmark_count); ++i) {
+      if (static_cast<long long>(i) == skip) continue;
+      const locsim_landmark& l = init.map->landmarks[i];
+      map_.push_back(
+          {100 + static_cast<std::int32_t>(i), l.x + dx, l.y + dy, {0.01, 0.002, 0.002, 0.02}});
+    }
+    if (params.flag("spurious") && init.map->landmark_count > 0) {
+      const locsim_landmark& l = init.map->landmarks[0];
+      map_.push_back({999, l.x + 10.0, l.y + 10.0, {0.01, 0.0, 0.0, 0.01}});
+    }
+  }
+  void landmark_map(std::vector<locsim_mapped_landmark>& landmarks) const override {
+    if (fail_ == "throw") throw std::runtime_error("deliberate landmark map failure");
+    landmarks = map_;
+    if (fail_ == "nan" && !landmarks.empty())
+      landmarks.back().y = std::numeric_limits<double>::quiet_NaN();
+  }
+  std::vector<std::pair<std::string, double>> diagnostics() const override {
+    return {{"map_landmarks", map_count_}, {"map_landmarks_null", map_null_}};
+  }
+
+ private:
+  double map_count_, map_null_;
+  std::string fail_;
+  std::vector<locsim_mapped_landmark> map_;
+};
 #elif defined(LOCSIM_TEST_NOOP)
 /// Does nothing at all: what is measured is the host.
 class Plugin final : public locsim::sdk::Localizer {
@@ -107,12 +153,23 @@ class Plugin final : public locsim::sdk::Localizer {
 using Plugin = Probe;
 #endif
 
+#if defined(LOCSIM_TEST_SLAM_MAP)
+constexpr locsim_param_decl kParams[] = {
+    {"offset_x", LOCSIM_PARAM_DOUBLE, 0.3, -10.0, 10.0, nullptr, "shift of every landmark [m]"},
+    {"offset_y", LOCSIM_PARAM_DOUBLE, 0.4, -10.0, 10.0, nullptr, "shift of every landmark [m]"},
+    {"count", LOCSIM_PARAM_INT, 1000, 0, 1000, nullptr, "map's landmarks considered [-]"},
+    {"skip", LOCSIM_PARAM_INT, -1, -1, 1000, nullptr, "index left out (-1: none) [-]"},
+    {"spurious", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "add one landmark 14 m from the first"},
+    {"fail", LOCSIM_PARAM_STRING, 0, 0, 0, "none", "none, throw or nan"},
+};
+#else
 constexpr locsim_param_decl kParams[] = {
     {"gain", LOCSIM_PARAM_DOUBLE, 0.5, 0.0, 1.0, nullptr, "unused [-]"},
     {"count", LOCSIM_PARAM_INT, 10, 1, 100, nullptr, "unused [-]"},
     {"verbose", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "unused"},
     {"mode", LOCSIM_PARAM_STRING, 0, 0, 0, "fast", "unused"},
 };
+#endif
 
 }  // namespace
 

@@ -1,0 +1,258 @@
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "fastslam.hpp"
+
+namespace fastslam {
+
+namespace {
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+std::size_t heaviest(const std::vector<double>& weights) {
+  return static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) -
+                                  weights.begin());
+}
+}  // namespace
+
+FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random_(init.seed) {
+  const sdk::Params params(init);
+  const auto n = static_cast<std::size_t>(params.integer("particles"));
+  motion_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
+             params.number("alpha4"), false};
+  sigma_range_ = params.number("sigma_range_m");
+  sigma_bearing_ = params.number("sigma_bearing_deg") * kDegToRad;
+  sigma_cross_ = params.number("sigma_cross_m");
+  new_landmark_chi2_ = params.number("new_landmark_chi2");
+  resample_threshold_ = params.number("resample_threshold");
+  use_ids_ = params.flag("use_ids");
+  use_omni_ = params.flag("use_omni");
+  use_ptz_ = params.flag("use_ptz");
+  map_min_observations_ = static_cast<int>(params.integer("map_min_observations"));
+  diversity_cell_m_ = params.number("diversity_cell_m");
+  diversity_cell_rad_ = params.number("diversity_cell_deg") * kDegToRad;
+  if (mover_ == Mover::kFishSwarm) {
+    afsa_.visual = params.number("visual_m");
+    afsa_.step = params.number("step_m");
+    afsa_.crowding = params.number("crowding");
+    afsa_.iterations = static_cast<int>(params.integer("iterations"));
+    afsa_.prey_tries = static_cast<int>(params.integer("prey_tries"));
+    afsa_.heading_scale_m = params.number("heading_scale_m");
+    board_sigma_m_ = params.number("board_sigma_m");
+    board_sigma_rad_ = params.number("board_sigma_deg") * kDegToRad;
+  } else if (mover_ == Mover::kParticleSwarm) {
+    pso_.inertia = params.number("inertia");
+    pso_.cognitive = params.number("cognitive");
+    pso_.social = params.number("social");
+    pso_.iterations = static_cast<int>(params.integer("iterations"));
+    pso_.max_speed = params.number("max_speed_m");
+    pso_.heading_scale_m = params.number("heading_scale_m");
+  }
+  // SLAM starts from where the robot is: that is the map's frame. A global start means nothing.
+  const sdk::Pose start =
+      init.initial_pose_known
+          ? sdk::Pose(init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta)
+          : sdk::Pose::Zero();
+  particles_.assign(n, SlamParticle{start, {}, {}});
+  weights_.assign(n, 1.0 / static_cast<double>(n));
+  mean_ = previous_mean_ = start;
+}
+
+void FastSlam::on_odometry(double, const locsim_odometry& odometry) {
+  const sdk::Pose odom(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+  if (last_odom_) {
+    const sdk::OdometryDelta delta = sdk::decompose(*last_odom_, odom);
+    for (SlamParticle& p : particles_) {
+      const sdk::OdometryDelta d = sdk::sample_delta(delta, motion_, random_);
+      const double heading = p.pose(2) + d.rot1;
+      p.pose(0) += d.trans * std::cos(heading);
+      p.pose(1) += d.trans * std::sin(heading);
+      p.pose(2) = sdk::wrap(heading + d.rot2);
+    }
+    // The estimate follows the odometry between camera frames.
+    const double heading = mean_(2) + delta.rot1;
+    mean_(0) += delta.trans * std::cos(heading);
+    mean_(1) += delta.trans * std::sin(heading);
+    mean_(2) = sdk::wrap(heading + delta.rot2);
+  }
+  last_odom_ = odom;
+}
+
+Eigen::Matrix2d FastSlam::noise(double range) const {
+  const double cross = sigma_cross_ / std::max(range, 0.1);
+  Eigen::Matrix2d r = Eigen::Matrix2d::Zero();
+  r(0, 0) = sigma_range_ * sigma_range_;
+  r(1, 1) = sigma_bearing_ * sigma_bearing_ + cross * cross;
+  return r;
+}
+
+void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& reading,
+                         std::vector<Match>& matches) const {
+  matches.clear();
+  for (std::size_t d = 0; d < reading.count; ++d) {
+    const locsim_detection& detection = reading.detections[d];
+    Match m;
+    m.z = {detection.range_m, detection.bearing_rad};
+    m.r = noise(detection.range_m);
+    if (use_ids_ && detection.id >= 0) {
+      const auto it = std::find(particle.ids.begin(), particle.ids.end(), detection.id);
+      if (it != particle.ids.end()) m.landmark = static_cast<int>(it - particle.ids.begin());
+    } else {
+      double best = new_landmark_chi2_;
+      for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
+        const double d2 =
+            sdk::landmark_innovation(particle.landmarks[k], particle.pose, m.z, m.r).mahalanobis2;
+        if (d2 < best) best = d2, m.landmark = static_cast<int>(k);
+      }
+    }
+    matches.push_back(m);
+  }
+}
+
+double FastSlam::fitness(const SlamParticle& particle, const std::vector<Match>& matches,
+                         const sdk::Pose& pose) const {
+  // SPEC section 3: f = sum over the associated detections of exp(-1/2 nu^T R^-1 nu).
+  double f = 0.0;
+  for (const Match& m : matches) {
+    if (m.landmark < 0) continue;
+    const Eigen::Vector2d predicted =
+        sdk::range_bearing(pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].mean);
+    const Eigen::Vector2d nu(m.z(0) - predicted(0), sdk::wrap(m.z(1) - predicted(1)));
+    f += std::exp(-0.5 * nu.dot(m.r.ldlt().solve(nu)));
+  }
+  return f;
+}
+
+void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
+  const bool wanted = (reading.camera == LOCSIM_CAMERA_OMNI && use_omni_) ||
+                      (reading.camera == LOCSIM_CAMERA_PTZ && use_ptz_);
+  if (!wanted) return;
+  const std::size_t n = particles_.size();
+  std::vector<std::vector<Match>> matches(n);
+  for (std::size_t i = 0; i < n; ++i) associate(particles_[i], reading, matches[i]);
+
+  // The second prediction: the swarm moves the poses uphill on the fitness, each particle
+  // scoring a pose against its own map and associations.
+  if (mover_ != Mover::kNone && reading.count > 0) {
+    std::vector<sdk::Pose> poses(n);
+    for (std::size_t i = 0; i < n; ++i) poses[i] = particles_[i].pose;
+    const auto f = [&](std::size_t i, const sdk::Pose& pose) {
+      return fitness(particles_[i], matches[i], pose);
+    };
+    evaluations_ += mover_ == Mover::kFishSwarm ? sdk::afsa_move(poses, f, afsa_, random_)
+                                                : sdk::pso_move(poses, f, pso_, random_);
+    for (std::size_t i = 0; i < n; ++i) particles_[i].pose = poses[i];
+  }
+
+  // Landmark EKFs and weights at the (moved) poses. A new landmark weighs in at the gate's
+  // density: what a detection just outside every known landmark would have scored.
+  std::vector<double> log_w(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    SlamParticle& p = particles_[i];
+    double log_likelihood = 0.0;
+    for (std::size_t d = 0; d < matches[i].size(); ++d) {
+      const Match& m = matches[i][d];
+      if (m.landmark >= 0) {
+        sdk::LandmarkEstimate& landmark = p.landmarks[static_cast<std::size_t>(m.landmark)];
+        const sdk::LandmarkInnovation innovation =
+            sdk::landmark_innovation(landmark, p.pose, m.z, m.r);
+        log_likelihood += innovation.log_likelihood();
+        sdk::update_landmark(landmark, innovation, m.r);
+      } else {
+        const Eigen::Matrix2d s = 2.0 * m.r;  // of the order of a known landmark's S
+        log_likelihood += -0.5 * new_landmark_chi2_ - std::log(2.0 * std::numbers::pi) -
+                          0.5 * std::log(s.determinant());
+        p.landmarks.push_back(sdk::init_landmark(p.pose, m.z, m.r));
+        p.ids.push_back(use_ids_ ? reading.detections[d].id : -1);
+      }
+    }
+    log_w[i] = std::log(std::max(weights_[i], 1e-300)) + log_likelihood;
+  }
+  const double top = *std::max_element(log_w.begin(), log_w.end());
+  for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(log_w[i] - top);
+  sdk::normalize(weights_);
+
+  // The weighted mean pose (the estimate), then the N_eff test.
+  previous_mean_ = mean_;
+  sdk::ParticleSet set;
+  set.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    set.x[i] = particles_[i].pose(0), set.y[i] = particles_[i].pose(1),
+    set.theta[i] = particles_[i].pose(2), set.weight[i] = weights_[i];
+  }
+  sdk::mean_and_covariance(set, mean_, covariance_);
+  const double n_eff = sdk::effective_sample_size(weights_);
+  n_eff_sum_ += n_eff;
+  ++steps_;
+  const SlamParticle best = particles_[heaviest(weights_)];
+  if (n_eff < resample_threshold_ * static_cast<double>(n)) resample();
+  // The bulletin board: this step's best, for the next directed resampling.
+  if (mover_ == Mover::kFishSwarm) board_ = best;
+  std::vector<sdk::Pose> poses(particles_.size());
+  for (std::size_t i = 0; i < particles_.size(); ++i) poses[i] = particles_[i].pose;
+  diversity_sum_ += sdk::hamming_diversity(poses, diversity_cell_m_, diversity_cell_rad_);
+}
+
+void FastSlam::resample() {
+  ++resamples_;
+  if (mover_ == Mover::kFishSwarm && board_) {
+    // x^ = x_board + (mean_t - mean_t-1) + v: the previous step's best, moved as the mean moved.
+    SlamParticle moved = *board_;
+    moved.pose(0) += mean_(0) - previous_mean_(0);
+    moved.pose(1) += mean_(1) - previous_mean_(1);
+    moved.pose(2) = sdk::wrap(moved.pose(2) + sdk::wrap(mean_(2) - previous_mean_(2)));
+    const auto from_board = [&](sdk::Random& random) {
+      SlamParticle p = moved;
+      p.pose(0) += random.normal(board_sigma_m_);
+      p.pose(1) += random.normal(board_sigma_m_);
+      p.pose(2) = sdk::wrap(p.pose(2) + random.normal(board_sigma_rad_));
+      return p;
+    };
+    sdk::directed_resample(particles_, weights_, moved, from_board, random_);
+    return;
+  }
+  std::vector<std::size_t> chosen;
+  sdk::low_variance_resample(weights_, random_, chosen);
+  std::vector<SlamParticle> next;
+  next.reserve(chosen.size());
+  for (const std::size_t k : chosen) next.push_back(particles_[k]);
+  particles_ = std::move(next);
+  weights_.assign(particles_.size(), 1.0 / static_cast<double>(particles_.size()));
+}
+
+sdk::Estimate FastSlam::estimate() const {
+  return {{mean_(0), mean_(1), mean_(2)}, covariance_};
+}
+
+void FastSlam::particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const {
+  for (std::size_t i = 0; i < particles_.size(); ++i) {
+    poses.push_back({particles_[i].pose(0), particles_[i].pose(1), particles_[i].pose(2)});
+    weights.push_back(weights_[i]);
+  }
+}
+
+std::vector<std::pair<std::string, double>> FastSlam::diagnostics() const {
+  const double steps = std::max(1.0, static_cast<double>(steps_));
+  return {{"steps", static_cast<double>(steps_)},
+          {"mean_n_eff", n_eff_sum_ / steps},
+          {"mean_diversity", diversity_sum_ / steps},
+          {"resamples", static_cast<double>(resamples_)},
+          {"fitness_evaluations", static_cast<double>(evaluations_)},
+          {"landmarks", static_cast<double>(particles_[heaviest(weights_)].landmarks.size())}};
+}
+
+void FastSlam::landmark_map(std::vector<locsim_mapped_landmark>& landmarks) const {
+  const SlamParticle& p = particles_[heaviest(weights_)];
+  for (std::size_t k = 0; k < p.landmarks.size(); ++k) {
+    const sdk::LandmarkEstimate& l = p.landmarks[k];
+    if (l.observations < map_min_observations_) continue;
+    landmarks.push_back(
+        {static_cast<std::int32_t>(k),
+         l.mean.x(),
+         l.mean.y(),
+         {l.covariance(0, 0), l.covariance(0, 1), l.covariance(1, 0), l.covariance(1, 1)}});
+  }
+}
+
+}  // namespace fastslam

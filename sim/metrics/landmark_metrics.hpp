@@ -1,0 +1,53 @@
+// How well a SLAM filter mapped the landmarks: its final map matched one-to-one to the true
+// landmarks, the matched pairs' position errors, what it invented and what it failed to map.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <set>
+#include <vector>
+
+namespace locsim {
+
+/// A mapped landmark is matched to a true one only within this distance [m]. A SLAM filter's
+/// landmark this far from every true landmark is counted as spurious, not as a large error: past
+/// a metre, on the worlds' landmark spacing of a few metres, it no longer stands for that landmark.
+inline constexpr double kLandmarkMatchGateM = 1.0;
+
+struct LandmarkPoint {
+  int id = 0;  // the filter's numbering (mapped) or the world's (true)
+  double x_m = 0.0, y_m = 0.0;
+};
+
+struct LandmarkMatch {
+  std::size_t mapped = 0;  // index into the mapped landmarks
+  std::size_t truth = 0;   // index into the true landmarks
+  double distance_m = 0.0;
+};
+
+/// One-to-one greedy matching: every pair within `gate_m` (inclusive), by increasing distance
+/// (ties by mapped index, then true index), each taken unless either side is already matched.
+/// Deterministic; the result is in the order the pairs were taken.
+std::vector<LandmarkMatch> match_landmarks(const std::vector<LandmarkPoint>& mapped,
+                                           const std::vector<LandmarkPoint>& truth,
+                                           double gate_m = kLandmarkMatchGateM);
+
+struct LandmarkMapSummary {
+  std::size_t mapped = 0;    // landmarks in the filter's map
+  std::size_t matched = 0;   // of them, matched to a true landmark
+  std::size_t spurious = 0;  // mapped - matched
+  std::size_t observed = 0;  // true landmarks the robot's cameras detected during the run
+  std::size_t missed = 0;    // observed true landmarks left unmatched
+  // Over the matched pairs' distances [m]; nullopt when nothing matched.
+  std::optional<double> error_rms_m, error_mean_m, error_max_m;
+  std::vector<LandmarkMatch> matches;
+};
+
+/// `observed_ids`: ids of the true landmarks that were ever detected; only these count as missed
+/// (a filter cannot map a landmark it was never shown).
+LandmarkMapSummary summarize_landmark_map(const std::vector<LandmarkPoint>& mapped,
+                                          const std::vector<LandmarkPoint>& truth,
+                                          const std::set<int>& observed_ids,
+                                          double gate_m = kLandmarkMatchGateM);
+
+}  // namespace locsim
