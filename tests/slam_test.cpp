@@ -114,6 +114,17 @@ TEST(FishSwarm, MovesClimbTheFitness) {
   }
 }
 
+TEST(FishSwarm, FishStayWhereNothingIsBetter) {
+  // A particle with no associated detection has no fitness gradient: it must not random-walk
+  // (the paper's fish always move; in a filter that scatters the particles).
+  sdk::Random random(9);
+  std::vector<sdk::Pose> fish = scattered(random);
+  const std::vector<sdk::Pose> start = fish;
+  sdk::afsa_move(
+      fish, [](std::size_t, const sdk::Pose&) { return 0.0; }, sdk::AfsaDef{}, random);
+  for (std::size_t i = 0; i < fish.size(); ++i) EXPECT_EQ(fish[i], start[i]);
+}
+
 TEST(ParticleSwarm, MovesClimbTheFitnessAndNeverEndBelowTheStart) {
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     sdk::Random random(seed);

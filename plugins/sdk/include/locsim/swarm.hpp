@@ -108,9 +108,9 @@ long afsa_move(std::vector<Pose>& fish, Fitness&& fitness, const AfsaDef& def, R
                      ? step_toward(fish[i], fish[richest], def.step, def.heading_scale_m, random)
                      : prey(i));
       }
-      // A fish keeps its place when every behaviour would lower its food: in a particle filter
+      // A fish keeps its place unless a behaviour raises its food: in a particle filter
       // a move downhill is a move away from the measurements, not exploration.
-      if (best_y >= y[i]) fish[i] = best, y[i] = best_y;
+      if (best_y > y[i]) fish[i] = best, y[i] = best_y;
     }
   }
   return evaluations;
