@@ -80,16 +80,7 @@ void BM_AmclUpdate(benchmark::State& state) {
     for (int b = 0; b < kBeams; ++b) ranges[b] = building.cast(sx, sy, theta + angles[b], 8.0);
   };
   const auto update = [&] { return f.update(odometry) && f.update(scan); };
-  for (int warm_up = 0; warm_up < 5; ++warm_up) advance(), update();
-  for (auto _ : state) {
-    state.PauseTiming();
-    advance();
-    state.ResumeTiming();
-    if (!update()) {
-      state.SkipWithError(f.error());
-      break;
-    }
-  }
+  bench::run_updates(state, f, 5, advance, update);
   state.counters["particle_updates_per_s"] = benchmark::Counter(
       static_cast<double>(state.range(0)) * static_cast<double>(state.iterations()),
       benchmark::Counter::kIsRate);

@@ -50,16 +50,7 @@ void BM_FastSlamUpdate(benchmark::State& state) {
     }
   };
   const auto update = [&] { return f.update(odometry) && f.update(frame); };
-  for (int warm_up = 0; warm_up < 20; ++warm_up) advance(), update();
-  for (auto _ : state) {
-    state.PauseTiming();
-    advance();
-    state.ResumeTiming();
-    if (!update()) {
-      state.SkipWithError(f.error());
-      break;
-    }
-  }
+  bench::run_updates(state, f, 20, advance, update);
   state.SetLabel(plugin);
   state.counters["updates_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);

@@ -2,6 +2,8 @@
 // library, its parameters and the instance, destroyed with the fixture.
 #pragma once
 
+#include <benchmark/benchmark.h>
+
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -60,5 +62,23 @@ class PluginFixture {
   void* filter_ = nullptr;
   char error_[256] = {};
 };
+
+/// The timed loop of a plugin benchmark: `warm_up` untimed rounds, then per iteration the
+/// simulator's part (`advance`, untimed) and the plugin's (`update`, timed; false stops the
+/// benchmark with the fixture's error).
+template <class Advance, class Update>
+void run_updates(benchmark::State& state, const PluginFixture& fixture, int warm_up,
+                 Advance&& advance, Update&& update) {
+  for (int i = 0; i < warm_up; ++i) advance(), update();
+  for (auto _ : state) {
+    state.PauseTiming();
+    advance();
+    state.ResumeTiming();
+    if (!update()) {
+      state.SkipWithError(fixture.error());
+      break;
+    }
+  }
+}
 
 }  // namespace locsim::bench

@@ -63,16 +63,7 @@ void BM_UltrasonicEkfRound(benchmark::State& state) {
     round.t_s = t;
     return f.update(round);
   };
-  for (int warm_up = 0; warm_up < 20; ++warm_up) advance(), update();
-  for (auto _ : state) {
-    state.PauseTiming();
-    advance();
-    state.ResumeTiming();
-    if (!update()) {
-      state.SkipWithError(f.error());
-      break;
-    }
-  }
+  bench::run_updates(state, f, 20, advance, update);
   state.counters["rounds_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
