@@ -51,6 +51,11 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
    "resample when N_eff / N falls below this [-]"},                                                \
   {"map_min_observations", LOCSIM_PARAM_INT, 2, 1, 1000000, nullptr,                              \
    "landmarks seen fewer times are left out of the reported map [-]"},                             \
+  {"max_range_m", LOCSIM_PARAM_DOUBLE, 15.0, 0.01, 1e6, nullptr,                                   \
+   "the camera's range: a mapped landmark predicted within it should be detected [m]"},            \
+  {"prune_after_misses", LOCSIM_PARAM_INT, 10, 0, 1000000, nullptr,                                \
+   "a landmark predicted well inside the range (90 %) of the omnidirectional camera and not "      \
+   "detected in this many frames in a row is deleted from the particle's map; 0: never [-]"},      \
   {"diversity_cell_m", LOCSIM_PARAM_DOUBLE, 0.01, 1e-6, 100, nullptr,                              \
    "cell of the particle-diversity measure in x and y [m]"},                                       \
   {"diversity_cell_deg", LOCSIM_PARAM_DOUBLE, 0.1, 1e-6, 180, nullptr,                             \
@@ -64,12 +69,16 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
   {"crowding", LOCSIM_PARAM_DOUBLE, 0.6, 0, 100, nullptr, "crowding factor delta [-]"},            \
   {"iterations", LOCSIM_PARAM_INT, 3, 0, 1000, nullptr, "fish swarm rounds per step [-]"},         \
   {"prey_tries", LOCSIM_PARAM_INT, 3, 1, 1000, nullptr, "points tried by prey before a random step [-]"}, \
-  {"heading_scale_m", LOCSIM_PARAM_DOUBLE, 1.0, 1e-6, 1e6, nullptr,                                \
-   "metres per radian when heading enters distances and steps [m/rad]"},                           \
+  {"heading_scale_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 1e6, nullptr,                                  \
+   "metres per radian when heading enters distances and steps; 0: the frame's mean detection "    \
+   "range, which a heading error moves the predicted detections by [m/rad]"},                      \
+  {"board_noise_from_cloud", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                  \
+   "noise v on particles drawn from the bulletin board: the particle cloud's own weighted "       \
+   "covariance (1) or the fixed board_sigma_m and board_sigma_deg (0)"},                           \
   {"board_sigma_m", LOCSIM_PARAM_DOUBLE, 0.02, 0, 100, nullptr,                                    \
-   "noise v on particles drawn from the bulletin board, position [m]"},                            \
+   "fixed noise v on particles drawn from the bulletin board, position [m]"},                      \
   {"board_sigma_deg", LOCSIM_PARAM_DOUBLE, 0.2, 0, 180, nullptr,                                   \
-   "noise v on particles drawn from the bulletin board, heading [deg]"}
+   "fixed noise v on particles drawn from the bulletin board, heading [deg]"}
 
 #define LOCSIM_PSO_PARAMS                                                                          \
   {"inertia", LOCSIM_PARAM_DOUBLE, 0.7, 0, 10, nullptr, "w: velocity kept [-]"},                   \
@@ -77,14 +86,19 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
   {"social", LOCSIM_PARAM_DOUBLE, 1.5, 0, 10, nullptr, "c2: pull to the swarm's best [-]"},        \
   {"iterations", LOCSIM_PARAM_INT, 3, 0, 1000, nullptr, "swarm iterations per step [-]"},          \
   {"max_speed_m", LOCSIM_PARAM_DOUBLE, 0.1, 1e-6, 100, nullptr, "longest move per iteration [m]"}, \
-  {"heading_scale_m", LOCSIM_PARAM_DOUBLE, 1.0, 1e-6, 1e6, nullptr,                                \
-   "metres per radian when heading enters distances [m/rad]"}
+  {"heading_scale_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 1e6, nullptr,                                  \
+   "metres per radian when heading enters distances; 0: the frame's mean detection range [m/rad]"}
 // clang-format on
+
+struct MapLandmark {
+  sdk::LandmarkEstimate estimate;
+  int id = -1;      // the camera's id (use_ids), else -1
+  int misses = 0;   // omni frames in a row it was in range and not detected
+};
 
 struct SlamParticle {
   sdk::Pose pose = sdk::Pose::Zero();
-  std::vector<sdk::LandmarkEstimate> landmarks;
-  std::vector<int> ids;  // the camera's id per landmark (use_ids), else -1
+  std::vector<MapLandmark> landmarks;
 };
 
 class FastSlam : public sdk::Localizer {
@@ -110,6 +124,7 @@ class FastSlam : public sdk::Localizer {
                  std::vector<Match>& matches) const;
   double fitness(const SlamParticle& particle, const std::vector<Match>& matches,
                  const sdk::Pose& pose) const;
+  void prune(SlamParticle& particle, const std::vector<Match>& matches) const;
   void resample();
 
   Mover mover_;
@@ -119,13 +134,20 @@ class FastSlam : public sdk::Localizer {
   sdk::OdometryNoise motion_;
   double sigma_range_, sigma_bearing_, sigma_cross_, new_landmark_chi2_, resample_threshold_;
   bool use_ids_, use_omni_, use_ptz_;
-  int map_min_observations_;
+  int map_min_observations_, prune_after_misses_;
+  double max_range_m_;
   double diversity_cell_m_, diversity_cell_rad_;
   sdk::AfsaDef afsa_;
   sdk::PsoDef pso_;
+  double heading_scale_m_ = 0.0;  // 0: per frame, the mean detection range
+  bool board_noise_from_cloud_ = true;
   double board_sigma_m_ = 0.0, board_sigma_rad_ = 0.0;
-  std::optional<SlamParticle> board_;
-  sdk::Pose mean_ = sdk::Pose::Zero(), previous_mean_ = sdk::Pose::Zero();
+  struct Board {
+    SlamParticle particle;  // the heaviest particle of the last camera update
+    sdk::Pose mean;         // the weighted mean pose of that update
+  };
+  std::optional<Board> board_;
+  sdk::Pose mean_ = sdk::Pose::Zero();
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Identity();
   std::optional<sdk::Pose> last_odom_;
   long steps_ = 0, resamples_ = 0, evaluations_ = 0;

@@ -30,6 +30,8 @@ FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random
   use_omni_ = params.flag("use_omni");
   use_ptz_ = params.flag("use_ptz");
   map_min_observations_ = static_cast<int>(params.integer("map_min_observations"));
+  prune_after_misses_ = static_cast<int>(params.integer("prune_after_misses"));
+  max_range_m_ = params.number("max_range_m");
   diversity_cell_m_ = params.number("diversity_cell_m");
   diversity_cell_rad_ = params.number("diversity_cell_deg") * kDegToRad;
   if (mover_ == Mover::kFishSwarm) {
@@ -38,7 +40,8 @@ FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random
     afsa_.crowding = params.number("crowding");
     afsa_.iterations = static_cast<int>(params.integer("iterations"));
     afsa_.prey_tries = static_cast<int>(params.integer("prey_tries"));
-    afsa_.heading_scale_m = params.number("heading_scale_m");
+    heading_scale_m_ = params.number("heading_scale_m");
+    board_noise_from_cloud_ = params.flag("board_noise_from_cloud");
     board_sigma_m_ = params.number("board_sigma_m");
     board_sigma_rad_ = params.number("board_sigma_deg") * kDegToRad;
   } else if (mover_ == Mover::kParticleSwarm) {
@@ -47,16 +50,16 @@ FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random
     pso_.social = params.number("social");
     pso_.iterations = static_cast<int>(params.integer("iterations"));
     pso_.max_speed = params.number("max_speed_m");
-    pso_.heading_scale_m = params.number("heading_scale_m");
+    heading_scale_m_ = params.number("heading_scale_m");
   }
   // SLAM starts from where the robot is: that is the map's frame. A global start means nothing.
   const sdk::Pose start =
       init.initial_pose_known
           ? sdk::Pose(init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta)
           : sdk::Pose::Zero();
-  particles_.assign(n, SlamParticle{start, {}, {}});
+  particles_.assign(n, SlamParticle{start, {}});
   weights_.assign(n, 1.0 / static_cast<double>(n));
-  mean_ = previous_mean_ = start;
+  mean_ = start;
 }
 
 void FastSlam::on_odometry(double, const locsim_odometry& odometry) {
@@ -96,13 +99,27 @@ void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& r
     m.z = {detection.range_m, detection.bearing_rad};
     m.r = noise(detection.range_m);
     if (use_ids_ && detection.id >= 0) {
-      const auto it = std::find(particle.ids.begin(), particle.ids.end(), detection.id);
-      if (it != particle.ids.end()) m.landmark = static_cast<int>(it - particle.ids.begin());
+      const auto it =
+          std::find_if(particle.landmarks.begin(), particle.landmarks.end(),
+                       [&](const MapLandmark& l) { return l.id == detection.id; });
+      if (it != particle.landmarks.end())
+        m.landmark = static_cast<int>(it - particle.landmarks.begin());
     } else {
+      // A Cartesian pre-gate before the full innovation: with J = d(point)/d(z), the innovation's
+      // Cartesian image is the gap between the detected point and the landmark, with covariance
+      // Sigma_l + J R J^T whose largest eigenvalue is at most trace(Sigma_l) + R_rr + r^2 R_bb;
+      // so d^2 >= gap^2 / that. A landmark farther than sqrt(best d^2 x that) cannot win (twice
+      // the bound, for the linearisation). Most landmarks in a map fail it at one subtraction.
+      const double bearing = particle.pose(2) + m.z(1);
+      const Eigen::Vector2d point(particle.pose(0) + m.z(0) * std::cos(bearing),
+                                  particle.pose(1) + m.z(0) * std::sin(bearing));
+      const double spread = m.r(0, 0) + m.z(0) * m.z(0) * m.r(1, 1);
       double best = new_landmark_chi2_;
       for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
-        const double d2 =
-            sdk::landmark_innovation(particle.landmarks[k], particle.pose, m.z, m.r).mahalanobis2;
+        const sdk::LandmarkEstimate& l = particle.landmarks[k].estimate;
+        if ((l.mean - point).squaredNorm() > 4.0 * best * (l.covariance.trace() + spread))
+          continue;
+        const double d2 = sdk::landmark_innovation(l, particle.pose, m.z, m.r).mahalanobis2;
         if (d2 < best) best = d2, m.landmark = static_cast<int>(k);
       }
     }
@@ -117,9 +134,9 @@ double FastSlam::fitness(const SlamParticle& particle, const std::vector<Match>&
   for (const Match& m : matches) {
     if (m.landmark < 0) continue;
     const Eigen::Vector2d predicted =
-        sdk::range_bearing(pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].mean);
+        sdk::range_bearing(pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].estimate.mean);
     const Eigen::Vector2d nu(m.z(0) - predicted(0), sdk::wrap(m.z(1) - predicted(1)));
-    f += std::exp(-0.5 * nu.dot(m.r.ldlt().solve(nu)));
+    f += std::exp(-0.5 * (nu(0) * nu(0) / m.r(0, 0) + nu(1) * nu(1) / m.r(1, 1)));  // R diagonal
   }
   return f;
 }
@@ -137,6 +154,15 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
   if (mover_ != Mover::kNone && reading.count > 0) {
     std::vector<sdk::Pose> poses(n);
     for (std::size_t i = 0; i < n; ++i) poses[i] = particles_[i].pose;
+    // A heading error of d rad moves a detection at range r by r d metres: scaled by the mean
+    // range, a step in heading moves the predictions as far as a step in position.
+    double scale = heading_scale_m_;
+    if (scale <= 0.0) {
+      scale = 0.0;
+      for (std::size_t d = 0; d < reading.count; ++d) scale += reading.detections[d].range_m;
+      scale = std::max(scale / static_cast<double>(reading.count), 0.1);
+    }
+    afsa_.heading_scale_m = pso_.heading_scale_m = scale;
     const auto f = [&](std::size_t i, const sdk::Pose& pose) {
       return fitness(particles_[i], matches[i], pose);
     };
@@ -154,19 +180,22 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
     for (std::size_t d = 0; d < matches[i].size(); ++d) {
       const Match& m = matches[i][d];
       if (m.landmark >= 0) {
-        sdk::LandmarkEstimate& landmark = p.landmarks[static_cast<std::size_t>(m.landmark)];
+        MapLandmark& mapped = p.landmarks[static_cast<std::size_t>(m.landmark)];
+        sdk::LandmarkEstimate& landmark = mapped.estimate;
         const sdk::LandmarkInnovation innovation =
             sdk::landmark_innovation(landmark, p.pose, m.z, m.r);
         log_likelihood += innovation.log_likelihood();
         sdk::update_landmark(landmark, innovation, m.r);
+        mapped.misses = 0;
       } else {
         const Eigen::Matrix2d s = 2.0 * m.r;  // of the order of a known landmark's S
         log_likelihood += -0.5 * new_landmark_chi2_ - std::log(2.0 * std::numbers::pi) -
                           0.5 * std::log(s.determinant());
-        p.landmarks.push_back(sdk::init_landmark(p.pose, m.z, m.r));
-        p.ids.push_back(use_ids_ ? reading.detections[d].id : -1);
+        p.landmarks.push_back(
+            {sdk::init_landmark(p.pose, m.z, m.r), use_ids_ ? reading.detections[d].id : -1, 0});
       }
     }
+    if (reading.camera == LOCSIM_CAMERA_OMNI) prune(p, matches[i]);
     log_w[i] = std::log(std::max(weights_[i], 1e-300)) + log_likelihood;
   }
   const double top = *std::max_element(log_w.begin(), log_w.end());
@@ -174,7 +203,6 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
   sdk::normalize(weights_);
 
   // The weighted mean pose (the estimate), then the N_eff test.
-  previous_mean_ = mean_;
   sdk::ParticleSet set;
   set.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -187,26 +215,62 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
   ++steps_;
   const SlamParticle best = particles_[heaviest(weights_)];
   if (n_eff < resample_threshold_ * static_cast<double>(n)) resample();
-  // The bulletin board: this step's best, for the next directed resampling.
-  if (mover_ == Mover::kFishSwarm) board_ = best;
+  // The bulletin board: this step's best and this step's mean, for the next directed resampling.
+  if (mover_ == Mover::kFishSwarm) board_ = Board{best, mean_};
   std::vector<sdk::Pose> poses(particles_.size());
   for (std::size_t i = 0; i < particles_.size(); ++i) poses[i] = particles_[i].pose;
   diversity_sum_ += sdk::hamming_diversity(poses, diversity_cell_m_, diversity_cell_rad_);
 }
 
+void FastSlam::prune(SlamParticle& particle, const std::vector<Match>& matches) const {
+  // Negative evidence (Montemerlo et al. 2003): the omnidirectional camera sees all around, so
+  // a landmark well inside its range that no detection went to is either occluded or was never
+  // there: a duplicate left behind when the pose drifted past the association gate.
+  if (prune_after_misses_ == 0) return;
+  std::vector<char> seen(particle.landmarks.size(), 0);
+  for (const Match& m : matches)
+    if (m.landmark >= 0) seen[static_cast<std::size_t>(m.landmark)] = 1;
+  for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
+    MapLandmark& l = particle.landmarks[k];
+    if (!seen[k] && (l.estimate.mean - particle.pose.head<2>()).norm() < 0.9 * max_range_m_)
+      ++l.misses;
+  }
+  std::erase_if(particle.landmarks,
+                [&](const MapLandmark& l) { return l.misses >= prune_after_misses_; });
+}
+
 void FastSlam::resample() {
   ++resamples_;
   if (mover_ == Mover::kFishSwarm && board_) {
-    // x^ = x_board + (mean_t - mean_t-1) + v: the previous step's best, moved as the mean moved.
-    SlamParticle moved = *board_;
-    moved.pose(0) += mean_(0) - previous_mean_(0);
-    moved.pose(1) += mean_(1) - previous_mean_(1);
-    moved.pose(2) = sdk::wrap(moved.pose(2) + sdk::wrap(mean_(2) - previous_mean_(2)));
+    // x^ = x_board + (mean_t - mean_t-1) + v: the previous step's best, moved as the mean moved
+    // since (both means after their camera updates: the odometry between frames is in the
+    // difference, or the board's copies would lag a frame's travel behind).
+    SlamParticle moved = board_->particle;
+    const sdk::Pose& then = board_->mean;
+    moved.pose(0) += mean_(0) - then(0);
+    moved.pose(1) += mean_(1) - then(1);
+    moved.pose(2) = sdk::wrap(moved.pose(2) + sdk::wrap(mean_(2) - then(2)));
+    // v ~ N(0, Sigma): the cloud's own spread by default, so that the board's copies scatter as
+    // far as the posterior is wide (a fixed sigma is either wider than a precise sensor allows,
+    // and the copies weigh nothing, or narrower than the motion, and they collapse).
+    const Eigen::Matrix3d sigma =
+        board_noise_from_cloud_
+            ? Eigen::Matrix3d(covariance_)
+            : Eigen::Vector3d(board_sigma_m_ * board_sigma_m_, board_sigma_m_ * board_sigma_m_,
+                              board_sigma_rad_ * board_sigma_rad_)
+                  .asDiagonal()
+                  .toDenseMatrix();
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(sigma);
+    // LDLT with pivoting and clamped D: a degenerate cloud (all copies of one) gives no noise.
+    const Eigen::Matrix3d root =
+        ldlt.transpositionsP().transpose() * Eigen::Matrix3d(ldlt.matrixL()) *
+        ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
     const auto from_board = [&](sdk::Random& random) {
       SlamParticle p = moved;
-      p.pose(0) += random.normal(board_sigma_m_);
-      p.pose(1) += random.normal(board_sigma_m_);
-      p.pose(2) = sdk::wrap(p.pose(2) + random.normal(board_sigma_rad_));
+      const Eigen::Vector3d v = root * Eigen::Vector3d(random.normal(), random.normal(), random.normal());
+      p.pose(0) += v(0);
+      p.pose(1) += v(1);
+      p.pose(2) = sdk::wrap(p.pose(2) + v(2));
       return p;
     };
     sdk::directed_resample(particles_, weights_, moved, from_board, random_);
@@ -245,7 +309,7 @@ std::vector<std::pair<std::string, double>> FastSlam::diagnostics() const {
 void FastSlam::landmark_map(std::vector<locsim_mapped_landmark>& landmarks) const {
   const SlamParticle& p = particles_[heaviest(weights_)];
   for (std::size_t k = 0; k < p.landmarks.size(); ++k) {
-    const sdk::LandmarkEstimate& l = p.landmarks[k];
+    const sdk::LandmarkEstimate& l = p.landmarks[k].estimate;
     if (l.observations < map_min_observations_) continue;
     landmarks.push_back(
         {static_cast<std::int32_t>(k),
