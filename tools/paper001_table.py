@@ -5,7 +5,8 @@
   tools/paper001_table.py runs/paper001 --seeds    # and the diversity per seed (the paper's table)
   tools/paper001_table.py runs/paper001 --paired fastslam_afsa   # each filter against one, per seed
 
-Per configuration over its seeds (mean ± 95 % CI over the runs): the position and heading RMS
+Per configuration over its seeds (mean ± 95 % CI over the runs, Student t; for the position
+also the median, after ';'): the position and heading RMS
 against the ground truth, the landmark map's error (RMS over the true landmarks matched within
 1 m) and its spurious and missed landmarks, the mean effective particle number N_eff and the
 mean particle diversity (the filters' own diagnostics: averaged over every camera update), and
@@ -17,8 +18,12 @@ unpaired CIs carry.
 """
 import json
 import math
+import os
 import statistics
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from report import t975  # noqa: E402  (the sweep reports' Student t, so the CIs agree)
 
 # Paper 001 (decoded, SPEC section 3): PSO-PF -> AFSA + directed resampling, 10 particles.
 PAPER = {
@@ -31,7 +36,8 @@ PAPER = {
 def mean_ci(values, digits=3):
     if not values:
         return "–"
-    ci = 1.96 * statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else float("nan")
+    n = len(values)
+    ci = t975(n - 1) * statistics.stdev(values) / math.sqrt(n) if n > 1 else float("nan")
     return f"{statistics.mean(values):.{digits}f} ± {ci:.{digits}f}"
 
 
@@ -64,17 +70,23 @@ def main():
         cells = []
         for key in ("position", "heading", "landmark", "spurious", "missed", "n_eff", "diversity", "wall"):
             cell = mean_ci(column[key], digits.get(key, 3))
+            if key == "position" and column[key]:
+                cell += f"; {statistics.median(column[key]):.3f}"
             if key in PAPER.get(base, {}):
                 cell += f" (paper {PAPER[base][key]:g})"
             cells.append(cell)
         print(f"| {config} | " + " | ".join(cells) + f" | {len(ok)} of {len(runs)} |")
     if "--seeds" in sys.argv:
         print()
+        print("Mean particle diversity per seed (the paper's table of 10 runs):")
+        print()
         print("| filter | " + " | ".join(f"seed {r['seed']}" for r in rows if r["config"] == configs[0]) + " |")
         print("|---|" + "---|" * len([r for r in rows if r["config"] == configs[0]]))
         for config in configs:
-            values = [r["metrics"]["diagnostics"].get("mean_diversity", float("nan")) if r["status"] == "ok"
-                      else float("nan") for r in rows if r["config"] == config]
+            values = [r["metrics"].get("diagnostics", {}).get("mean_diversity", float("nan"))
+                      if r["status"] == "ok" else float("nan") for r in rows if r["config"] == config]
+            if all(math.isnan(v) for v in values):
+                continue  # no particles
             print(f"| {config} | " + " | ".join(f"{v:.2f}" for v in values) + " |")
     if "--paired" in sys.argv:
         paired(rows, sys.argv[sys.argv.index("--paired") + 1])

@@ -92,8 +92,8 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
 
 struct MapLandmark {
   sdk::LandmarkEstimate estimate;
-  int id = -1;      // the camera's id (use_ids), else -1
-  int misses = 0;   // omni frames in a row it was in range and not detected
+  int id = -1;     // the camera's id (use_ids), else -1
+  int misses = 0;  // omni frames in a row it was in range and not detected
 };
 
 struct SlamParticle {

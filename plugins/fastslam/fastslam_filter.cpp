@@ -99,9 +99,8 @@ void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& r
     m.z = {detection.range_m, detection.bearing_rad};
     m.r = noise(detection.range_m);
     if (use_ids_ && detection.id >= 0) {
-      const auto it =
-          std::find_if(particle.landmarks.begin(), particle.landmarks.end(),
-                       [&](const MapLandmark& l) { return l.id == detection.id; });
+      const auto it = std::find_if(particle.landmarks.begin(), particle.landmarks.end(),
+                                   [&](const MapLandmark& l) { return l.id == detection.id; });
       if (it != particle.landmarks.end())
         m.landmark = static_cast<int>(it - particle.landmarks.begin());
     } else {
@@ -117,8 +116,7 @@ void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& r
       double best = new_landmark_chi2_;
       for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
         const sdk::LandmarkEstimate& l = particle.landmarks[k].estimate;
-        if ((l.mean - point).squaredNorm() > 4.0 * best * (l.covariance.trace() + spread))
-          continue;
+        if ((l.mean - point).squaredNorm() > 4.0 * best * (l.covariance.trace() + spread)) continue;
         const double d2 = sdk::landmark_innovation(l, particle.pose, m.z, m.r).mahalanobis2;
         if (d2 < best) best = d2, m.landmark = static_cast<int>(k);
       }
@@ -133,8 +131,8 @@ double FastSlam::fitness(const SlamParticle& particle, const std::vector<Match>&
   double f = 0.0;
   for (const Match& m : matches) {
     if (m.landmark < 0) continue;
-    const Eigen::Vector2d predicted =
-        sdk::range_bearing(pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].estimate.mean);
+    const Eigen::Vector2d predicted = sdk::range_bearing(
+        pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].estimate.mean);
     const Eigen::Vector2d nu(m.z(0) - predicted(0), sdk::wrap(m.z(1) - predicted(1)));
     f += std::exp(-0.5 * (nu(0) * nu(0) / m.r(0, 0) + nu(1) * nu(1) / m.r(1, 1)));  // R diagonal
   }
@@ -262,12 +260,13 @@ void FastSlam::resample() {
                   .toDenseMatrix();
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(sigma);
     // LDLT with pivoting and clamped D: a degenerate cloud (all copies of one) gives no noise.
-    const Eigen::Matrix3d root =
-        ldlt.transpositionsP().transpose() * Eigen::Matrix3d(ldlt.matrixL()) *
-        ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    const Eigen::Matrix3d root = ldlt.transpositionsP().transpose() *
+                                 Eigen::Matrix3d(ldlt.matrixL()) *
+                                 ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
     const auto from_board = [&](sdk::Random& random) {
       SlamParticle p = moved;
-      const Eigen::Vector3d v = root * Eigen::Vector3d(random.normal(), random.normal(), random.normal());
+      const Eigen::Vector3d v =
+          root * Eigen::Vector3d(random.normal(), random.normal(), random.normal());
       p.pose(0) += v(0);
       p.pose(1) += v(1);
       p.pose(2) = sdk::wrap(p.pose(2) + v(2));
