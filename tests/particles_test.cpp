@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace locsim::sdk {
 namespace {
@@ -49,6 +50,34 @@ TEST(Particles, MotionNoiseHasThePapersSpreadAndThrunsVarianceForm) {
     EXPECT_NEAR(stddev(rot2, -0.2), spread(0.0014, -0.2, 0.000125, 1.0),
                 0.01 * spread(0.0014, -0.2, 0.000125, 1.0));
   }
+}
+
+TEST(Particles, ReversingIsAsNoisyAsDrivingForwards) {
+  // 5 cm straight back decomposes as a half turn, 5 cm, and a half turn back: the noise must be
+  // that of 5 cm forwards, not of two half turns (alpha1 pi: 100x the rotation noise).
+  const Pose from(1.0, 2.0, 0.3);
+  const double step = 0.05, turn = 0.01;
+  const Pose ahead(from(0) + step * std::cos(0.3), from(1) + step * std::sin(0.3), 0.3 + turn);
+  const Pose behind(from(0) - step * std::cos(0.3), from(1) - step * std::sin(0.3), 0.3 + turn);
+  const OdometryDelta forwards = decompose(from, ahead), backwards = decompose(from, behind);
+  ASSERT_NEAR(std::abs(backwards.rot1), std::numbers::pi, 1e-9);
+  for (const bool variance_form : {false, true}) {
+    OdometryNoise noise;
+    noise.variance_form = variance_form;
+    const OdometryDelta f = motion_spread(forwards, noise), b = motion_spread(backwards, noise);
+    EXPECT_NEAR(b.rot1, f.rot1, 1e-12);
+    EXPECT_NEAR(b.trans, f.trans, 1e-12);
+    EXPECT_NEAR(b.rot2, f.rot2, 1e-12);
+  }
+  // The geometry stays exact: a noiseless sample lands where the robot went.
+  ParticleSet p;
+  p.resize(1);
+  p.x[0] = from(0), p.y[0] = from(1), p.theta[0] = from(2);
+  Random random(3);
+  sample_motion(p, backwards, OdometryNoise{0, 0, 0, 0, false}, random);
+  EXPECT_NEAR(p.x[0], behind(0), 1e-12);
+  EXPECT_NEAR(p.y[0], behind(1), 1e-12);
+  EXPECT_NEAR(wrap(p.theta[0] - behind(2)), 0.0, 1e-12);
 }
 
 TEST(Particles, LandmarkLikelihoodIsANormalRangeTimesAVonMisesBearing) {

@@ -58,13 +58,19 @@ struct OdometryNoise {
 /// The standard deviations of the noise on each part of `d` (the paper's b):
 ///   rot1: alpha1 |rot1| + alpha2 trans,  trans: alpha4 |rot1 + rot2| + alpha3 trans,
 ///   rot2: alpha1 |rot2| + alpha2 trans  (or the square roots of alpha u^2 + alpha v^2).
+/// Reversing decomposes as rot1 ~ +-pi and rot2 ~ -+pi, a half turn the wheels never made: each
+/// rotation's noise comes from min(|rot|, pi - |rot|) (as ROS amcl's odometry model), so that
+/// driving backwards is as noisy as driving forwards, and rot1 + rot2 is wrapped.
 inline OdometryDelta motion_spread(const OdometryDelta& d, const OdometryNoise& n) {
   const auto spread = [&](double a, double u, double b, double v) {
     return n.variance_form ? std::sqrt(a * u * u + b * v * v) : a * std::abs(u) + b * std::abs(v);
   };
-  return {spread(n.alpha1, d.rot1, n.alpha2, d.trans),
-          spread(n.alpha4, d.rot1 + d.rot2, n.alpha3, d.trans),
-          spread(n.alpha1, d.rot2, n.alpha2, d.trans)};
+  const auto turned = [](double rot) {
+    return std::min(std::abs(rot), std::numbers::pi - std::abs(rot));
+  };
+  return {spread(n.alpha1, turned(d.rot1), n.alpha2, d.trans),
+          spread(n.alpha4, wrap(d.rot1 + d.rot2), n.alpha3, d.trans),
+          spread(n.alpha1, turned(d.rot2), n.alpha2, d.trans)};
 }
 
 /// One noisy version of `d` (the paper's sample_motion_model_odometry).
