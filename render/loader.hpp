@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/run/frame_state.hpp"
+#include "sim/consumers/frame_state.hpp"
 #include "sim/sensors/camera_image.hpp"
 
 #define LOCSIM_RENDER_EXPORT __attribute__((visibility("default")))

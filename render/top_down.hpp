@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/run/frame_state.hpp"
+#include "sim/consumers/frame_state.hpp"
 
 namespace locsim::render {
 

@@ -18,7 +18,7 @@
 #include "render/gl_context.hpp"
 #include "render/top_down.hpp"
 #include "render/video_encoder.hpp"
-#include "sim/run/frame_state.hpp"
+#include "sim/consumers/frame_state.hpp"
 
 namespace locsim::render {
 

@@ -73,7 +73,7 @@ TEST(PluginLoading, CreateFailureIsAPluginErrorWithThePluginsMessage) {
   WorldDef world = testing::world_from_yaml("robots:\n  - start: {x: 0, y: 0}\n");
   const OccupancyGrid grid;
   try {
-    LocalizerHost host({parse_localizer_spec(test_plugin("create_fails"))}, world, world.robots[0],
+    LocalizerHost host({parse_localizer_spec(test_plugin("create_fails"))}, world,
                        LocalizationDef{}, grid, 1);
     FAIL();
   } catch (const PluginError& e) {

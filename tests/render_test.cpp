@@ -11,7 +11,8 @@
 #include "render/gl_context.hpp"
 #include "render/top_down.hpp"
 #include "render/video_recorder.hpp"
-#include "sim/run/frame_capture.hpp"
+#include "sim/consumers/frame_capture.hpp"
+#include "sim/producers/simulation_source.hpp"
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
 
@@ -239,7 +240,7 @@ scenario:
   VideoOptions video;
   video.fps = 10.0;
   FrameCapture capture(sink, video, sim);
-  std::vector<std::unique_ptr<LocalizerHost>> no_filters;
+  SimulationSource source(sim);
   std::vector<Pose2> floor;  // the true pose just before each kidnap
   Pose2 last = sim.robot(0).pose();
   int kidnaps = 0;
@@ -247,7 +248,8 @@ scenario:
     sim.step();
     if (sim.stats(0).kidnaps != kidnaps) floor.push_back(last), kidnaps = sim.stats(0).kidnaps;
     if (!sim.robot(0).carried()) last = sim.robot(0).pose();
-    capture.step(sim, sim.take_readings(), no_filters);
+    source.emit(capture);
+    capture.after_step(sim);
   }
   ASSERT_EQ(floor.size(), 2u);
   ASSERT_EQ(sink.all().size(), 31u);

@@ -10,8 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "sim/common/errors.hpp"
+#include "sim/producers/simulation.hpp"
 #include "sim/run/runner.hpp"
-#include "sim/run/simulation.hpp"
 #include "test_support.hpp"
 
 namespace locsim {

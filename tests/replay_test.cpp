@@ -6,8 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sim/run/run_log.hpp"
 #include "sim/run/runner.hpp"
+#include "sim/stream/log_file.hpp"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -106,14 +106,18 @@ TEST(Replay, AnInterruptedRecordingReadsAsTruncated) {
   const fs::path log = dir / "cut.locsimlog";
   {
     LogWriter writer(log, {{"format", "locsim-log"}});
-    writer.groundtruth(0.0, 0, Pose2{1, 2, 3});
+    Record truth;
+    truth.type = Record::Type::kGroundTruth;
+    truth.robot = 0;
+    truth.pose = Pose2{1, 2, 3};
+    writer.consume(truth);
   }  // no finish(): as a run killed mid-way leaves it
   LogReader reader(log);
-  LogRecord record;
-  EXPECT_TRUE(reader.next(record));
-  EXPECT_EQ(record.pose, (Pose2{1, 2, 3}));
+  Record got;
+  EXPECT_TRUE(reader.next(got));
+  EXPECT_EQ(got.pose, (Pose2{1, 2, 3}));
   try {
-    reader.next(record);
+    reader.next(got);
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("truncated after 1 records: no end record"),

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "sim/common/yaml_node.hpp"
-#include "sim/run/simulation.hpp"
+#include "sim/producers/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/world/world_loader.hpp"
 

@@ -8,11 +8,12 @@ namespace locsim {
 
 enum ExitCode : int {
   kExitOk = 0,
-  kExitFailure = 1,        // anything not caused by the user's input
-  kExitBadInput = 2,       // bad command line, or a world/scenario/map file that cannot be used
-  kExitPlugin = 3,         // a localizer plugin cannot be found, loaded or created
-  kExitRender = 4,         // the renderer cannot be loaded, or a video or frame cannot be written
-  kExitInterrupted = 130,  // SIGINT; the run folder holds everything written so far
+  kExitFailure = 1,          // anything not caused by the user's input
+  kExitBadInput = 2,         // bad command line, or a world/scenario/map file that cannot be used
+  kExitPlugin = 3,           // a localizer plugin cannot be found, loaded or created
+  kExitRender = 4,           // the renderer cannot be loaded, or a video or frame cannot be written
+  kExitLocalizerFailed = 5,  // the run completed, but a localizer failed (metrics.json says how)
+  kExitInterrupted = 130,    // SIGINT; the run folder holds everything written so far
 };
 
 /// Where in a file something was found. Line and column are 1-based; 0 means unknown.
@@ -44,6 +45,12 @@ class PluginError : public std::runtime_error {
 class RenderError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// Ctrl-C reached a wait (for a plugin's process, say): the run ends as "interrupted".
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted() : std::runtime_error("interrupted") {}
 };
 
 }  // namespace locsim

@@ -20,7 +20,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
-#include "sim/run/simulation.hpp"
+#include "sim/producers/simulation.hpp"
 
 namespace locsim {
 

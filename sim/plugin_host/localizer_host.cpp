@@ -1,469 +1,38 @@
 #include "sim/plugin_host/localizer_host.hpp"
 
+#include <poll.h>
+
+#include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <cstdio>
 #include <map>
-#include <sstream>
 
 #include "sim/common/errors.hpp"
-#include "sim/common/yaml_node.hpp"
-#include "sim/sensors/models.hpp"
+#include "sim/common/format.hpp"
+#include "sim/stream/record_codec.hpp"
 
 namespace locsim {
 
-using json = nlohmann::ordered_json;
-
 namespace {
-bool valid_name(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.' ||
-           c == '=';
-  });
-}
+// Records queued for a worker are sent once this many bytes wait: few system calls per reading,
+// and the worker's memory for them stays small.
+constexpr std::size_t kBatchBytes = 64 * 1024;
 }  // namespace
 
-LocalizerSpec parse_localizer_spec(const std::string& text) {
-  LocalizerSpec spec;
-  std::string rest = text;
-  if (const auto at = rest.rfind('@'); at != std::string::npos) {
-    spec.label = rest.substr(at + 1);
-    rest = rest.substr(0, at);
-    if (!valid_name(spec.label)) {
-      throw InputError("--localizer '" + text + "': label '" + spec.label +
-                       "' may hold only a-z, 0-9, '_', '-', '.', '=' (it names a file)");
-    }
-  }
-  const auto colon = rest.find(':');
-  spec.plugin = rest.substr(0, colon);
-  if (spec.plugin.empty()) throw InputError("--localizer '" + text + "': no plugin name");
-  if (colon != std::string::npos) {
-    std::stringstream items(rest.substr(colon + 1));
-    std::string item;
-    while (std::getline(items, item, ',')) {
-      const auto equals = item.find('=');
-      if (equals == std::string::npos || equals == 0) {
-        throw InputError("--localizer '" + text + "': expected key=value, got '" + item + "'");
-      }
-      spec.params.emplace_back(item.substr(0, equals), item.substr(equals + 1));
-    }
-  }
-  if (spec.label.empty()) {
-    spec.label = std::filesystem::path(spec.plugin).stem().string();
-    if (spec.label.starts_with("locsim_")) spec.label = spec.label.substr(7);
-  }
-  return spec;
-}
-
-// ---------------------------------------------------------------------------------------------
-ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
-  std::map<std::string, std::string> given(spec.params.begin(), spec.params.end());
-  for (const auto& [key, value] : spec.params) {
-    bool declared = false;
-    std::string best, known;
-    std::size_t best_distance = 4;
-    for (std::size_t i = 0; i < table.param_count; ++i) {
-      const std::string name = table.params[i].name;
-      declared = declared || name == key;
-      known += (known.empty() ? "" : ", ") + name;
-      if (const std::size_t d = edit_distance(key, name); d < best_distance)
-        best_distance = d, best = name;
-    }
-    if (!declared) {
-      throw InputError("--localizer " + spec.label + ": plugin '" + table.name +
-                       "' has no parameter '" + key + "'" +
-                       (best.empty() ? "" : "; did you mean '" + best + "'?") +
-                       " (parameters: " + (known.empty() ? "none" : known) + ")");
-    }
-  }
-  for (std::size_t i = 0; i < table.param_count; ++i) {
-    const locsim_param_decl& decl = table.params[i];
-    locsim_param_value value{decl.name, decl.type, decl.default_number, nullptr};
-    if (decl.type == LOCSIM_PARAM_STRING) {
-      strings_.push_back(decl.default_string != nullptr ? decl.default_string : "");
-    }
-    const auto it = given.find(decl.name);
-    if (it != given.end()) {
-      const std::string& text = it->second;
-      const std::string where = "--localizer " + spec.label + ": parameter '" + decl.name + "'";
-      switch (decl.type) {
-        case LOCSIM_PARAM_DOUBLE:
-        case LOCSIM_PARAM_INT: {
-          std::size_t used = 0;
-          double number = 0.0;
-          try {
-            number = std::stod(text, &used);
-          } catch (const std::exception&) {
-            used = 0;
-          }
-          if (used != text.size() || !std::isfinite(number)) {
-            throw InputError(where + ": expected a number, got '" + text + "'");
-          }
-          if (decl.type == LOCSIM_PARAM_INT && number != std::floor(number)) {
-            throw InputError(where + ": expected an integer, got '" + text + "'");
-          }
-          if (number < decl.min_number || number > decl.max_number) {
-            throw InputError(where + ": " + text + " is outside [" +
-                             std::to_string(decl.min_number) + ", " +
-                             std::to_string(decl.max_number) + "]");
-          }
-          value.number = number;
-          break;
-        }
-        case LOCSIM_PARAM_BOOL:
-          if (text == "true" || text == "1") {
-            value.number = 1.0;
-          } else if (text == "false" || text == "0") {
-            value.number = 0.0;
-          } else {
-            throw InputError(where + ": expected true or false, got '" + text + "'");
-          }
-          break;
-        case LOCSIM_PARAM_STRING:
-          strings_.back() = text;
-          break;
-        default:
-          throw PluginError(std::string("plugin '") + table.name + "' declares parameter '" +
-                            decl.name + "' with unknown type " + std::to_string(decl.type));
-      }
-    }
-    if (decl.type == LOCSIM_PARAM_STRING) value.string = strings_.back().c_str();
-    values_.push_back(value);
-  }
-}
-
-json ParamSet::to_json() const {
-  json out = json::object();
-  for (const locsim_param_value& v : values_) {
-    switch (v.type) {
-      case LOCSIM_PARAM_INT:
-        out[v.name] = static_cast<long long>(v.number);
-        break;
-      case LOCSIM_PARAM_BOOL:
-        out[v.name] = v.number != 0.0;
-        break;
-      case LOCSIM_PARAM_STRING:
-        out[v.name] = v.string;
-        break;
-      default:
-        out[v.name] = v.number;
-        break;
-    }
-  }
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
-LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
-                               OccupancyGrid occupancy, const LocalizationDef& localization,
-                               RandomStream& initial_rng)
-    : grid(std::move(occupancy)) {
-  for (const LandmarkDef& l : world.landmarks) {
-    colors.push_back(color_label(l));
-    landmarks.push_back(
-        {l.id, l.position_m.x(), l.position_m.y(), l.radius_m, l.height_m, colors.back().c_str()});
-  }
-  for (const BeaconDef& b : world.beacons) {
-    beacons.push_back({b.id, b.position_m.x(), b.position_m.y(), b.height_m});
-  }
-  // SLAM: the landmarks' positions are what the filter has to find out.
-  map.landmarks = localization.landmarks_known ? landmarks.data() : nullptr;
-  map.landmark_count = localization.landmarks_known ? landmarks.size() : 0;
-  map.beacons = beacons.data();
-  map.beacon_count = beacons.size();
-  map.grid = {grid.origin_m.x(), grid.origin_m.y(), grid.resolution_m,
-              grid.width,        grid.height,       grid.cells.data()};
-  robot = {robot_def.wheel_base_m, robot_def.wheel_radius_m, bounding_radius(robot_def.footprint)};
-  initial_pose_known = localization.initial_pose_known;
-  if (initial_pose_known) {
-    // One guess per robot, shared by all its filters so that they start alike.
-    initial_pose = {
-        robot_def.start.x + initial_rng.normal(0.0, localization.sigma_xy_m),
-        robot_def.start.y + initial_rng.normal(0.0, localization.sigma_xy_m),
-        wrap_angle(robot_def.start.theta + initial_rng.normal(0.0, localization.sigma_theta_rad))};
-    const double var_xy = std::max(localization.sigma_xy_m * localization.sigma_xy_m, 1e-12);
-    const double var_theta =
-        std::max(localization.sigma_theta_rad * localization.sigma_theta_rad, 1e-12);
-    initial_covariance[0] = initial_covariance[4] = var_xy;
-    initial_covariance[8] = var_theta;
-  }
-}
-
-// ---------------------------------------------------------------------------------------------
-ReadingTranslator::ReadingTranslator(const RobotDef& robot) : robot_(&robot) {
-  if (robot.sensors.encoders) {
-    meters_per_tick_ =
-        2.0 * std::numbers::pi * robot.wheel_radius_m / robot.sensors.encoders->ticks_per_rev;
-  }
-  if (robot.sensors.laser) {
-    const LaserDef& laser = *robot.sensors.laser;
-    for (int i = 0; i < laser.beams; ++i) {
-      laser_angles_.push_back(static_cast<float>(laser_beam_angle(i, laser.beams, laser.fov_rad)));
-    }
-  }
-  out_.struct_size = sizeof(locsim_reading);
-}
-
-const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
-  out_.t_s = reading.t_s;
-  const SensorsDef& sensors = robot_->sensors;
-  std::visit(
-      [&](const auto& data) {
-        using T = std::decay_t<decltype(data)>;
-        if constexpr (std::is_same_v<T, EncoderReading>) {
-          out_.kind = LOCSIM_READING_ODOMETRY;
-          out_.data.odometry = {data.left_ticks,
-                                data.right_ticks,
-                                meters_per_tick_,
-                                {data.odometry.x, data.odometry.y, data.odometry.theta}};
-        } else if constexpr (std::is_same_v<T, ImuReading>) {
-          out_.kind = LOCSIM_READING_IMU;
-          out_.data.imu = {data.yaw_rate_radps, data.accel_mps2.x(), data.accel_mps2.y(),
-                           sensors.imu->common.mount.theta};
-        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
-          detections_.clear();
-          for (const Detection& d : data.detections) {
-            detections_.push_back({d.color.c_str(), d.id, d.range_m, d.bearing_rad});
-          }
-          out_.kind = LOCSIM_READING_LANDMARKS;
-          out_.data.landmarks = {
-              std::is_same_v<T, PtzReading> ? LOCSIM_CAMERA_PTZ : LOCSIM_CAMERA_OMNI, 0.0,
-              detections_.data(), detections_.size()};
-          if constexpr (std::is_same_v<T, PtzReading>) out_.data.landmarks.pan_rad = data.pan_rad;
-        } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
-          ranges_.clear();
-          for (const BeaconRange& r : data.ranges) {
-            const auto& receiver =
-                sensors.ultrasonic->receivers[static_cast<std::size_t>(r.receiver)];
-            ranges_.push_back({r.receiver, r.beacon_id, r.range_m, receiver.position_m.x(),
-                               receiver.position_m.y(), receiver.height_m});
-          }
-          out_.kind = LOCSIM_READING_BEACON_RANGES;
-          out_.data.beacon_ranges = {ranges_.data(), ranges_.size()};
-        } else if constexpr (std::is_same_v<T, LaserScan>) {
-          const LaserDef& laser = *sensors.laser;
-          out_.kind = LOCSIM_READING_LASER;
-          out_.data.laser = {data.ranges_m.data(),
-                             laser_angles_.data(),
-                             data.ranges_m.size(),
-                             {laser.common.mount.x, laser.common.mount.y, laser.common.mount.theta},
-                             laser.min_range_m,
-                             laser.max_range_m};
-        }
-      },
-      reading.data);
-  return out_;
-}
-
-// ---------------------------------------------------------------------------------------------
-LocalizerInstance::LocalizerInstance(std::shared_ptr<const PluginLibrary> library,
-                                     std::string label, ParamSet params,
-                                     const LocalizerWorld& world, std::uint64_t seed)
-    : library_(std::move(library)), label_(std::move(label)), params_(std::move(params)) {
-  locsim_init init{};
-  init.struct_size = sizeof(locsim_init);
-  init.params = params_.values().data();
-  init.param_count = params_.values().size();
-  init.map = &world.map;
-  init.robot = &world.robot;
-  init.initial_pose_known = world.initial_pose_known ? 1 : 0;
-  init.initial_pose = world.initial_pose;
-  std::copy(std::begin(world.initial_covariance), std::end(world.initial_covariance),
-            init.initial_covariance);
-  init.seed = seed;
-  error_[0] = '\0';
-  instance_ = table().create(&init, error_, sizeof(error_));
-  if (instance_ == nullptr) {
-    throw PluginError("localizer '" + label_ + "' (plugin " + table().name + ", " +
-                      library_->path().string() +
-                      "): create failed: " + (error_[0] != '\0' ? error_ : "no message"));
-  }
-}
-
-LocalizerInstance::~LocalizerInstance() {
-  if (instance_ != nullptr) table().destroy(instance_);
-}
-
-void LocalizerInstance::fail(double t_s, const std::string& call, const std::string& message) {
-  failure_ = Failure{t_s, call, message};
-}
-
-void LocalizerInstance::deliver(const locsim_reading& reading) {
-  if (failure_) return;
-  // A "step" in the papers is a perception update: what the steps-to-convergence count.
-  if (reading.kind == LOCSIM_READING_LANDMARKS || reading.kind == LOCSIM_READING_BEACON_RANGES ||
-      reading.kind == LOCSIM_READING_LASER) {
-    ++perception_updates_;
-  }
-  error_[0] = '\0';
-  const auto start = std::chrono::steady_clock::now();
-  const int status = table().update(instance_, &reading, error_, sizeof(error_));
-  update_seconds_.push_back(
-      std::chrono::duration<float>(std::chrono::steady_clock::now() - start).count());
-  if (status != 0)
-    fail(reading.t_s, "update", error_[0] != '\0' ? error_ : "returned an error without a message");
-}
-
-std::optional<locsim_estimate> LocalizerInstance::estimate(double t_s) {
-  if (failure_) return std::nullopt;
-  locsim_estimate out{};
-  error_[0] = '\0';
-  if (table().estimate(instance_, &out, error_, sizeof(error_)) != 0) {
-    fail(t_s, "estimate", error_[0] != '\0' ? error_ : "returned an error without a message");
-    return std::nullopt;
-  }
-  bool finite =
-      std::isfinite(out.pose.x) && std::isfinite(out.pose.y) && std::isfinite(out.pose.theta);
-  for (const double c : out.covariance) finite = finite && std::isfinite(c);
-  if (!finite) {
-    fail(t_s, "estimate", "returned a non-finite (NaN or inf) pose or covariance");
-    return std::nullopt;
-  }
-  return out;
-}
-
-std::vector<locsim_pose2> LocalizerInstance::particles(double t_s, std::vector<double>* weights) {
-  if (weights != nullptr) weights->clear();
-  if (failure_ || table().particles == nullptr) return {};
-  locsim_particles out{};
-  if (table().particles(instance_, &out, error_, sizeof(error_)) != 0) {
-    fail(t_s, "particles", error_);
-    return {};
-  }
-  if (weights != nullptr && out.weights != nullptr)
-    weights->assign(out.weights, out.weights + out.count);
-  return {out.poses, out.poses + out.count};
-}
-
-std::vector<std::pair<std::string, double>> LocalizerInstance::diagnostics(double t_s) {
-  if (failure_ || table().diagnostics == nullptr) return {};
-  locsim_diagnostic out[64];
-  std::size_t count = 0;
-  if (table().diagnostics(instance_, out, 64, &count, error_, sizeof(error_)) != 0) {
-    fail(t_s, "diagnostics", error_);
-    return {};
-  }
-  last_diagnostics_.clear();
-  for (std::size_t i = 0; i < std::min<std::size_t>(count, 64); ++i) {
-    last_diagnostics_.emplace_back(out[i].name != nullptr ? out[i].name : "?", out[i].value);
-    auto& [sum, samples] = diagnostic_sums_[last_diagnostics_.back().first];
-    sum += out[i].value;
-    ++samples;
-  }
-  return last_diagnostics_;
-}
-
-std::vector<locsim_mapped_landmark> LocalizerInstance::landmark_map(double t_s) {
-  if (failure_ || table().landmark_map == nullptr) return {};
-  locsim_landmark_map out{};
-  error_[0] = '\0';
-  if (table().landmark_map(instance_, &out, error_, sizeof(error_)) != 0) {
-    fail(t_s, "landmark_map", error_[0] != '\0' ? error_ : "returned an error without a message");
-    return {};
-  }
-  if (out.count == 0) return {};
-  if (out.landmarks == nullptr) {
-    fail(t_s, "landmark_map",
-         "returned " + std::to_string(out.count) + " landmarks and a NULL pointer");
-    return {};
-  }
-  std::vector<locsim_mapped_landmark> landmarks(out.landmarks, out.landmarks + out.count);
-  for (const locsim_mapped_landmark& l : landmarks) {
-    bool finite = std::isfinite(l.x) && std::isfinite(l.y);
-    for (const double c : l.covariance) finite = finite && std::isfinite(c);
-    if (!finite) {
-      fail(t_s, "landmark_map",
-           "returned a non-finite (NaN or inf) position or covariance for landmark " +
-               std::to_string(l.id));
-      return {};
-    }
-  }
-  return landmarks;
-}
-
-namespace {
-json error_json(const ErrorSummary& e) {
-  return {{"samples", e.samples},
-          {"position_error_m",
-           {{"rms", e.position_rms_m},
-            {"mean", e.position_mean_m},
-            {"max", e.position_max_m},
-            {"rms_x", e.x_rms_m},
-            {"rms_y", e.y_rms_m}}},
-          {"heading_error_deg",
-           {{"rms", rad_to_deg(e.heading_rms_rad)},
-            {"mean", rad_to_deg(e.heading_mean_rad)},
-            {"max", rad_to_deg(e.heading_max_rad)}}},
-          {"time_lost_s", e.time_lost_s}};
-}
-}  // namespace
-
-json LocalizerInstance::metrics(const std::vector<double>& kidnap_times_s) const {
-  json out;
-  out["label"] = label_;
-  out["plugin"] = table().name;
-  out["params"] = params_.to_json();
-  out["status"] = failure_ ? "failed" : "ok";
-  if (failure_) {
-    out["failure"] = {
-        {"t_s", failure_->t_s}, {"call", failure_->call}, {"message", failure_->message}};
-  }
-  const ErrorSummary e = summarize_errors(errors_, criterion_);
-  out.update(error_json(e));
-  const ConvergenceCriterion& c = criterion_;
-  out["convergence"] = {
-      {"position_m", c.position_m},
-      {"heading_deg", rad_to_deg(c.heading_rad)},
-      {"hold_samples", c.hold_samples},
-      {"time_s", e.converged_at_s ? json(*e.converged_at_s) : json(nullptr)},
-      {"steps", e.converged_at_steps ? json(*e.converged_at_steps) : json(nullptr)}};
-  // Segments between kidnaps: how well it tracked, and how long it took to recover.
-  json segments = json::array();
-  std::vector<double> bounds{-1e300};
-  bounds.insert(bounds.end(), kidnap_times_s.begin(), kidnap_times_s.end());
-  bounds.push_back(1e300);
-  for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
-    std::vector<ErrorSample> part;
-    for (const ErrorSample& sample : errors_) {
-      if (sample.t_s >= bounds[k] && sample.t_s < bounds[k + 1]) part.push_back(sample);
-    }
-    if (part.empty()) continue;
-    const ErrorSummary summary = summarize_errors(part, criterion_);
-    json segment = {{"from_s", part.front().t_s}, {"to_s", part.back().t_s}};
-    segment.update(error_json(summary));
-    segment["recovery_s"] =
-        summary.converged_at_s ? json(*summary.converged_at_s - part.front().t_s) : json(nullptr);
-    segment["recovery_steps"] =
-        summary.converged_at_steps ? json(*summary.converged_at_steps) : json(nullptr);
-    segments.push_back(segment);
-  }
-  out["segments"] = segments;
-  json diagnostics = json::object(), means = json::object();
-  for (const auto& [name, value] : last_diagnostics_) diagnostics[name] = value;
-  for (const auto& [name, sum] : diagnostic_sums_) {
-    means[name] = sum.first / static_cast<double>(std::max<long>(sum.second, 1));
-  }
-  out["diagnostics"] = diagnostics;
-  out["diagnostics_mean"] = means;  // over the ground-truth samples
-  out["updates"] = update_seconds_.size();
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
 LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const WorldDef& world,
-                             const RobotDef& robot, const LocalizationDef& localization,
-                             const OccupancyGrid& grid, std::uint64_t run_seed,
-                             const ConvergenceCriterion& criterion)
-    : translator_(robot) {
-  for (const LandmarkDef& l : world.landmarks) {
-    true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
-  }
-  RandomStream initial_rng = make_stream(run_seed, "localization/" + robot.name);
-  world_ = std::make_unique<LocalizerWorld>(world, robot, grid, localization, initial_rng);
+                             const LocalizationDef& localization, const OccupancyGrid& grid,
+                             std::uint64_t run_seed, const HostOptions& options)
+    : options_(options) {
+  // Every plugin resolved and every parameter checked before anything is created.
+  struct Resolved {
+    std::shared_ptr<const PluginLibrary> library;
+    std::string params_json;
+  };
+  std::vector<Resolved> resolved;
   std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;
-  for (const LocalizerSpec& spec : specs) {
-    for (const auto& instance : instances_) {
-      if (instance->label() == spec.label) {
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    const LocalizerSpec& spec = specs[k];
+    for (std::size_t j = 0; j < k; ++j) {
+      if (specs[j].label == spec.label) {
         throw InputError("--localizer: label '" + spec.label +
                          "' used twice; give one with @label");
       }
@@ -471,28 +40,289 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
     const std::filesystem::path file = find_plugin(spec.plugin);
     auto& library = libraries[file.string()];
     if (!library) library = std::make_shared<const PluginLibrary>(file);
-    ParamSet params(library->table(), spec);
-    instances_.push_back(std::make_unique<LocalizerInstance>(
-        library, spec.label, std::move(params), *world_,
-        derive_seed(run_seed, "localizer/" + robot.name + "/" + spec.label)));
-    instances_.back()->set_criterion(criterion);
+    const ParamSet params(library->table(), spec);
+    resolved.push_back({library, params.to_json().dump()});
+  }
+  for (const RobotDef& robot : world.robots) {
+    // One initial guess per robot, shared by all its filters so that they start alike.
+    RandomStream initial_rng = make_stream(run_seed, "localization/" + robot.name);
+    worlds_.push_back(
+        std::make_unique<LocalizerWorld>(world, robot, grid, localization, initial_rng));
+  }
+  for (std::size_t r = 0; r < world.robots.size(); ++r) {
+    const RobotDef& robot = world.robots[r];
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      LocalizerDef def;
+      def.index = defs_.size();
+      def.info = {r,
+                  robot.name,
+                  specs[k].label,
+                  resolved[k].library->table().name,
+                  resolved[k].library->path().string(),
+                  resolved[k].params_json};
+      def.spec = specs[k];
+      def.library = resolved[k].library;
+      def.robot = &robot;
+      def.world = worlds_[r].get();
+      def.seed = derive_seed(run_seed, "localizer/" + robot.name + "/" + specs[k].label);
+      infos_.push_back(def.info);
+      defs_.push_back(std::move(def));
+    }
+  }
+  failed_.assign(defs_.size(), false);
+  if (defs_.empty()) return;
+  if (!options_.isolate) {
+    std::vector<const LocalizerDef*> all;
+    for (const LocalizerDef& def : defs_) all.push_back(&def);
+    runner_ = std::make_unique<InstanceRunner>(all);
+    return;
+  }
+  // One process per localizer: a failure costs nobody else anything.
+  for (const LocalizerDef& def : defs_) {
+    workers_.push_back(std::make_unique<WorkerProcess>(std::vector<const LocalizerDef*>{&def}));
+  }
+  create_errors_.assign(workers_.size(), "");
+  snapshots_.assign(workers_.size(), {});
+  finals_.assign(workers_.size(), {});
+  snapshot_ready_.assign(workers_.size(), false);
+  pump_until([&] {
+    return std::all_of(workers_.begin(), workers_.end(),
+                       [](const auto& w) { return w->ready || !w->alive(); });
+  });
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    if (!create_errors_[w].empty()) throw PluginError(create_errors_[w]);
   }
 }
 
-void LocalizerHost::deliver(const Reading& reading) {
-  if (instances_.empty()) return;
-  // What the cameras have shown the robot: a SLAM filter's map is judged against these.
-  if (const auto* ptz = std::get_if<PtzReading>(&reading.data)) {
-    for (const Detection& d : ptz->detections) {
-      if (d.truth_id >= 0) observed_landmarks_.insert(d.truth_id);
+LocalizerHost::~LocalizerHost() = default;  // workers still running are killed and reaped
+
+void LocalizerHost::estimate(const EstimateSample& sample) {
+  for (EstimateConsumer* out : outputs_) out->estimate(sample);
+}
+
+void LocalizerHost::failure(const LocalizerFailure& f) {
+  if (failed_[f.localizer]) return;
+  failed_[f.localizer] = true;
+  for (EstimateConsumer* out : outputs_) out->failure(f);
+}
+
+void LocalizerHost::consume(const Record& record) {
+  if (defs_.empty()) return;
+  if (runner_) {
+    runner_->consume(record, *this);
+    return;
+  }
+  // Workers need readings and true poses only; each gets its robot's.
+  if (record.type != Record::Type::kReading && record.type != Record::Type::kGroundTruth) return;
+  const int robot = record.type == Record::Type::kReading ? record.reading.robot : record.robot;
+  payload_.clear();
+  encode_record(record, payload_);
+  bool full = false;
+  for (const auto& worker : workers_) {
+    if (!worker->alive() || robot < 0 || !worker->serves_robot(static_cast<std::size_t>(robot)))
+      continue;
+    worker->queue(static_cast<std::uint8_t>(record.type), payload_);
+    full = full || worker->pending_bytes() >= kBatchBytes;
+  }
+  if (full) flush();
+}
+
+void LocalizerHost::flush() {
+  if (runner_ || workers_.empty()) return;
+  pump_until([&] {
+    return std::all_of(workers_.begin(), workers_.end(),
+                       [](const auto& w) { return !w->alive() || w->pending_bytes() == 0; });
+  });
+}
+
+template <class Done>
+void LocalizerHost::pump_until(Done&& done) {
+  std::vector<WorkerProcess::Message> messages;
+  std::vector<pollfd> fds;
+  while (true) {
+    for (const auto& worker : workers_) {
+      if (!worker->alive()) continue;
+      worker->send_some();  // a child that is gone shows as the end of its socket below
+      messages.clear();
+      const bool open = worker->receive_some(messages);
+      dispatch(*worker, messages);
+      if (!open) lost(*worker);
     }
-  } else if (const auto* omni = std::get_if<OmniReading>(&reading.data)) {
-    for (const Detection& d : omni->detections) {
-      if (d.truth_id >= 0) observed_landmarks_.insert(d.truth_id);
+    if (done()) return;
+    const auto now = std::chrono::steady_clock::now();
+    auto wake = now + std::chrono::milliseconds(50);  // Ctrl-C is noticed within this
+    if (options_.plugin_timeout_s > 0.0) {
+      const auto limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(options_.plugin_timeout_s));
+      for (const auto& worker : workers_) {
+        if (!worker->alive() || worker->timed_out) continue;
+        const auto call = worker->current_call();
+        if (!call) continue;
+        if (now - call->started >= limit) {
+          worker->timed_out = true;
+          worker->kill_now();  // its end of the socket closes; lost() reports it
+        } else {
+          wake = std::min(wake, call->started + limit);
+        }
+      }
+    }
+    if (options_.interrupt != nullptr && options_.interrupt->load()) throw Interrupted();
+    fds.clear();
+    for (const auto& worker : workers_) {
+      if (!worker->alive()) continue;
+      fds.push_back({worker->fd(),
+                     static_cast<short>(POLLIN | (worker->pending_bytes() > 0 ? POLLOUT : 0)), 0});
+    }
+    const auto wait_ms = std::chrono::ceil<std::chrono::milliseconds>(wake - now).count();
+    ::poll(fds.data(), fds.size(), static_cast<int>(std::max<long>(wait_ms, 1)));
+  }
+}
+
+void LocalizerHost::dispatch(WorkerProcess& worker, std::vector<WorkerProcess::Message>& messages) {
+  const std::size_t w = slot_of(worker);
+  for (WorkerProcess::Message& m : messages) {
+    switch (m.type) {
+      case kWorkerReady:
+        worker.ready = true;
+        break;
+      case kWorkerCreateFailed: {
+        ByteReader in(m.payload);
+        create_errors_[w] = in.get_string();
+        break;
+      }
+      case kWorkerSample:
+        estimate(decode_sample(m.payload));
+        break;
+      case kWorkerFailure:
+        failure(decode_failure(m.payload));
+        break;
+      case kWorkerSnapshot:
+        snapshots_[w] = decode_snapshots(m.payload);
+        snapshot_ready_[w] = true;
+        break;
+      case kWorkerFinal:
+        finals_[w] = decode_finals(m.payload);
+        worker.finished = true;
+        break;
+      default:
+        throw std::logic_error("localizer worker sent message type " + std::to_string(m.type));
     }
   }
-  const locsim_reading& translated = translator_.translate(reading);
-  for (const auto& instance : instances_) instance->deliver(translated);
+}
+
+std::size_t LocalizerHost::slot_of(const WorkerProcess& worker) const {
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    if (workers_[w].get() == &worker) return w;
+  }
+  throw std::logic_error("unknown localizer worker");
+}
+
+void LocalizerHost::lost(WorkerProcess& worker) {
+  const WorkerProcess::Call call = worker.last_call();
+  std::optional<int> signal;
+  const std::string how = worker.reap(&signal);
+  if (worker.finished) return;  // it said all it had to say, then ended as it should
+  if (!worker.ready) {
+    std::string& error = create_errors_[slot_of(worker)];
+    if (!error.empty()) return;  // it said why before it ended
+    const LocalizerInfo& info = defs_[worker.indices().front()].info;
+    error = "localizer '" + info.label + "' (plugin " + info.plugin + ", " + info.plugin_file +
+            "): create " +
+            (worker.timed_out ? "did not return within the plugin timeout of " +
+                                    fixed(options_.plugin_timeout_s, 1) + " s"
+                              : "crashed: its process was " + how);
+    return;
+  }
+  for (const std::size_t index : worker.indices()) {
+    if (failed_[index]) continue;
+    LocalizerFailure f;
+    f.localizer = index;
+    // The call it died in (or, dying between calls, none after the last it made).
+    const bool in_call =
+        call.in_call && (call.localizer < 0 || static_cast<std::size_t>(call.localizer) == index);
+    f.call = in_call ? plugin_call_name(call.call) : "none";
+    f.t_s = call.t_s;
+    if (worker.timed_out) {
+      f.message = "did not return within the plugin timeout of " +
+                  fixed(options_.plugin_timeout_s, 1) + " s; its process was killed";
+      f.timeout_s = options_.plugin_timeout_s;
+    } else {
+      f.message = "its process was " + how;
+      if (!signal) f.message = "its process " + how + " (did the plugin call exit()?)";
+      f.signal = signal;
+    }
+    failure(f);
+  }
+}
+
+std::vector<LocalizerSnapshot> LocalizerHost::snapshot(double t_s) {
+  if (runner_) return runner_->snapshot(t_s, *this);
+  std::vector<LocalizerSnapshot> out(defs_.size());
+  if (workers_.empty()) return out;
+  std::string args;
+  put(args, t_s);
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    snapshot_ready_[w] = false;
+    if (workers_[w]->alive()) workers_[w]->queue(kWorkerSnapshotRequest, args);
+  }
+  pump_until([&] {
+    for (std::size_t w = 0; w < workers_.size(); ++w) {
+      if (workers_[w]->alive() && !snapshot_ready_[w]) return false;
+    }
+    return true;
+  });
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    const auto& indices = workers_[w]->indices();
+    for (std::size_t k = 0; k < indices.size(); ++k) {
+      if (snapshot_ready_[w] && k < snapshots_[w].size()) {
+        out[indices[k]] = std::move(snapshots_[w][k]);
+      } else {
+        out[indices[k]].failed = true;
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<LocalizerFinal> LocalizerHost::finish(double t_end_s) {
+  if (runner_) return runner_->finish(t_end_s, *this);
+  std::vector<LocalizerFinal> out(defs_.size());
+  std::string args;
+  put(args, t_end_s);
+  for (const auto& worker : workers_) {
+    if (worker->alive()) worker->queue(kWorkerFinish, args);
+  }
+  pump_until([&] {
+    return std::all_of(workers_.begin(), workers_.end(),
+                       [](const auto& w) { return w->finished || !w->alive(); });
+  });
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    const auto& indices = workers_[w]->indices();
+    for (std::size_t k = 0; k < indices.size() && k < finals_[w].size(); ++k)
+      out[indices[k]] = std::move(finals_[w][k]);
+    if (workers_[w]->alive()) workers_[w]->reap();  // it ends by itself after its final word
+  }
+  return out;
+}
+
+void LocalizerHost::abort() {
+  const auto now = std::chrono::steady_clock::now();
+  for (const auto& worker : workers_) {
+    if (!worker->alive()) continue;
+    // A localizer stopped inside a call says so (it may be why the user pressed Ctrl-C).
+    if (const auto call = worker->current_call(); call && call->localizer >= 0) {
+      LocalizerFailure f;
+      f.localizer = static_cast<std::size_t>(call->localizer);
+      f.t_s = call->t_s;
+      f.call = plugin_call_name(call->call);
+      f.message = "interrupted while in this call for " +
+                  fixed(std::chrono::duration<double>(now - call->started).count(), 1) + " s";
+      f.interrupted = true;
+      failure(f);
+    }
+    worker->kill_now();
+    worker->reap();
+  }
 }
 
 }  // namespace locsim

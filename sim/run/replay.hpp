@@ -1,31 +1,34 @@
-// `locsim replay`: localizers run on a recorded log, without simulating. The folder it writes
-// holds the same LABEL.tum and metrics.json (timing aside) as a `locsim run` with those
-// localizers would, because the readings and the order of deliveries are the same.
+// `locsim replay`: a recorded log as the producer of the record stream, wired to the same session
+// as `locsim run` (localizer host, scorer, recorder): the folder it writes holds the same
+// LABEL.tum, groundtruth.tum, events.csv, readings/ and metrics.json (timing aside) as the run
+// with those localizers and options, because the records and their order are the same.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <string>
 #include <vector>
 
-#include "sim/metrics/error_metrics.hpp"
+#include "sim/run/session.hpp"
 
 namespace locsim {
 
-struct ReplayOptions {
+struct ReplayOptions : SessionOptions {
   std::filesystem::path log_file;
   std::filesystem::path out_dir;
-  std::vector<std::string> localizers;
-  ConvergenceCriterion convergence;
-  bool overwrite = false;
 };
 
 struct ReplayResult {
+  std::string status;       // completed, interrupted, failed
   double replayed_s = 0.0;  // simulated time covered
   double wall_s = 0.0;
   std::size_t records = 0;
+  std::vector<std::string> failed_localizers;  // labels of localizers that failed (exit code 5)
 };
 
-/// Throws InputError (bad log, bad parameters), PluginError (plugins).
-ReplayResult replay_log(const ReplayOptions& options);
+/// Throws InputError (bad log, bad parameters, a bad --out) or PluginError (plugins) before
+/// anything is written; a log found corrupt or truncated part-way writes run.json with status
+/// "failed" and throws InputError.
+ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
 }  // namespace locsim

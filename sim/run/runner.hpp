@@ -1,5 +1,6 @@
-// `locsim run` as a library call: load and check the inputs, simulate, and write the run folder
-// (run.json, groundtruth.tum per robot, events.csv).
+// `locsim run`: the simulation as the producer of the record stream, wired to the session's
+// consumers (localizer host, scorer, run folder recorder), the log writer (--log) and frame
+// capture (--video/--frames). A driver only: what the records become is the consumers' business.
 #pragma once
 
 #include <atomic>
@@ -9,25 +10,22 @@
 #include <string>
 #include <vector>
 
-#include "sim/metrics/error_metrics.hpp"
-#include "sim/run/frame_state.hpp"
+#include "sim/consumers/frame_state.hpp"
+#include "sim/run/session.hpp"
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/sensors/camera_image.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
 
-struct RunOptions {
+struct RunOptions : SessionOptions {
   std::filesystem::path world_file;
   std::optional<std::filesystem::path> scenario_file;  // else the world's `scenario:` section
   std::uint64_t seed = 1;
-  std::optional<double> duration_s;     // overrides the scenario's duration [s]
-  std::filesystem::path out_dir;        // empty: a new folder under runs/
-  bool realtime = false;                // pace the simulation to the wall clock
-  bool progress = false;                // progress line on stderr
-  bool overwrite = false;               // allow writing into a non-empty folder
-  std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each run on every robot
-  ConvergenceCriterion convergence;     // what "converged" means in metrics.json
+  std::optional<double> duration_s;               // overrides the scenario's duration [s]
+  std::filesystem::path out_dir;                  // empty: a new folder under runs/
+  bool realtime = false;                          // pace the simulation to the wall clock
+  bool progress = false;                          // progress line on stderr
   std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
   FrameSink* video = nullptr;  // frames of the run (render/), at video_options' frame times
   VideoOptions video_options;
@@ -40,6 +38,7 @@ struct RunResult {
   double simulated_s = 0.0;
   double wall_s = 0.0;
   std::uint64_t state_hash = 0;
+  std::vector<std::string> failed_localizers;  // labels of localizers that failed (exit code 5)
 };
 
 /// World and scenario, loaded and checked together. Throws InputError.
@@ -51,8 +50,10 @@ RunInputs load_run_inputs(const std::filesystem::path& world_file,
                           const std::optional<std::filesystem::path>& scenario_file,
                           std::optional<double> duration_s);
 
-/// Runs to the end (or until `*interrupt` turns true). Bad input throws InputError before any
-/// file is written; a failure during the run writes run.json with status "failed" and rethrows.
+/// Runs to the end (or until `*interrupt` turns true). Bad input throws InputError, plugins that
+/// cannot be loaded or created PluginError, before any file is written; a failure during the run
+/// writes run.json with status "failed" and rethrows. A localizer that fails does not fail the
+/// run: it is in `failed_localizers` and metrics.json.
 RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
 /// The version string recorded in every run.

@@ -6,8 +6,8 @@
 
 #include <filesystem>
 
+#include "sim/producers/simulation.hpp"
 #include "sim/run/runner.hpp"
-#include "sim/run/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/world/world_loader.hpp"
 

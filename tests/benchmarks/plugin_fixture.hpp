@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 
 namespace locsim::bench {

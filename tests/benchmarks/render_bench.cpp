@@ -12,7 +12,8 @@
 #include "render/rendered_camera.hpp"
 #include "render/top_down.hpp"
 #include "render/video_recorder.hpp"
-#include "sim/run/frame_capture.hpp"
+#include "sim/consumers/frame_capture.hpp"
+#include "sim/producers/simulation_source.hpp"
 #include "sim/run/runner.hpp"
 
 namespace {
@@ -40,12 +41,13 @@ Scene demo_scene(std::size_t particles) {
   Simulation sim(inputs.world, inputs.scenario, 1);
   NullSink sink;
   FrameCapture capture(sink, VideoOptions{}, sim);
-  std::vector<std::unique_ptr<LocalizerHost>> hosts;
+  SimulationSource source(sim);
   while (!sim.done()) {
     sim.step();
-    capture.step(sim, sim.take_readings(), hosts);
+    source.emit(capture);
+    capture.after_step(sim);
   }
-  Scene scene{inputs.world, capture.capture(sim, hosts)};
+  Scene scene{inputs.world, capture.capture(sim)};
   FrameLocalizer cloud;
   cloud.label = "particles";
   cloud.estimate = scene.frame.robots[0].pose;

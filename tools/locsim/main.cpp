@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -15,18 +16,45 @@
 #include "render/loader.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/experiments/sweep.hpp"
-#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
+#include "sim/producers/simulation.hpp"
 #include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
-#include "sim/run/simulation.hpp"
+#include "sim/run/session.hpp"
 
 namespace {
 
 std::atomic<bool> g_interrupted{false};
 
+std::atomic<std::int64_t> g_first_sigint_ns{0};
+
+std::int64_t monotonic_ns() {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);  // async-signal-safe
+  return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
+
+/// Ctrl-C asks the run to end cleanly (run.json says "interrupted"). Another Ctrl-C at least a
+/// second later ends locsim at once, e.g. when a plugin running inside locsim (--isolation none)
+/// hangs; one sooner is the same request again (tools like timeout(1) signal the process and its
+/// group, which delivers two at once).
 extern "C" void on_sigint(int) {
-  g_interrupted.store(true);
+  const std::int64_t now = monotonic_ns();
+  std::int64_t first = 0;
+  if (g_first_sigint_ns.compare_exchange_strong(first, now)) {
+    g_interrupted.store(true);
+  } else if (now - first > 1'000'000'000) {
+    std::signal(SIGINT, SIG_DFL);
+    std::raise(SIGINT);
+  }
+}
+
+void catch_sigint() {
+  struct sigaction action {};
+  action.sa_handler = on_sigint;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
 }
 
 constexpr const char* kExitCodes = R"(Exit codes:
@@ -38,7 +66,11 @@ constexpr const char* kExitCodes = R"(Exit codes:
        symbols, or whose create call failed (the message says which and where it looked)
   4    --video/--frames: the renderer cannot be loaded, no GL context, or a video or frame file
        cannot be opened or written (frames written before stay; the video is closed and plays)
-  130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted")";
+  5    run or replay completed, but a localizer failed (crashed, hung past --plugin-timeout,
+       returned an error or NaN): every other localizer's files and metrics are written, and
+       metrics.json says which failed, in which call, at what simulated time and why
+  130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted";
+       another Ctrl-C a second or more later ends locsim at once)";
 
 /// The renderer, loaded on first use (it brings OpenGL, OpenCV and FFmpeg along): for --video and
 /// --frames, and for PTZ cameras in mode: rendered.
@@ -143,6 +175,20 @@ int new_plugin(const std::string& name, const std::filesystem::path& dir) {
   return locsim::kExitOk;
 }
 
+/// A finished run's exit code: interrupted, a localizer failed, or all well.
+int exit_code(const std::string& status, const std::vector<std::string>& failed_localizers) {
+  if (status == "interrupted") return locsim::kExitInterrupted;
+  if (!failed_localizers.empty()) {
+    std::string labels;
+    for (const std::string& label : failed_localizers)
+      labels += (labels.empty() ? "" : ", ") + label;
+    std::fprintf(stderr, "locsim: completed; localizer%s failed: %s (see metrics.json)\n",
+                 failed_localizers.size() == 1 ? "" : "s", labels.c_str());
+    return locsim::kExitLocalizerFailed;
+  }
+  return locsim::kExitOk;
+}
+
 double rad_to_deg_default() {
   return locsim::rad_to_deg(locsim::ConvergenceCriterion{}.heading_rad);
 }
@@ -193,16 +239,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   run->add_option("--out", out_dir, "Output folder (default: a new folder under runs/)");
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
-  run->add_flag("--overwrite", options.overwrite, "Allow writing into a non-empty folder");
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
   std::string log_file;
   run->add_option("--log", log_file,
                   "Also record the sensor stream, ground truth and events into one log file, for "
                   "`locsim replay`");
-  run->add_option(
-      "--localizer", options.localizers,
-      "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
-      "several (all get the same readings)");
   std::string video_file, frames_dir, video_size = "1280x720";
   locsim::VideoOptions& video = options.video_options;
   run->add_option("--video", video_file,
@@ -232,21 +273,45 @@ int main(int argc, char** argv) {
   std::string validate_world;
   std::optional<std::string> validate_scenario;
   double converged_deg = rad_to_deg_default();
-  const auto add_convergence = [&](CLI::App* command, locsim::ConvergenceCriterion& criterion) {
+  std::string isolation = "process";
+  // What `run` and `replay` share: the localizers and how they are run and judged.
+  const auto add_session_options = [&](CLI::App* command, locsim::SessionOptions& session) {
+    command->add_option(
+        "--localizer", session.localizers,
+        "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
+        "several (all get the same readings)");
     command
-        ->add_option("--converged-within-m", criterion.position_m,
+        ->add_option("--isolation", isolation,
+                     "process: each localizer in its own process, so that a crash or hang fails "
+                     "it alone (default); none: in locsim's process (for a debugger)")
+        ->check(CLI::IsMember({"process", "none"}))
+        ->capture_default_str();
+    command
+        ->add_option("--plugin-timeout", session.plugin_timeout_s,
+                     "Longest a single plugin call may take before its localizer is failed "
+                     "[s]; 0: no limit (needs --isolation process)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
+    command->add_flag("!--no-readings", session.readings,
+                      "Do not write readings/ (one CSV per sensor)");
+    command->add_flag("--overwrite", session.overwrite, "Allow writing into a non-empty folder");
+    command
+        ->add_option("--converged-within-m", session.convergence.position_m,
                      "Convergence: position error at most this [m]")
+        ->check(CLI::PositiveNumber)
         ->capture_default_str();
     command
         ->add_option("--converged-within-deg", converged_deg,
                      "Convergence: heading error at most this [deg]")
+        ->check(CLI::Range(1e-9, 180.0))
         ->capture_default_str();
     command
-        ->add_option("--converged-hold", criterion.hold_samples,
+        ->add_option("--converged-hold", session.convergence.hold_samples,
                      "Convergence: for this many consecutive ground-truth samples")
+        ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
   };
-  add_convergence(run, options.convergence);
+  add_session_options(run, options);
 
   CLI::App* check = app.add_subcommand("validate", "Check a world (and scenario) without running");
   check->add_option("world", validate_world, "World file (YAML)")->required();
@@ -283,12 +348,8 @@ int main(int argc, char** argv) {
       "replay", "Run localizers on a recorded log (run --log), without simulating");
   replay->add_option("log", replay_options.log_file, "Log file written by `locsim run --log`")
       ->required();
-  replay->add_option("--localizer", replay_options.localizers, "As for run; repeat for several")
-      ->required();
   replay->add_option("--out", replay_out, "Output folder")->required();
-  replay->add_flag("--overwrite", replay_options.overwrite,
-                   "Allow writing into a non-empty folder");
-  add_convergence(replay, replay_options.convergence);
+  add_session_options(replay, replay_options);
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
@@ -313,11 +374,13 @@ int main(int argc, char** argv) {
     if (*replay) {
       replay_options.out_dir = replay_out;
       replay_options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
-      const locsim::ReplayResult r = locsim::replay_log(replay_options);
-      std::printf("%s: replayed %.1f s (%zu records) in %.3f s -> %s\n",
-                  replay_options.log_file.c_str(), r.replayed_s, r.records, r.wall_s,
-                  replay_out.c_str());
-      return locsim::kExitOk;
+      replay_options.isolate = isolation == "process";
+      catch_sigint();
+      const locsim::ReplayResult r = locsim::replay_log(replay_options, &g_interrupted);
+      std::printf("%s: %s, replayed %.1f s (%zu records) in %.3f s -> %s\n",
+                  replay_options.log_file.c_str(), r.status.c_str(), r.replayed_s, r.records,
+                  r.wall_s, replay_out.c_str());
+      return exit_code(r.status, r.failed_localizers);
     }
     if (*sweep) {
       if (!shard.empty()) {
@@ -330,7 +393,7 @@ int main(int argc, char** argv) {
         sweep_options.shard = std::pair{k, n};
       }
       sweep_options.progress_bar = isatty(STDERR_FILENO);
-      std::signal(SIGINT, on_sigint);
+      catch_sigint();
       const locsim::SweepSummary s = locsim::run_sweep(sweep_options, &g_interrupted);
       std::printf("%s: %zu runs (%zu done before), %zu not ok%s -> %s\n",
                   sweep_options.experiment_file.c_str(), s.total, s.skipped, s.not_ok,
@@ -347,6 +410,7 @@ int main(int argc, char** argv) {
     if (*new_plugin_cmd) return new_plugin(plugin_name, plugin_dir);
 
     options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
+    options.isolate = isolation == "process";
     options.world_file = world_file;
     if (!log_file.empty()) options.log_file = log_file;
     if (scenario_file) options.scenario_file = *scenario_file;
@@ -366,7 +430,7 @@ int main(int argc, char** argv) {
       recorder = renderer()->make_recorder(video);
       options.video = recorder.get();
     }
-    std::signal(SIGINT, on_sigint);
+    catch_sigint();
     const locsim::RunResult result = locsim::run_simulation(options, &g_interrupted);
     if (recorder && !quiet) {
       std::printf("video: %ld frames of %dx%d at %.0f fps%s%s\n", recorder->frames(),
@@ -380,7 +444,7 @@ int main(int argc, char** argv) {
                   result.wall_s > 0 ? result.simulated_s / result.wall_s : 0.0,
                   result.out_dir.c_str());
     }
-    return result.status == "interrupted" ? locsim::kExitInterrupted : locsim::kExitOk;
+    return exit_code(result.status, result.failed_localizers);
   } catch (const locsim::PluginError& e) {
     std::fprintf(stderr, "locsim: plugin error: %s\n", e.what());
     return locsim::kExitPlugin;

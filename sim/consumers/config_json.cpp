@@ -1,4 +1,4 @@
-#include "sim/run/config_json.hpp"
+#include "sim/consumers/config_json.hpp"
 
 namespace locsim {
 

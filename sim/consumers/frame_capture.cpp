@@ -1,4 +1,4 @@
-#include "sim/run/frame_capture.hpp"
+#include "sim/consumers/frame_capture.hpp"
 
 #include <box2d/box2d.h>
 
@@ -8,26 +8,31 @@
 
 namespace locsim {
 
-FrameCapture::FrameCapture(FrameSink& sink, const VideoOptions& options, const Simulation& sim)
-    : sink_(sink), frame_interval_s_(options.speed / options.fps), latest_(sim.robot_count()) {
+FrameCapture::FrameCapture(FrameSink& sink, const VideoOptions& options, const Simulation& sim,
+                           LocalizerHost* host)
+    : sink_(sink),
+      host_(host),
+      frame_interval_s_(options.speed / options.fps),
+      latest_(sim.robot_count()) {
   for (std::size_t i = 0; i < sim.robot_count(); ++i) latest_[i].floor_pose = sim.robot(i).pose();
   sink_.start(sim.world_def());
 }
 
-void FrameCapture::step(const Simulation& sim, const std::vector<Reading>& readings,
-                        std::vector<std::unique_ptr<LocalizerHost>>& hosts) {
-  for (const Reading& reading : readings) {
-    Latest& latest = latest_[static_cast<std::size_t>(reading.robot)];
-    std::visit(
-        [&](const auto& data) {
-          using T = std::decay_t<decltype(data)>;
-          if constexpr (std::is_same_v<T, EncoderReading>) latest.odometry = data.odometry;
-          if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
-          if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
-          if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;
-        },
-        reading.data);
-  }
+void FrameCapture::consume(const Record& record) {
+  if (record.type != Record::Type::kReading) return;
+  Latest& latest = latest_[static_cast<std::size_t>(record.reading.robot)];
+  std::visit(
+      [&](const auto& data) {
+        using T = std::decay_t<decltype(data)>;
+        if constexpr (std::is_same_v<T, EncoderReading>) latest.odometry = data.odometry;
+        if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
+        if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
+        if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;
+      },
+      record.reading.data);
+}
+
+void FrameCapture::after_step(const Simulation& sim) {
   // Kidnaps from the simulation's count (an instant one is never seen carried): picked up at the
   // last pose on the floor, landed where put down.
   for (std::size_t i = 0; i < sim.robot_count(); ++i) {
@@ -48,15 +53,14 @@ void FrameCapture::step(const Simulation& sim, const std::vector<Reading>& readi
   }
   // Every frame due by now (more than one only when frames are closer than physics steps).
   while (static_cast<double>(next_frame_) * frame_interval_s_ <= sim.time_s() + 1e-9) {
-    FrameState frame = capture(sim, hosts);
+    FrameState frame = capture(sim);
     frame.t_s = static_cast<double>(next_frame_) * frame_interval_s_;
     sink_.frame(frame);
     ++next_frame_;
   }
 }
 
-FrameState FrameCapture::capture(const Simulation& sim,
-                                 std::vector<std::unique_ptr<LocalizerHost>>& hosts) {
+FrameState FrameCapture::capture(const Simulation& sim) {
   FrameState frame;
   frame.t_s = sim.time_s();
   frame.kidnaps = kidnaps_;
@@ -137,29 +141,32 @@ FrameState FrameCapture::capture(const Simulation& sim,
                             mover.def.height_m,
                             mover.def.name});
   }
-  for (std::size_t i = 0; i < hosts.size(); ++i) {
-    const FrameRobot& truth = frame.robots[i];
-    for (const auto& instance : hosts[i]->instances()) {
+  if (host_ != nullptr) {
+    const std::vector<LocalizerSnapshot> snapshots = host_->snapshot(sim.time_s());
+    for (std::size_t k = 0; k < snapshots.size(); ++k) {
+      const LocalizerInfo& info = host_->localizers()[k];
+      const LocalizerSnapshot& s = snapshots[k];
+      const FrameRobot& truth = frame.robots[info.robot];
       FrameLocalizer l;
-      l.label = instance->label();
-      l.robot = i;
-      if (const auto estimate = instance->estimate(sim.time_s())) {
-        l.estimate = Pose2{estimate->pose.x, estimate->pose.y, estimate->pose.theta};
-        for (int k = 0; k < 9; ++k) l.covariance(k / 3, k % 3) = estimate->covariance[k];
+      l.label = info.label;
+      l.robot = info.robot;
+      if (s.estimate) {
+        l.estimate = Pose2{s.estimate->pose.x, s.estimate->pose.y, s.estimate->pose.theta};
+        for (int c = 0; c < 9; ++c) l.covariance(c / 3, c % 3) = s.estimate->covariance[c];
         if (!truth.carried) {
           l.position_error_m =
               std::hypot(l.estimate->x - truth.pose.x, l.estimate->y - truth.pose.y);
           l.heading_error_rad = std::abs(wrap_angle(l.estimate->theta - truth.pose.theta));
         }
       }
-      for (const locsim_pose2& p : instance->particles(sim.time_s(), &l.weights))
-        l.particles.push_back({p.x, p.y, p.theta});
-      for (const locsim_mapped_landmark& m : instance->landmark_map(sim.time_s())) {
+      for (const locsim_pose2& p : s.particles) l.particles.push_back({p.x, p.y, p.theta});
+      l.weights = s.weights;
+      for (const locsim_mapped_landmark& m : s.landmark_map) {
         FrameLocalizer::MappedLandmark& mapped = l.landmark_map.emplace_back();
         mapped.position_m = {m.x, m.y};
         mapped.covariance << m.covariance[0], m.covariance[1], m.covariance[2], m.covariance[3];
       }
-      l.failed = instance->failed();
+      l.failed = s.failed;
       frame.localizers.push_back(std::move(l));
     }
   }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/common/format.hpp"
 #include "sim/common/random.hpp"
 #include "sim/robot/diff_drive.hpp"
 #include "sim/scenario/drivers.hpp"
@@ -16,19 +17,11 @@
 #include "sim/sensors/readings.hpp"
 #include "sim/sensors/scene_rays.hpp"
 #include "sim/sensors/sensor.hpp"
+#include "sim/stream/record.hpp"
 #include "sim/world/physics_world.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
-
-/// Something that happened, for events.csv.
-struct SimEvent {
-  std::int64_t step = 0;
-  double t_s = 0.0;
-  std::string kind;     // kidnap, put_down, push, friction, obstacle_start/stop, end, collision
-  std::string robot;    // empty when not about one robot
-  std::string details;  // key=value pairs separated by spaces
-};
 
 /// Running totals per robot, for run.json and tests.
 struct RobotStats {
@@ -131,9 +124,7 @@ class Simulation {
   std::vector<Reading> readings_;
 };
 
-/// Fixed-precision decimal text, independent of the C locale. Appends to `out`.
-void append_fixed(std::string& out, double value, int decimals);
-std::string fixed(double value, int decimals);
+/// "(x,y,theta)" with four decimals, for events and messages.
 std::string format_pose(const Pose2& pose);
 
 }  // namespace locsim

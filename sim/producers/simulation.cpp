@@ -1,7 +1,5 @@
-#include "sim/run/simulation.hpp"
+#include "sim/producers/simulation.hpp"
 
-#include <array>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 
@@ -9,29 +7,6 @@
 #include "sim/sensors/models.hpp"
 
 namespace locsim {
-
-void append_fixed(std::string& out, double value, int decimals) {
-  std::array<char, 64> buffer{};
-  if (value == 0.0) value = 0.0;  // no "-0.000"
-  auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
-                                    std::chars_format::fixed, decimals);
-  if (error != std::errc()) {
-    out += "nan";
-    return;
-  }
-  // Negative values that round to zero would print as "-0.000".
-  std::string_view text(buffer.data(), end - buffer.data());
-  if (text.front() == '-' && text.find_first_not_of("-0.") == std::string_view::npos) {
-    text.remove_prefix(1);
-  }
-  out += text;
-}
-
-std::string fixed(double value, int decimals) {
-  std::string out;
-  append_fixed(out, value, decimals);
-  return out;
-}
 
 std::string format_pose(const Pose2& pose) {
   return "(" + fixed(pose.x, 4) + "," + fixed(pose.y, 4) + "," + fixed(pose.theta, 4) + ")";

@@ -1,0 +1,238 @@
+#include "sim/consumers/run_recorder.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <type_traits>
+#include <variant>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
+#include "sim/consumers/config_json.hpp"
+#include "sim/sensors/models.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+void RunFolder::check(const fs::path& root, bool overwrite) {
+  if (fs::exists(root) && !fs::is_directory(root)) {
+    throw InputError("--out: '" + root.string() + "' exists and is not a folder");
+  }
+  if (fs::exists(root) && !fs::is_empty(root) && !overwrite) {
+    throw InputError("--out: folder '" + root.string() +
+                     "' is not empty; choose another or pass --overwrite");
+  }
+}
+
+RunFolder RunFolder::create(const fs::path& root, const WorldDef& world) {
+  RunFolder folder{root, {}};
+  fs::create_directories(root);
+  for (const RobotDef& robot : world.robots) {
+    folder.robot_dirs.push_back(world.robots.size() == 1 ? root : root / robot.name);
+    fs::create_directories(folder.robot_dirs.back());
+  }
+  return folder;
+}
+
+OutputFile::OutputFile(fs::path path) : path_(std::move(path)), out_(path_, std::ios::binary) {
+  check();
+}
+
+void OutputFile::check() {
+  if (!out_)
+    throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(errno));
+}
+
+void OutputFile::flush() {
+  out_.flush();
+  check();
+}
+
+void OutputFile::close() {
+  out_.close();
+  check();
+}
+
+RunRecorder::RunRecorder(const RunFolder& folder, const WorldDef& world,
+                         const std::vector<LocalizerInfo>& localizers, bool readings) {
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    const fs::path& dir = folder.robot_dirs[i];
+    auto& file = groundtruth_.emplace_back(std::make_unique<OutputFile>(dir / "groundtruth.tum"));
+    file->write("# timestamp tx ty tz qx qy qz qw  (true pose of robot '" + world.robots[i].name +
+                "', TUM format, z = 0)\n");
+  }
+  readings_.resize(world.robots.size());
+  for (std::size_t i = 0; readings && i < world.robots.size(); ++i) {
+    const SensorsDef& sensors = world.robots[i].sensors;
+    const auto on = [](const auto& def) { return def && def->common.enabled; };
+    const std::pair<SensorKind, bool> enabled[] = {
+        {SensorKind::kEncoders, on(sensors.encoders)},
+        {SensorKind::kImu, on(sensors.imu)},
+        {SensorKind::kPtzCamera, on(sensors.ptz_camera)},
+        {SensorKind::kOmniCamera, on(sensors.omni_camera)},
+        {SensorKind::kUltrasonic, on(sensors.ultrasonic)},
+        {SensorKind::kLaser, on(sensors.laser)}};
+    if (std::none_of(std::begin(enabled), std::end(enabled),
+                     [](const auto& e) { return e.second; }))
+      continue;
+    const json config = to_json(world)["robots"][i]["sensors"];
+    const fs::path dir = folder.robot_dirs[i] / "readings";
+    fs::create_directories(dir);
+    static const char* kHeaders[] = {
+        "t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad",
+        "t_s,yaw_rate_radps,accel_x_mps2,accel_y_mps2",
+        "t_s,pan_rad,tilt_rad,zoom,detections,color,id,range_m,bearing_rad,truth_id",
+        "t_s,detections,color,id,range_m,bearing_rad,truth_id",
+        "t_s,receiver,beacon_id,range_m,truth_status",
+        "t_s,ranges_m",
+    };
+    for (const auto& [kind, is_on] : enabled) {
+      if (!is_on) continue;
+      const auto k = static_cast<std::size_t>(kind);
+      readings_[i][k] =
+          std::make_unique<OutputFile>(dir / (std::string(sensor_name(kind)) + ".csv"));
+      readings_[i][k]->write(std::string(kHeaders[k]) + '\n');
+    }
+    json described = config;
+    if (described.contains("laser")) {
+      const LaserDef& laser = *sensors.laser;
+      json angles = json::array();
+      for (int b = 0; b < laser.beams; ++b)
+        angles.push_back(laser_beam_angle(b, laser.beams, laser.fov_rad));
+      described["laser"]["beam_angles_rad"] = angles;
+    }
+    write_file(dir / "sensors.json", described.dump(2) + '\n');
+  }
+  for (const LocalizerInfo& l : localizers) {
+    auto& file = estimates_.emplace_back(
+        std::make_unique<OutputFile>(folder.robot_dirs[l.robot] / (l.label + ".tum")));
+    file->write("# timestamp tx ty tz qx qy qz qw  (estimate of localizer '" + l.label +
+                "', plugin " + l.plugin + ", TUM format)\n");
+  }
+  events_ = std::make_unique<OutputFile>(folder.root / "events.csv");
+  events_->write("t_s,kind,robot,details\n");
+}
+
+void RunRecorder::write_reading(const Reading& reading) {
+  const auto& file =
+      readings_[static_cast<std::size_t>(reading.robot)][static_cast<std::size_t>(reading.kind)];
+  if (!file) return;
+  line_.clear();
+  const auto number = [&](double value, int decimals) {
+    line_ += ',';
+    append_fixed(line_, value, decimals);
+  };
+  const auto start_row = [&] { append_fixed(line_, reading.t_s, 4); };
+  std::visit(
+      [&](const auto& data) {
+        using T = std::decay_t<decltype(data)>;
+        if constexpr (std::is_same_v<T, EncoderReading>) {
+          start_row();
+          line_ += ',' + std::to_string(data.left_ticks) + ',' + std::to_string(data.right_ticks);
+          number(data.odometry.x, 6);
+          number(data.odometry.y, 6);
+          number(data.odometry.theta, 6);
+          line_ += '\n';
+        } else if constexpr (std::is_same_v<T, ImuReading>) {
+          start_row();
+          number(data.yaw_rate_radps, 6);
+          number(data.accel_mps2.x(), 5);
+          number(data.accel_mps2.y(), 5);
+          line_ += '\n';
+        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
+          std::string prefix;
+          append_fixed(prefix, reading.t_s, 4);
+          if constexpr (std::is_same_v<T, PtzReading>) {
+            prefix += ',';
+            append_fixed(prefix, data.pan_rad, 6);
+            prefix += ',';
+            append_fixed(prefix, data.tilt_rad, 6);
+            prefix += ',';
+            append_fixed(prefix, data.zoom, 3);
+          }
+          prefix += ',' + std::to_string(data.detections.size());
+          if (data.detections.empty()) line_ += prefix + ",,,,,\n";
+          for (const Detection& d : data.detections) {
+            line_ += prefix + ',' + d.color + ',' + std::to_string(d.id);
+            number(d.range_m, 4);
+            number(d.bearing_rad, 6);
+            line_ += ',' + std::to_string(d.truth_id) + '\n';
+          }
+        } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
+          for (const BeaconRange& r : data.ranges) {
+            start_row();
+            line_ += ',' + std::to_string(r.receiver) + ',' + std::to_string(r.beacon_id);
+            number(r.range_m, 4);
+            line_ += ',';
+            line_ += range_status_name(r.truth_status);
+            line_ += '\n';
+          }
+        } else if constexpr (std::is_same_v<T, LaserScan>) {
+          start_row();
+          line_ += ',';
+          for (std::size_t b = 0; b < data.ranges_m.size(); ++b) {
+            if (b > 0) line_ += ' ';
+            append_fixed(line_, data.ranges_m[b], 3);
+          }
+          line_ += '\n';
+        }
+      },
+      reading.data);
+  file->write(line_);
+}
+
+void RunRecorder::consume(const Record& record) {
+  switch (record.type) {
+    case Record::Type::kReading:
+      write_reading(record.reading);
+      break;
+    case Record::Type::kEvent:
+      line_.clear();
+      append_fixed(line_, record.event.t_s, 4);
+      line_ += ',' + record.event.kind + ',' + record.event.robot + ",\"" + record.event.details +
+               "\"\n";
+      events_->write(line_);
+      break;
+    case Record::Type::kGroundTruth:
+      if (record.robot < 0 || static_cast<std::size_t>(record.robot) >= groundtruth_.size()) break;
+      line_.clear();
+      append_tum(line_, record.t_s, record.pose.x, record.pose.y, record.pose.theta);
+      groundtruth_[static_cast<std::size_t>(record.robot)]->write(line_);
+      break;
+    case Record::Type::kEnd:
+      break;
+  }
+}
+
+void RunRecorder::estimate(const EstimateSample& sample) {
+  line_.clear();
+  append_tum(line_, sample.t_s, sample.pose.x, sample.pose.y, sample.pose.theta);
+  estimates_[sample.localizer]->write(line_);
+}
+
+void RunRecorder::flush() {
+  for (auto& file : groundtruth_) file->flush();
+  for (auto& file : estimates_) file->flush();
+  for (auto& robot : readings_) {
+    for (auto& file : robot) {
+      if (file) file->flush();
+    }
+  }
+  events_->flush();
+}
+
+void RunRecorder::close() {
+  for (auto& file : groundtruth_) file->close();
+  for (auto& file : estimates_) file->close();
+  for (auto& robot : readings_) {
+    for (auto& file : robot) {
+      if (file) file->close();
+    }
+  }
+  events_->close();
+}
+
+}  // namespace locsim

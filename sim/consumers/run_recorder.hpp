@@ -1,0 +1,71 @@
+// The run folder's recorder: a consumer of the record stream and of the localizers' estimates
+// that writes groundtruth.tum and readings/ (per robot), events.csv, and each localizer's
+// LABEL.tum, flushing often so that a crash or Ctrl-C keeps all but the last moments.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/stream/estimates.hpp"
+#include "sim/stream/record.hpp"
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+/// A run's folder: the root, and each robot's folder (the root itself with one robot, else a
+/// sub-folder named after the robot).
+struct RunFolder {
+  std::filesystem::path root;
+  std::vector<std::filesystem::path> robot_dirs;
+
+  /// Refuses (InputError) a path that is not a folder, or a non-empty folder without
+  /// `overwrite`. Writes nothing.
+  static void check(const std::filesystem::path& root, bool overwrite);
+  /// Makes the folders.
+  static RunFolder create(const std::filesystem::path& root, const WorldDef& world);
+};
+
+/// A file written as it goes; every write is checked (on flush and close): one that fails throws
+/// std::runtime_error naming the path and the system's reason.
+class OutputFile {
+ public:
+  explicit OutputFile(std::filesystem::path path);
+  void write(std::string_view text) {
+    out_.write(text.data(), static_cast<std::streamsize>(text.size()));
+  }
+  void flush();
+  void close();
+
+ private:
+  void check();
+  std::filesystem::path path_;
+  std::ofstream out_;
+};
+
+class RunRecorder final : public RecordConsumer, public EstimateConsumer {
+ public:
+  /// Opens every file. `readings`: also readings/ per robot (one CSV per sensor, sensors.json).
+  RunRecorder(const RunFolder& folder, const WorldDef& world,
+              const std::vector<LocalizerInfo>& localizers, bool readings);
+
+  void consume(const Record& record) override;
+  void flush() override;
+  void estimate(const EstimateSample& sample) override;
+  void failure(const LocalizerFailure&) override {}
+  /// Flushes and closes every file (checked).
+  void close();
+
+ private:
+  void write_reading(const Reading& reading);
+  std::vector<std::unique_ptr<OutputFile>> groundtruth_;              // by robot
+  std::vector<std::array<std::unique_ptr<OutputFile>, 6>> readings_;  // by robot, SensorKind
+  std::vector<std::unique_ptr<OutputFile>> estimates_;                // by localizer
+  std::unique_ptr<OutputFile> events_;
+  std::string line_;
+};
+
+}  // namespace locsim

@@ -1,0 +1,236 @@
+#include "sim/metrics/scorer.hpp"
+
+#include <cstdio>
+#include <fstream>
+
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
+#include "sim/common/math.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+json error_json(const ErrorSummary& e) {
+  return {{"samples", e.samples},
+          {"position_error_m",
+           {{"rms", e.position_rms_m},
+            {"mean", e.position_mean_m},
+            {"max", e.position_max_m},
+            {"rms_x", e.x_rms_m},
+            {"rms_y", e.y_rms_m}}},
+          {"heading_error_deg",
+           {{"rms", rad_to_deg(e.heading_rms_rad)},
+            {"mean", rad_to_deg(e.heading_mean_rad)},
+            {"max", rad_to_deg(e.heading_max_rad)}}},
+          {"time_lost_s", e.time_lost_s}};
+}
+
+json landmark_map_json(const LandmarkMapSummary& s) {
+  const auto optional = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+  return {{"mapped", s.mapped},
+          {"matched", s.matched},
+          {"error_m",
+           {{"rms", optional(s.error_rms_m)},
+            {"mean", optional(s.error_mean_m)},
+            {"max", optional(s.error_max_m)}}},
+          {"spurious", s.spurious},
+          {"missed", s.missed},
+          {"observed", s.observed},
+          {"gate_m", kLandmarkMatchGateM}};
+}
+
+/// LABEL_map.csv: a SLAM filter's final landmark map, one row per landmark in the plugin's order.
+void write_landmark_map_csv(const fs::path& file,
+                            const std::vector<locsim_mapped_landmark>& landmarks) {
+  std::string text = "id,x_m,y_m,cov_xx,cov_xy,cov_yy\n";
+  for (const locsim_mapped_landmark& l : landmarks) {
+    text += std::to_string(l.id) + ',';
+    append_fixed(text, l.x, 6);
+    text += ',';
+    append_fixed(text, l.y, 6);
+    for (const double c : {l.covariance[0], l.covariance[1], l.covariance[3]}) {
+      text += ',';
+      append_fixed(text, c, 9);
+    }
+    text += '\n';
+  }
+  write_file(file, text);
+}
+
+}  // namespace
+
+Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
+               const ConvergenceCriterion& criterion)
+    : criterion_(criterion), kidnaps_(world.robots.size()), observed_(world.robots.size()) {
+  for (const LandmarkDef& l : world.landmarks) {
+    true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
+  }
+  for (const RobotDef& r : world.robots) robot_names_.push_back(r.name);
+  for (LocalizerInfo& info : localizers) {
+    Track& track = tracks_.emplace_back();
+    track.info = std::move(info);
+    track.all = ErrorAccumulator(criterion);
+    track.segment = ErrorAccumulator(criterion);
+  }
+}
+
+void Scorer::consume(const Record& record) {
+  if (record.type == Record::Type::kEvent) {
+    if (record.event.kind != "kidnap") return;
+    for (std::size_t r = 0; r < robot_names_.size(); ++r) {
+      if (robot_names_[r] == record.event.robot) kidnaps_[r].push_back(record.event.t_s);
+    }
+    return;
+  }
+  if (record.type != Record::Type::kReading) return;
+  // What the cameras have shown the robot: a SLAM filter's map is judged against these.
+  const auto note = [&](const std::vector<Detection>& detections) {
+    for (const Detection& d : detections) {
+      if (d.truth_id >= 0)
+        observed_[static_cast<std::size_t>(record.reading.robot)].insert(d.truth_id);
+    }
+  };
+  if (const auto* ptz = std::get_if<PtzReading>(&record.reading.data)) {
+    note(ptz->detections);
+  } else if (const auto* omni = std::get_if<OmniReading>(&record.reading.data)) {
+    note(omni->detections);
+  }
+}
+
+json Scorer::segment_json(const ErrorAccumulator& segment) const {
+  const ErrorSummary summary = segment.summary();
+  json out = {{"from_s", segment.first_t_s()}, {"to_s", segment.last_t_s()}};
+  out.update(error_json(summary));
+  out["recovery_s"] =
+      summary.converged_at_s ? json(*summary.converged_at_s - segment.first_t_s()) : json(nullptr);
+  out["recovery_steps"] =
+      summary.converged_at_steps ? json(*summary.converged_at_steps) : json(nullptr);
+  return out;
+}
+
+void Scorer::estimate(const EstimateSample& s) {
+  Track& track = tracks_[s.localizer];
+  // Segments between kidnaps: a sample at a kidnap's time opens the segment after it. The
+  // kidnap's event came earlier in the stream than any estimate of that time.
+  const std::vector<double>& kidnaps = kidnaps_[track.info.robot];
+  while (track.kidnaps_passed < kidnaps.size() && s.t_s >= kidnaps[track.kidnaps_passed]) {
+    if (!track.segment.empty()) track.closed_segments.push_back(segment_json(track.segment));
+    track.segment = ErrorAccumulator(criterion_);
+    ++track.kidnaps_passed;
+  }
+  const ErrorSample error{s.t_s, s.pose.x - s.truth.x, s.pose.y - s.truth.y,
+                          wrap_angle(s.pose.theta - s.truth.theta), s.perception_updates};
+  track.all.add(error);
+  track.segment.add(error);
+  if (!s.diagnostics.empty()) track.last_diagnostics = s.diagnostics;
+  for (const auto& [name, value] : s.diagnostics) {
+    auto& [sum, samples] = track.diagnostic_sums[name];
+    sum += value;
+    ++samples;
+  }
+}
+
+void Scorer::failure(const LocalizerFailure& failure) {
+  Track& track = tracks_[failure.localizer];
+  if (!track.failure) track.failure = failure;
+}
+
+json Scorer::metrics_json(const Track& track, const LocalizerFinal& end) const {
+  json out;
+  out["label"] = track.info.label;
+  out["plugin"] = track.info.plugin;
+  out["params"] = json::parse(track.info.params_json);
+  out["status"] = !track.failure ? "ok" : track.failure->interrupted ? "interrupted" : "failed";
+  if (track.failure) {
+    const LocalizerFailure& f = *track.failure;
+    out["failure"] = {{"t_s", f.t_s}, {"call", f.call}, {"message", f.message}};
+    if (f.signal) out["failure"]["signal"] = *f.signal;
+    if (f.timeout_s) out["failure"]["timeout_s"] = *f.timeout_s;
+  }
+  const ErrorSummary e = track.all.summary();
+  out.update(error_json(e));
+  const ConvergenceCriterion& c = criterion_;
+  out["convergence"] = {
+      {"position_m", c.position_m},
+      {"heading_deg", rad_to_deg(c.heading_rad)},
+      {"hold_samples", c.hold_samples},
+      {"time_s", e.converged_at_s ? json(*e.converged_at_s) : json(nullptr)},
+      {"steps", e.converged_at_steps ? json(*e.converged_at_steps) : json(nullptr)}};
+  json segments = track.closed_segments;
+  if (!track.segment.empty()) segments.push_back(segment_json(track.segment));
+  out["segments"] = segments;
+  json diagnostics = json::object(), means = json::object();
+  for (const auto& [name, value] : track.last_diagnostics) diagnostics[name] = value;
+  for (const auto& [name, sum] : track.diagnostic_sums) {
+    means[name] = sum.first / static_cast<double>(std::max<long>(sum.second, 1));
+  }
+  out["diagnostics"] = diagnostics;
+  out["diagnostics_mean"] = means;  // over the ground-truth samples
+  out["updates"] = end.known ? json(end.updates) : json(nullptr);
+  return out;
+}
+
+json Scorer::write(const std::vector<fs::path>& robot_dirs,
+                   const std::vector<LocalizerFinal>& ends) const {
+  json summaries = json::array();
+  for (std::size_t r = 0; r < robot_dirs.size(); ++r) {
+    json entries = json::array(), timing = json::object();
+    bool any = false;
+    for (std::size_t k = 0; k < tracks_.size(); ++k) {
+      const Track& track = tracks_[k];
+      if (track.info.robot != r) continue;
+      any = true;
+      const LocalizerFinal& end = ends[k];
+      json entry = metrics_json(track, end);
+      if (!end.landmark_map.empty()) {
+        write_landmark_map_csv(robot_dirs[r] / (track.info.label + "_map.csv"), end.landmark_map);
+        std::vector<LandmarkPoint> mapped;
+        for (const locsim_mapped_landmark& l : end.landmark_map) mapped.push_back({l.id, l.x, l.y});
+        entry["landmark_map"] =
+            landmark_map_json(summarize_landmark_map(mapped, true_landmarks_, observed_[r]));
+      }
+      timing[track.info.label] = end.known
+                                     ? json{{"updates", end.cost.calls},
+                                            {"cost_per_update_us",
+                                             {{"mean", end.cost.mean_us},
+                                              {"p99", end.cost.p99_us},
+                                              {"max", end.cost.max_us}}}}
+                                     : json{{"updates", nullptr}, {"cost_per_update_us", nullptr}};
+      summaries.push_back({{"robot", track.info.robot_name},
+                           {"label", track.info.label},
+                           {"status", entry["status"]},
+                           {"position_rms_m", entry["position_error_m"]["rms"]}});
+      if (track.failure) {
+        std::fprintf(
+            stderr,
+            "locsim: warning: localizer '%s' of robot '%s' failed at t = %.3f s in %s: %s\n",
+            track.info.label.c_str(), track.info.robot_name.c_str(), track.failure->t_s,
+            track.failure->call.c_str(), track.failure->message.c_str());
+      }
+      entries.push_back(std::move(entry));
+    }
+    if (!any) continue;
+    json metrics;
+    metrics["robot"] = robot_names_[r];
+    metrics["localizers"] = entries;
+    metrics["timing"] = timing;
+    write_json_atomically(robot_dirs[r] / "metrics.json", metrics);
+  }
+  return summaries;
+}
+
+std::vector<std::string> Scorer::failed() const {
+  std::vector<std::string> out;
+  for (const Track& track : tracks_) {
+    if (!track.failure || track.failure->interrupted) continue;
+    out.push_back(robot_names_.size() > 1 ? track.info.robot_name + "/" + track.info.label
+                                          : track.info.label);
+  }
+  return out;
+}
+
+}  // namespace locsim

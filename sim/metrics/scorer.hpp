@@ -1,0 +1,63 @@
+// The scorer: a consumer of the record stream (kidnaps split a run into segments; the cameras'
+// detections say which landmarks a robot was shown) and of the localizers' estimates, which it
+// judges against the truth they came with as they arrive, in memory that does not grow with the
+// run. At the end it writes each robot's metrics.json (and SLAM filters' LABEL_map.csv).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "sim/metrics/error_metrics.hpp"
+#include "sim/metrics/landmark_metrics.hpp"
+#include "sim/stream/estimates.hpp"
+#include "sim/stream/record.hpp"
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+class Scorer final : public RecordConsumer, public EstimateConsumer {
+ public:
+  Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
+         const ConvergenceCriterion& criterion);
+
+  void consume(const Record& record) override;
+  void estimate(const EstimateSample& sample) override;
+  void failure(const LocalizerFailure& failure) override;
+
+  /// Writes `robot_dirs[r]`/metrics.json for each robot with localizers (their wall-clock costs
+  /// in the last block, "timing", so that the rest is byte-identical for the same inputs) and
+  /// LABEL_map.csv for each localizer that left a map; warns on stderr of failed localizers.
+  /// `ends` in the order of the localizers. Returns their one-line summaries for run.json.
+  nlohmann::ordered_json write(const std::vector<std::filesystem::path>& robot_dirs,
+                               const std::vector<LocalizerFinal>& ends) const;
+  /// The labels of the localizers that failed, "robot/label" when several robots have them.
+  std::vector<std::string> failed() const;
+
+ private:
+  struct Track {
+    LocalizerInfo info;
+    ErrorAccumulator all;
+    ErrorAccumulator segment;
+    nlohmann::ordered_json closed_segments = nlohmann::ordered_json::array();
+    std::size_t kidnaps_passed = 0;  // kidnaps of its robot before the current segment
+    std::optional<LocalizerFailure> failure;
+    std::vector<std::pair<std::string, double>> last_diagnostics;
+    std::map<std::string, std::pair<double, long>> diagnostic_sums;  // sum, samples
+  };
+  nlohmann::ordered_json segment_json(const ErrorAccumulator& segment) const;
+  nlohmann::ordered_json metrics_json(const Track& track, const LocalizerFinal& end) const;
+
+  ConvergenceCriterion criterion_;
+  std::vector<LandmarkPoint> true_landmarks_;
+  std::vector<std::string> robot_names_;
+  std::vector<std::vector<double>> kidnaps_;  // by robot: kidnap times [s]
+  std::vector<std::set<int>> observed_;       // by robot: true landmarks its cameras detected
+  std::vector<Track> tracks_;
+};
+
+}  // namespace locsim

@@ -1,0 +1,457 @@
+#include "sim/plugin_host/localizer_instance.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/yaml_node.hpp"
+#include "sim/sensors/models.hpp"
+
+namespace locsim {
+
+using json = nlohmann::ordered_json;
+
+namespace {
+bool valid_name(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.' ||
+           c == '=';
+  });
+}
+}  // namespace
+
+LocalizerSpec parse_localizer_spec(const std::string& text) {
+  LocalizerSpec spec;
+  std::string rest = text;
+  if (const auto at = rest.rfind('@'); at != std::string::npos) {
+    spec.label = rest.substr(at + 1);
+    rest = rest.substr(0, at);
+    if (!valid_name(spec.label)) {
+      throw InputError("--localizer '" + text + "': label '" + spec.label +
+                       "' may hold only a-z, 0-9, '_', '-', '.', '=' (it names a file)");
+    }
+  }
+  const auto colon = rest.find(':');
+  spec.plugin = rest.substr(0, colon);
+  if (spec.plugin.empty()) throw InputError("--localizer '" + text + "': no plugin name");
+  if (colon != std::string::npos) {
+    std::stringstream items(rest.substr(colon + 1));
+    std::string item;
+    while (std::getline(items, item, ',')) {
+      const auto equals = item.find('=');
+      if (equals == std::string::npos || equals == 0) {
+        throw InputError("--localizer '" + text + "': expected key=value, got '" + item + "'");
+      }
+      const std::string key = item.substr(0, equals);
+      for (const auto& [given, value] : spec.params) {
+        if (given == key) {
+          throw InputError("--localizer '" + text + "': parameter '" + key + "' given twice (" +
+                           given + "=" + value + ", " + item + ")");
+        }
+      }
+      spec.params.emplace_back(key, item.substr(equals + 1));
+    }
+  }
+  if (spec.label.empty()) {
+    spec.label = std::filesystem::path(spec.plugin).stem().string();
+    if (spec.label.starts_with("locsim_")) spec.label = spec.label.substr(7);
+  }
+  return spec;
+}
+
+// ---------------------------------------------------------------------------------------------
+ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
+  std::map<std::string, std::string> given(spec.params.begin(), spec.params.end());
+  for (const auto& [key, value] : spec.params) {
+    bool declared = false;
+    std::string best, known;
+    std::size_t best_distance = 4;
+    for (std::size_t i = 0; i < table.param_count; ++i) {
+      const std::string name = table.params[i].name;
+      declared = declared || name == key;
+      known += (known.empty() ? "" : ", ") + name;
+      if (const std::size_t d = edit_distance(key, name); d < best_distance)
+        best_distance = d, best = name;
+    }
+    if (!declared) {
+      throw InputError("--localizer " + spec.label + ": plugin '" + table.name +
+                       "' has no parameter '" + key + "'" +
+                       (best.empty() ? "" : "; did you mean '" + best + "'?") +
+                       " (parameters: " + (known.empty() ? "none" : known) + ")");
+    }
+  }
+  for (std::size_t i = 0; i < table.param_count; ++i) {
+    const locsim_param_decl& decl = table.params[i];
+    locsim_param_value value{decl.name, decl.type, decl.default_number, nullptr};
+    if (decl.type == LOCSIM_PARAM_STRING) {
+      strings_.push_back(decl.default_string != nullptr ? decl.default_string : "");
+    }
+    const auto it = given.find(decl.name);
+    if (it != given.end()) {
+      const std::string& text = it->second;
+      const std::string where = "--localizer " + spec.label + ": parameter '" + decl.name + "'";
+      switch (decl.type) {
+        case LOCSIM_PARAM_DOUBLE:
+        case LOCSIM_PARAM_INT: {
+          std::size_t used = 0;
+          double number = 0.0;
+          try {
+            number = std::stod(text, &used);
+          } catch (const std::exception&) {
+            used = 0;
+          }
+          if (used != text.size() || !std::isfinite(number)) {
+            throw InputError(where + ": expected a number, got '" + text + "'");
+          }
+          if (decl.type == LOCSIM_PARAM_INT && number != std::floor(number)) {
+            throw InputError(where + ": expected an integer, got '" + text + "'");
+          }
+          if (number < decl.min_number || number > decl.max_number) {
+            throw InputError(where + ": " + text + " is outside [" +
+                             std::to_string(decl.min_number) + ", " +
+                             std::to_string(decl.max_number) + "]");
+          }
+          value.number = number;
+          break;
+        }
+        case LOCSIM_PARAM_BOOL:
+          if (text == "true" || text == "1") {
+            value.number = 1.0;
+          } else if (text == "false" || text == "0") {
+            value.number = 0.0;
+          } else {
+            throw InputError(where + ": expected true or false, got '" + text + "'");
+          }
+          break;
+        case LOCSIM_PARAM_STRING:
+          strings_.back() = text;
+          break;
+        default:
+          throw PluginError(std::string("plugin '") + table.name + "' declares parameter '" +
+                            decl.name + "' with unknown type " + std::to_string(decl.type));
+      }
+    }
+    if (decl.type == LOCSIM_PARAM_STRING) value.string = strings_.back().c_str();
+    values_.push_back(value);
+  }
+}
+
+json ParamSet::to_json() const {
+  json out = json::object();
+  for (const locsim_param_value& v : values_) {
+    switch (v.type) {
+      case LOCSIM_PARAM_INT:
+        out[v.name] = static_cast<long long>(v.number);
+        break;
+      case LOCSIM_PARAM_BOOL:
+        out[v.name] = v.number != 0.0;
+        break;
+      case LOCSIM_PARAM_STRING:
+        out[v.name] = v.string;
+        break;
+      default:
+        out[v.name] = v.number;
+        break;
+    }
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
+                               OccupancyGrid occupancy, const LocalizationDef& localization,
+                               RandomStream& initial_rng)
+    : grid(std::move(occupancy)) {
+  for (const LandmarkDef& l : world.landmarks) {
+    colors.push_back(color_label(l));
+    landmarks.push_back(
+        {l.id, l.position_m.x(), l.position_m.y(), l.radius_m, l.height_m, colors.back().c_str()});
+  }
+  for (const BeaconDef& b : world.beacons) {
+    beacons.push_back({b.id, b.position_m.x(), b.position_m.y(), b.height_m});
+  }
+  // SLAM: the landmarks' positions are what the filter has to find out.
+  map.landmarks = localization.landmarks_known ? landmarks.data() : nullptr;
+  map.landmark_count = localization.landmarks_known ? landmarks.size() : 0;
+  map.beacons = beacons.data();
+  map.beacon_count = beacons.size();
+  map.grid = {grid.origin_m.x(), grid.origin_m.y(), grid.resolution_m,
+              grid.width,        grid.height,       grid.cells.data()};
+  robot = {robot_def.wheel_base_m, robot_def.wheel_radius_m, bounding_radius(robot_def.footprint)};
+  initial_pose_known = localization.initial_pose_known;
+  if (initial_pose_known) {
+    // One guess per robot, shared by all its filters so that they start alike.
+    initial_pose = {
+        robot_def.start.x + initial_rng.normal(0.0, localization.sigma_xy_m),
+        robot_def.start.y + initial_rng.normal(0.0, localization.sigma_xy_m),
+        wrap_angle(robot_def.start.theta + initial_rng.normal(0.0, localization.sigma_theta_rad))};
+    const double var_xy = std::max(localization.sigma_xy_m * localization.sigma_xy_m, 1e-12);
+    const double var_theta =
+        std::max(localization.sigma_theta_rad * localization.sigma_theta_rad, 1e-12);
+    initial_covariance[0] = initial_covariance[4] = var_xy;
+    initial_covariance[8] = var_theta;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+ReadingTranslator::ReadingTranslator(const RobotDef& robot) : robot_(&robot) {
+  if (robot.sensors.encoders) {
+    meters_per_tick_ =
+        2.0 * std::numbers::pi * robot.wheel_radius_m / robot.sensors.encoders->ticks_per_rev;
+  }
+  if (robot.sensors.laser) {
+    const LaserDef& laser = *robot.sensors.laser;
+    for (int i = 0; i < laser.beams; ++i) {
+      laser_angles_.push_back(static_cast<float>(laser_beam_angle(i, laser.beams, laser.fov_rad)));
+    }
+  }
+  out_.struct_size = sizeof(locsim_reading);
+}
+
+const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
+  out_.t_s = reading.t_s;
+  const SensorsDef& sensors = robot_->sensors;
+  std::visit(
+      [&](const auto& data) {
+        using T = std::decay_t<decltype(data)>;
+        if constexpr (std::is_same_v<T, EncoderReading>) {
+          out_.kind = LOCSIM_READING_ODOMETRY;
+          out_.data.odometry = {data.left_ticks,
+                                data.right_ticks,
+                                meters_per_tick_,
+                                {data.odometry.x, data.odometry.y, data.odometry.theta}};
+        } else if constexpr (std::is_same_v<T, ImuReading>) {
+          out_.kind = LOCSIM_READING_IMU;
+          out_.data.imu = {data.yaw_rate_radps, data.accel_mps2.x(), data.accel_mps2.y(),
+                           sensors.imu->common.mount.theta};
+        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
+          detections_.clear();
+          for (const Detection& d : data.detections) {
+            detections_.push_back({d.color.c_str(), d.id, d.range_m, d.bearing_rad});
+          }
+          out_.kind = LOCSIM_READING_LANDMARKS;
+          out_.data.landmarks = {
+              std::is_same_v<T, PtzReading> ? LOCSIM_CAMERA_PTZ : LOCSIM_CAMERA_OMNI, 0.0,
+              detections_.data(), detections_.size()};
+          if constexpr (std::is_same_v<T, PtzReading>) out_.data.landmarks.pan_rad = data.pan_rad;
+        } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
+          ranges_.clear();
+          for (const BeaconRange& r : data.ranges) {
+            const auto& receiver =
+                sensors.ultrasonic->receivers[static_cast<std::size_t>(r.receiver)];
+            ranges_.push_back({r.receiver, r.beacon_id, r.range_m, receiver.position_m.x(),
+                               receiver.position_m.y(), receiver.height_m});
+          }
+          out_.kind = LOCSIM_READING_BEACON_RANGES;
+          out_.data.beacon_ranges = {ranges_.data(), ranges_.size()};
+        } else if constexpr (std::is_same_v<T, LaserScan>) {
+          const LaserDef& laser = *sensors.laser;
+          out_.kind = LOCSIM_READING_LASER;
+          out_.data.laser = {data.ranges_m.data(),
+                             laser_angles_.data(),
+                             data.ranges_m.size(),
+                             {laser.common.mount.x, laser.common.mount.y, laser.common.mount.theta},
+                             laser.min_range_m,
+                             laser.max_range_m};
+        }
+      },
+      reading.data);
+  return out_;
+}
+
+// ---------------------------------------------------------------------------------------------
+const char* plugin_call_name(PluginCall call) {
+  switch (call) {
+    case PluginCall::kNone:
+      return "none";
+    case PluginCall::kCreate:
+      return "create";
+    case PluginCall::kUpdate:
+      return "update";
+    case PluginCall::kEstimate:
+      return "estimate";
+    case PluginCall::kParticles:
+      return "particles";
+    case PluginCall::kDiagnostics:
+      return "diagnostics";
+    case PluginCall::kLandmarkMap:
+      return "landmark_map";
+    case PluginCall::kDestroy:
+      return "destroy";
+  }
+  return "?";
+}
+
+std::chrono::steady_clock::time_point LocalizerInstance::begin(PluginCall call, double t_s) {
+  const auto now = std::chrono::steady_clock::now();
+  if (calls_ != nullptr) {
+    calls_->t_s.store(t_s, std::memory_order_relaxed);
+    calls_->localizer.store(index_, std::memory_order_relaxed);
+    calls_->call.store(static_cast<int>(call), std::memory_order_relaxed);
+    // Last, with release: a watchdog that sees the start time sees the rest.
+    calls_->started_ns.store(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count(),
+        std::memory_order_release);
+  }
+  return now;
+}
+
+void LocalizerInstance::end() {
+  if (calls_ != nullptr) calls_->started_ns.store(0, std::memory_order_release);
+}
+
+LocalizerInstance::LocalizerInstance(std::shared_ptr<const PluginLibrary> library,
+                                     std::string label, ParamSet params,
+                                     const LocalizerWorld& world, std::uint64_t seed,
+                                     CallState* calls, int index)
+    : library_(std::move(library)),
+      label_(std::move(label)),
+      params_(std::move(params)),
+      calls_(calls),
+      index_(index) {
+  locsim_init init{};
+  init.struct_size = sizeof(locsim_init);
+  init.params = params_.values().data();
+  init.param_count = params_.values().size();
+  init.map = &world.map;
+  init.robot = &world.robot;
+  init.initial_pose_known = world.initial_pose_known ? 1 : 0;
+  init.initial_pose = world.initial_pose;
+  std::copy(std::begin(world.initial_covariance), std::end(world.initial_covariance),
+            init.initial_covariance);
+  init.seed = seed;
+  error_[0] = '\0';
+  begin(PluginCall::kCreate, 0.0);
+  instance_ = table().create(&init, error_, sizeof(error_));
+  end();
+  if (instance_ == nullptr) {
+    throw PluginError("localizer '" + label_ + "' (plugin " + table().name + ", " +
+                      library_->path().string() +
+                      "): create failed: " + (error_[0] != '\0' ? error_ : "no message"));
+  }
+}
+
+LocalizerInstance::~LocalizerInstance() {
+  if (instance_ == nullptr) return;
+  begin(PluginCall::kDestroy, 0.0);
+  table().destroy(instance_);
+  end();
+}
+
+void LocalizerInstance::fail(double t_s, const std::string& call, const std::string& message) {
+  failure_ = Failure{t_s, call, message};
+}
+
+void LocalizerInstance::deliver(const locsim_reading& reading) {
+  if (failure_) return;
+  // A "step" in the papers is a perception update: what the steps-to-convergence count.
+  if (reading.kind == LOCSIM_READING_LANDMARKS || reading.kind == LOCSIM_READING_BEACON_RANGES ||
+      reading.kind == LOCSIM_READING_LASER) {
+    ++perception_updates_;
+  }
+  ++updates_;
+  error_[0] = '\0';
+  const auto start = begin(PluginCall::kUpdate, reading.t_s);
+  const int status = table().update(instance_, &reading, error_, sizeof(error_));
+  cost_.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  end();
+  if (status != 0)
+    fail(reading.t_s, "update", error_[0] != '\0' ? error_ : "returned an error without a message");
+}
+
+std::optional<locsim_estimate> LocalizerInstance::estimate(double t_s) {
+  if (failure_) return std::nullopt;
+  locsim_estimate out{};
+  error_[0] = '\0';
+  begin(PluginCall::kEstimate, t_s);
+  const int status = table().estimate(instance_, &out, error_, sizeof(error_));
+  end();
+  if (status != 0) {
+    fail(t_s, "estimate", error_[0] != '\0' ? error_ : "returned an error without a message");
+    return std::nullopt;
+  }
+  bool finite =
+      std::isfinite(out.pose.x) && std::isfinite(out.pose.y) && std::isfinite(out.pose.theta);
+  for (const double c : out.covariance) finite = finite && std::isfinite(c);
+  if (!finite) {
+    fail(t_s, "estimate", "returned a non-finite (NaN or inf) pose or covariance");
+    return std::nullopt;
+  }
+  return out;
+}
+
+std::vector<locsim_pose2> LocalizerInstance::particles(double t_s, std::vector<double>* weights) {
+  if (weights != nullptr) weights->clear();
+  if (failure_ || table().particles == nullptr) return {};
+  locsim_particles out{};
+  error_[0] = '\0';
+  begin(PluginCall::kParticles, t_s);
+  const int status = table().particles(instance_, &out, error_, sizeof(error_));
+  end();
+  if (status != 0) {
+    fail(t_s, "particles", error_[0] != '\0' ? error_ : "returned an error without a message");
+    return {};
+  }
+  if (out.count > 0 && out.poses == nullptr) {
+    fail(t_s, "particles",
+         "returned " + std::to_string(out.count) + " particles and a NULL pointer");
+    return {};
+  }
+  if (weights != nullptr && out.weights != nullptr)
+    weights->assign(out.weights, out.weights + out.count);
+  return {out.poses, out.poses + out.count};
+}
+
+std::vector<std::pair<std::string, double>> LocalizerInstance::diagnostics(double t_s) {
+  if (failure_ || table().diagnostics == nullptr) return {};
+  locsim_diagnostic out[64];
+  std::size_t count = 0;
+  error_[0] = '\0';
+  begin(PluginCall::kDiagnostics, t_s);
+  const int status = table().diagnostics(instance_, out, 64, &count, error_, sizeof(error_));
+  end();
+  if (status != 0) {
+    fail(t_s, "diagnostics", error_[0] != '\0' ? error_ : "returned an error without a message");
+    return {};
+  }
+  std::vector<std::pair<std::string, double>> named;
+  for (std::size_t i = 0; i < std::min<std::size_t>(count, 64); ++i)
+    named.emplace_back(out[i].name != nullptr ? out[i].name : "?", out[i].value);
+  return named;
+}
+
+std::vector<locsim_mapped_landmark> LocalizerInstance::landmark_map(double t_s) {
+  if (failure_ || table().landmark_map == nullptr) return {};
+  locsim_landmark_map out{};
+  error_[0] = '\0';
+  begin(PluginCall::kLandmarkMap, t_s);
+  const int status = table().landmark_map(instance_, &out, error_, sizeof(error_));
+  end();
+  if (status != 0) {
+    fail(t_s, "landmark_map", error_[0] != '\0' ? error_ : "returned an error without a message");
+    return {};
+  }
+  if (out.count == 0) return {};
+  if (out.landmarks == nullptr) {
+    fail(t_s, "landmark_map",
+         "returned " + std::to_string(out.count) + " landmarks and a NULL pointer");
+    return {};
+  }
+  std::vector<locsim_mapped_landmark> landmarks(out.landmarks, out.landmarks + out.count);
+  for (const locsim_mapped_landmark& l : landmarks) {
+    bool finite = std::isfinite(l.x) && std::isfinite(l.y);
+    for (const double c : l.covariance) finite = finite && std::isfinite(c);
+    if (!finite) {
+      fail(t_s, "landmark_map",
+           "returned a non-finite (NaN or inf) position or covariance for landmark " +
+               std::to_string(l.id));
+      return {};
+    }
+  }
+  return landmarks;
+}
+
+}  // namespace locsim

@@ -1,0 +1,418 @@
+#include "sim/plugin_host/worker_process.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+
+#include "sim/stream/record_codec.hpp"
+
+namespace locsim {
+
+namespace {
+
+constexpr std::size_t kFrameHeader = 1 + 4;
+
+void put_frame(std::string& out, std::uint8_t type, std::string_view payload) {
+  put<std::uint8_t>(out, type);
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(payload.size()));
+  out += payload;
+}
+
+/// Complete frames at the front of `buffer`, handed to `handle(type, payload)`; consumed bytes
+/// are removed.
+template <class Handle>
+void take_frames(std::string& buffer, Handle&& handle) {
+  std::size_t pos = 0;
+  while (buffer.size() - pos >= kFrameHeader) {
+    std::uint32_t length = 0;
+    std::memcpy(&length, buffer.data() + pos + 1, 4);
+    if (buffer.size() - pos - kFrameHeader < length) break;
+    const auto type = static_cast<std::uint8_t>(buffer[pos]);
+    handle(type, std::string_view(buffer).substr(pos + kFrameHeader, length));
+    pos += kFrameHeader + length;
+  }
+  buffer.erase(0, pos);
+}
+
+void put_pose(std::string& out, double x, double y, double theta) {
+  put(out, x), put(out, y), put(out, theta);
+}
+
+void put_landmarks(std::string& out, const std::vector<locsim_mapped_landmark>& landmarks) {
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(landmarks.size()));
+  for (const locsim_mapped_landmark& l : landmarks) {
+    put<std::int32_t>(out, l.id);
+    put(out, l.x), put(out, l.y);
+    for (const double c : l.covariance) put(out, c);
+  }
+}
+
+std::vector<locsim_mapped_landmark> get_landmarks(ByteReader& in) {
+  const auto count = in.get<std::uint32_t>();
+  in.expect(count, 4 + 6 * 8);
+  std::vector<locsim_mapped_landmark> out(count);
+  for (locsim_mapped_landmark& l : out) {
+    l.id = in.get<std::int32_t>();
+    l.x = in.get<double>(), l.y = in.get<double>();
+    for (double& c : l.covariance) c = in.get<double>();
+  }
+  return out;
+}
+
+std::string encode_sample(const EstimateSample& s) {
+  std::string out;
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(s.localizer));
+  put(out, s.t_s);
+  put_pose(out, s.truth.x, s.truth.y, s.truth.theta);
+  put_pose(out, s.pose.x, s.pose.y, s.pose.theta);
+  for (const double c : s.covariance) put(out, c);
+  put<std::int64_t>(out, s.perception_updates);
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(s.diagnostics.size()));
+  for (const auto& [name, value] : s.diagnostics) put_string(out, name), put(out, value);
+  return out;
+}
+
+std::string encode_failure(const LocalizerFailure& f) {
+  std::string out;
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(f.localizer));
+  put(out, f.t_s);
+  put_string(out, f.call);
+  put_string(out, f.message);
+  return out;
+}
+
+std::string encode_snapshots(const std::vector<LocalizerSnapshot>& snapshots) {
+  std::string out;
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(snapshots.size()));
+  for (const LocalizerSnapshot& s : snapshots) {
+    put<std::uint8_t>(out, s.failed ? 1 : 0);
+    put<std::uint8_t>(out, s.estimate ? 1 : 0);
+    if (s.estimate) {
+      put_pose(out, s.estimate->pose.x, s.estimate->pose.y, s.estimate->pose.theta);
+      for (const double c : s.estimate->covariance) put(out, c);
+    }
+    put<std::uint32_t>(out, static_cast<std::uint32_t>(s.particles.size()));
+    for (const locsim_pose2& p : s.particles) put_pose(out, p.x, p.y, p.theta);
+    put<std::uint32_t>(out, static_cast<std::uint32_t>(s.weights.size()));
+    for (const double w : s.weights) put(out, w);
+    put_landmarks(out, s.landmark_map);
+  }
+  return out;
+}
+
+std::string encode_finals(const std::vector<LocalizerFinal>& finals) {
+  std::string out;
+  put<std::uint32_t>(out, static_cast<std::uint32_t>(finals.size()));
+  for (const LocalizerFinal& f : finals) {
+    put<std::uint8_t>(out, f.known ? 1 : 0);
+    put<std::int64_t>(out, f.updates);
+    put<std::int64_t>(out, f.perception_updates);
+    put<std::uint64_t>(out, f.cost.calls);
+    put(out, f.cost.mean_us), put(out, f.cost.p99_us), put(out, f.cost.max_us);
+    put_landmarks(out, f.landmark_map);
+  }
+  return out;
+}
+
+/// Writes all of `data` (blocking). A parent that is gone ends the child.
+void write_all(int fd, std::string_view data) {
+  while (!data.empty()) {
+    const ssize_t n = ::send(fd, data.data(), data.size(), MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      std::fflush(nullptr);
+      _exit(0);
+    }
+    data.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+/// The child's answers. Each sample or failure is written the moment it exists: if the plugin
+/// crashes in its next call, the parent has everything computed before, whatever the timing.
+class ReplyWriter final : public EstimateConsumer {
+ public:
+  explicit ReplyWriter(int fd) : fd_(fd) {}
+  void estimate(const EstimateSample& sample) override {
+    send(kWorkerSample, encode_sample(sample));
+  }
+  void failure(const LocalizerFailure& failure) override {
+    send(kWorkerFailure, encode_failure(failure));
+  }
+  void send(std::uint8_t type, std::string_view payload) {
+    frame_.clear();
+    put_frame(frame_, type, payload);
+    write_all(fd_, frame_);
+  }
+
+ private:
+  int fd_;
+  std::string frame_;
+};
+
+[[noreturn]] void child_main(int fd, const std::vector<const LocalizerDef*>& defs,
+                             CallState* calls) {
+  ReplyWriter reply(fd);
+  std::unique_ptr<InstanceRunner> runner;
+  try {
+    runner = std::make_unique<InstanceRunner>(defs, calls);
+  } catch (const std::exception& e) {
+    std::string payload;
+    put_string(payload, e.what());
+    reply.send(kWorkerCreateFailed, payload);
+    std::fflush(nullptr);
+    _exit(0);
+  }
+  reply.send(kWorkerReady, "");
+  std::string in;
+  std::vector<char> chunk(1 << 16);
+  Record record;
+  bool done = false;
+  while (!done) {
+    const ssize_t n = ::read(fd, chunk.data(), chunk.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;  // the parent is gone: nothing more to do
+    in.append(chunk.data(), static_cast<std::size_t>(n));
+    take_frames(in, [&](std::uint8_t type, std::string_view payload) {
+      if (done) return;
+      if (type == kWorkerSnapshotRequest || type == kWorkerFinish) {
+        ByteReader args(payload);
+        const double t_s = args.get<double>();
+        if (type == kWorkerSnapshotRequest) {
+          reply.send(kWorkerSnapshot, encode_snapshots(runner->snapshot(t_s, reply)));
+        } else {
+          reply.send(kWorkerFinal, encode_finals(runner->finish(t_s, reply)));
+          done = true;
+        }
+        return;
+      }
+      decode_record(static_cast<Record::Type>(type), payload, record);
+      runner->consume(record, reply);
+    });
+  }
+  // No destructors, no atexit handlers: they belong to the parent's copy of this process.
+  std::fflush(nullptr);
+  _exit(0);
+}
+
+}  // namespace
+
+EstimateSample decode_sample(std::string_view payload) {
+  ByteReader in(payload);
+  EstimateSample s;
+  s.localizer = in.get<std::uint32_t>();
+  s.t_s = in.get<double>();
+  s.truth = {in.get<double>(), in.get<double>(), in.get<double>()};
+  s.pose = {in.get<double>(), in.get<double>(), in.get<double>()};
+  for (double& c : s.covariance) c = in.get<double>();
+  s.perception_updates = static_cast<long>(in.get<std::int64_t>());
+  const auto count = in.get<std::uint32_t>();
+  in.expect(count, 4 + 8);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    std::string name = in.get_string();
+    s.diagnostics.emplace_back(std::move(name), in.get<double>());
+  }
+  return s;
+}
+
+LocalizerFailure decode_failure(std::string_view payload) {
+  ByteReader in(payload);
+  LocalizerFailure f;
+  f.localizer = in.get<std::uint32_t>();
+  f.t_s = in.get<double>();
+  f.call = in.get_string();
+  f.message = in.get_string();
+  return f;
+}
+
+std::vector<LocalizerSnapshot> decode_snapshots(std::string_view payload) {
+  ByteReader in(payload);
+  const auto count = in.get<std::uint32_t>();
+  in.expect(count, 2);
+  std::vector<LocalizerSnapshot> out(count);
+  for (LocalizerSnapshot& s : out) {
+    s.failed = in.get<std::uint8_t>() != 0;
+    if (in.get<std::uint8_t>() != 0) {
+      locsim_estimate e{};
+      e.pose = {in.get<double>(), in.get<double>(), in.get<double>()};
+      for (double& c : e.covariance) c = in.get<double>();
+      s.estimate = e;
+    }
+    const auto particles = in.get<std::uint32_t>();
+    in.expect(particles, 3 * 8);
+    s.particles.resize(particles);
+    for (locsim_pose2& p : s.particles) p = {in.get<double>(), in.get<double>(), in.get<double>()};
+    const auto weights = in.get<std::uint32_t>();
+    in.expect(weights, 8);
+    s.weights.resize(weights);
+    for (double& w : s.weights) w = in.get<double>();
+    s.landmark_map = get_landmarks(in);
+  }
+  return out;
+}
+
+std::vector<LocalizerFinal> decode_finals(std::string_view payload) {
+  ByteReader in(payload);
+  const auto count = in.get<std::uint32_t>();
+  in.expect(count, 1 + 6 * 8);
+  std::vector<LocalizerFinal> out(count);
+  for (LocalizerFinal& f : out) {
+    f.known = in.get<std::uint8_t>() != 0;
+    f.updates = static_cast<long>(in.get<std::int64_t>());
+    f.perception_updates = static_cast<long>(in.get<std::int64_t>());
+    f.cost.calls = in.get<std::uint64_t>();
+    f.cost.mean_us = in.get<double>(), f.cost.p99_us = in.get<double>(),
+    f.cost.max_us = in.get<double>();
+    f.landmark_map = get_landmarks(in);
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
+  for (const LocalizerDef* def : defs) {
+    indices_.push_back(def->index);
+    if (robots_.size() <= def->info.robot) robots_.resize(def->info.robot + 1, false);
+    robots_[def->info.robot] = true;
+  }
+  int sockets[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sockets) != 0)
+    throw std::runtime_error(std::string("socketpair: ") + std::strerror(errno));
+  void* page =
+      ::mmap(nullptr, sizeof(CallState), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (page == MAP_FAILED) {
+    ::close(sockets[0]), ::close(sockets[1]);
+    throw std::runtime_error(std::string("mmap: ") + std::strerror(errno));
+  }
+  calls_ = new (page) CallState();
+  // Larger socket buffers let the simulation run further ahead of a slow filter before it waits.
+  const int bytes = 1 << 20;
+  ::setsockopt(sockets[0], SOL_SOCKET, SO_SNDBUF, &bytes, sizeof(bytes));
+  ::setsockopt(sockets[1], SOL_SOCKET, SO_RCVBUF, &bytes, sizeof(bytes));
+  std::fflush(nullptr);  // else the child would print the parent's buffered output again
+  const pid_t parent = ::getpid();
+  pid_ = ::fork();
+  if (pid_ < 0) {
+    const int error = errno;
+    ::close(sockets[0]), ::close(sockets[1]);
+    ::munmap(page, sizeof(CallState));
+    throw std::runtime_error(std::string("fork: ") + std::strerror(error));
+  }
+  if (pid_ == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a parent killed hard takes its workers along
+    if (::getppid() != parent) _exit(1);
+    std::signal(SIGINT, SIG_IGN);  // Ctrl-C is the parent's to handle; it ends the workers
+    // Keep stdio and this worker's socket only: another worker's socket held open here would
+    // hide that worker's end from the parent.
+    const int fd = sockets[1];
+    if (fd > 3) ::close_range(3, static_cast<unsigned>(fd - 1), 0);
+    ::close_range(static_cast<unsigned>(fd + 1), ~0U, 0);
+    child_main(fd, defs, calls_);
+  }
+  ::close(sockets[1]);
+  fd_ = sockets[0];
+}
+
+WorkerProcess::~WorkerProcess() {
+  if (pid_ > 0) {
+    if (alive()) kill_now();
+    reap();
+  }
+  if (calls_ != nullptr) ::munmap(calls_, sizeof(CallState));
+}
+
+void WorkerProcess::queue(std::uint8_t type, std::string_view payload) {
+  if (out_sent_ > 0 && out_sent_ == out_.size()) out_.clear(), out_sent_ = 0;
+  put_frame(out_, type, payload);
+}
+
+bool WorkerProcess::send_some() {
+  if (!alive()) return false;
+  while (out_sent_ < out_.size()) {
+    const ssize_t n =
+        ::send(fd_, out_.data() + out_sent_, out_.size() - out_sent_, MSG_DONTWAIT | MSG_NOSIGNAL);
+    if (n > 0) {
+      out_sent_ += static_cast<std::size_t>(n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    return false;  // EPIPE, ECONNRESET: the child is gone
+  }
+  if (out_sent_ == out_.size()) {
+    out_.clear();
+    out_sent_ = 0;
+  } else if (out_sent_ > (1u << 20)) {
+    out_.erase(0, out_sent_);
+    out_sent_ = 0;
+  }
+  return true;
+}
+
+bool WorkerProcess::receive_some(std::vector<Message>& messages) {
+  if (!alive()) return false;
+  char chunk[1 << 16];
+  bool open = true;
+  while (true) {
+    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
+    if (n > 0) {
+      in_.append(chunk, static_cast<std::size_t>(n));
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    open = false;  // 0: closed; ECONNRESET and the like: gone
+    break;
+  }
+  take_frames(in_, [&](std::uint8_t type, std::string_view payload) {
+    messages.push_back({type, std::string(payload)});
+  });
+  return open;
+}
+
+std::string WorkerProcess::reap(std::optional<int>* signal) {
+  if (fd_ >= 0) ::close(fd_), fd_ = -1;
+  if (pid_ <= 0) return "ended";
+  int status = 0;
+  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+  }
+  pid_ = -1;
+  if (WIFSIGNALED(status)) {
+    const int number = WTERMSIG(status);
+    if (signal != nullptr) *signal = number;
+    return "killed by signal " + std::to_string(number) + " (" + strsignal(number) + ")";
+  }
+  return "exited with code " + std::to_string(WEXITSTATUS(status));
+}
+
+void WorkerProcess::kill_now() {
+  if (pid_ > 0) ::kill(pid_, SIGKILL);
+}
+
+std::optional<WorkerProcess::Call> WorkerProcess::current_call() const {
+  Call call = last_call();
+  if (!call.in_call) return std::nullopt;
+  return call;
+}
+
+WorkerProcess::Call WorkerProcess::last_call() const {
+  Call call;
+  const std::int64_t started = calls_->started_ns.load(std::memory_order_acquire);
+  call.in_call = started != 0;
+  call.started = std::chrono::steady_clock::time_point(std::chrono::nanoseconds(started));
+  call.call = static_cast<PluginCall>(calls_->call.load(std::memory_order_relaxed));
+  call.t_s = calls_->t_s.load(std::memory_order_relaxed);
+  call.localizer = calls_->localizer.load(std::memory_order_relaxed);
+  return call;
+}
+
+}  // namespace locsim

@@ -1,0 +1,103 @@
+// A localizer worker: a child process (fork, no exec) that runs an InstanceRunner on the records
+// its parent sends, so that a plugin that crashes, aborts, calls exit() or hangs takes down only
+// its own process. The parent sends framed records over a Unix socket, in batches; the child
+// answers each true pose with an estimate sample as soon as it has it (a crash then loses nothing
+// it had computed: what arrived is deterministic), snapshots on request (video frames) and its
+// final state at the end. Which call it is in, and since when, it keeps in a page of memory shared
+// with the parent, whose watchdog kills a call that outlasts --plugin-timeout.
+//
+// Frames, both ways: u8 type, u32 payload length, payload (stream/record_codec for records).
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/plugin_host/instance_runner.hpp"
+
+namespace locsim {
+
+class WorkerProcess {
+ public:
+  /// Forks the child, which creates `defs`' instances and says whether that worked
+  /// (`wait_ready` reads the answer). The parent's stdio is flushed first.
+  explicit WorkerProcess(const std::vector<const LocalizerDef*>& defs);
+  ~WorkerProcess();  // kills the child if it still runs
+  WorkerProcess(const WorkerProcess&) = delete;
+  WorkerProcess& operator=(const WorkerProcess&) = delete;
+
+  int fd() const { return fd_; }
+  pid_t pid() const { return pid_; }
+  bool alive() const { return fd_ >= 0; }
+  const std::vector<std::size_t>& indices() const { return indices_; }
+  bool serves_robot(std::size_t robot) const { return robot < robots_.size() && robots_[robot]; }
+
+  /// Queues a frame (type and payload) for the child.
+  void queue(std::uint8_t type, std::string_view payload);
+  std::size_t pending_bytes() const { return out_.size() - out_sent_; }
+  /// Sends what the socket takes now, without blocking. False when the child is gone.
+  bool send_some();
+
+  /// What the child said, parsed.
+  struct Message {
+    std::uint8_t type = 0;
+    std::string payload;
+  };
+  /// Reads what arrived, without blocking, appending complete messages to `messages`. Returns
+  /// false once the child has closed its end (it ended or died; see `reap`).
+  bool receive_some(std::vector<Message>& messages);
+
+  /// After the socket closed: waits for the child and says how it ended ("killed by signal 11
+  /// (Segmentation fault)", "exited with code 0"); the signal, if one ended it.
+  std::string reap(std::optional<int>* signal = nullptr);
+  /// Kills the child now (SIGKILL), e.g. after a timeout or on Ctrl-C.
+  void kill_now();
+
+  /// The call the child is in, if any: which, since when (steady clock), at what simulated time,
+  /// for which localizer.
+  struct Call {
+    bool in_call = false;  // else: the last call it made, which has returned
+    PluginCall call = PluginCall::kNone;
+    std::chrono::steady_clock::time_point started;
+    double t_s = 0.0;
+    int localizer = -1;
+  };
+  std::optional<Call> current_call() const;
+  /// The call it is in or last made (after it died: the one it died in, if `in_call`).
+  Call last_call() const;
+
+  bool timed_out = false;  // killed by the watchdog
+  bool ready = false;      // its instances were created
+  bool finished = false;   // it sent its final state
+
+ private:
+  pid_t pid_ = -1;
+  int fd_ = -1;
+  CallState* calls_ = nullptr;  // shared page
+  std::vector<std::size_t> indices_;
+  std::vector<bool> robots_;
+  std::string out_;
+  std::size_t out_sent_ = 0;
+  std::string in_;
+};
+
+/// Message types. Parent to child: the record types (1, 2, 3), then:
+inline constexpr std::uint8_t kWorkerSnapshotRequest = 10;  // f64 t
+inline constexpr std::uint8_t kWorkerFinish = 11;           // f64 t_end
+/// Child to parent:
+inline constexpr std::uint8_t kWorkerReady = 30;         // (empty)
+inline constexpr std::uint8_t kWorkerCreateFailed = 31;  // str message
+inline constexpr std::uint8_t kWorkerSample = 32;        // EstimateSample
+inline constexpr std::uint8_t kWorkerFailure = 33;       // LocalizerFailure
+inline constexpr std::uint8_t kWorkerSnapshot = 34;      // u32 n, n LocalizerSnapshot
+inline constexpr std::uint8_t kWorkerFinal = 35;         // u32 n, n LocalizerFinal
+
+EstimateSample decode_sample(std::string_view payload);
+LocalizerFailure decode_failure(std::string_view payload);
+std::vector<LocalizerSnapshot> decode_snapshots(std::string_view payload);
+std::vector<LocalizerFinal> decode_finals(std::string_view payload);
+
+}  // namespace locsim

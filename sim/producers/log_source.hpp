@@ -1,0 +1,33 @@
+// A recorded log (`locsim run --log`) as a producer of the record stream: its records as they
+// were recorded, and the world and scenario it was recorded in, rebuilt from the text its header
+// carries.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+
+#include "sim/scenario/scenario_def.hpp"
+#include "sim/stream/log_file.hpp"
+#include "sim/world/world_def.hpp"
+
+namespace locsim {
+
+class LogSource {
+ public:
+  /// Opens the log and rebuilds its world. Throws InputError naming the file and the problem.
+  explicit LogSource(const std::filesystem::path& file);
+  const WorldDef& world() const { return world_; }
+  const ScenarioDef& scenario() const { return scenario_; }
+  std::uint64_t seed() const { return seed_; }
+  const nlohmann::ordered_json& header() const { return reader_.header(); }
+  /// The next record; false after the last. Throws InputError on a corrupt or truncated log.
+  bool next(Record& record) { return reader_.next(record); }
+
+ private:
+  LogReader reader_;
+  WorldDef world_;
+  ScenarioDef scenario_;
+  std::uint64_t seed_ = 0;
+};
+
+}  // namespace locsim

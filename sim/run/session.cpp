@@ -1,0 +1,69 @@
+#include "sim/run/session.hpp"
+
+#include <sys/resource.h>
+
+#include "sim/world/occupancy.hpp"
+#include "sim/world/physics_world.hpp"
+
+namespace locsim {
+
+Session::Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
+                 std::uint64_t seed, const std::atomic<bool>* interrupt)
+    : world_(world), options_(options) {
+  std::vector<LocalizerSpec> specs;
+  for (const std::string& text : options.localizers) specs.push_back(parse_localizer_spec(text));
+  OccupancyGrid grid;
+  if (!specs.empty()) {
+    // The static world only, rasterized as the localizers see it (no robot moves in it).
+    const PhysicsWorld physics(world);
+    grid = rasterize_static_world(physics, scenario.localization.grid_resolution_m);
+  }
+  HostOptions host;
+  host.isolate = options.isolate;
+  host.plugin_timeout_s = options.plugin_timeout_s;
+  host.interrupt = interrupt;
+  host_ = std::make_unique<LocalizerHost>(specs, world, scenario.localization, grid, seed, host);
+  scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence);
+}
+
+void Session::open(const std::filesystem::path& out_dir) {
+  folder_ = RunFolder::create(out_dir, world_);
+  recorder_ =
+      std::make_unique<RunRecorder>(folder_, world_, host_->localizers(), options_.readings);
+  host_->add_output(*scorer_);
+  host_->add_output(*recorder_);
+  fanout_.add(*host_);  // first: workers get each record as early as possible
+  fanout_.add(*scorer_);
+  fanout_.add(*recorder_);
+}
+
+nlohmann::ordered_json Session::finish(double t_end_s, bool wait) {
+  std::vector<LocalizerFinal> finals(host_->localizers().size());
+  // In this process nothing is waited for: the final state is always there to be had.
+  if (wait || !options_.isolate) {
+    try {
+      finals = host_->finish(t_end_s);
+    } catch (const Interrupted&) {
+      host_->abort();
+      recorder_->close();
+      scorer_->write(folder_.robot_dirs, finals);
+      throw;
+    }
+  } else {
+    host_->abort();
+  }
+  recorder_->close();
+  if (host_->localizers().empty()) return nlohmann::ordered_json::array();
+  return scorer_->write(folder_.robot_dirs, finals);
+}
+
+nlohmann::ordered_json peak_memory_json() {
+  rusage self{}, children{};
+  ::getrusage(RUSAGE_SELF, &self);
+  ::getrusage(RUSAGE_CHILDREN, &children);
+  // ru_maxrss is in KiB on Linux.
+  return {{"locsim", static_cast<double>(self.ru_maxrss) / 1024.0},
+          {"largest_localizer", static_cast<double>(children.ru_maxrss) / 1024.0}};
+}
+
+}  // namespace locsim

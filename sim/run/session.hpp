@@ -1,0 +1,69 @@
+// What `locsim run` and `locsim replay` both wire behind their producer, so that the two give the
+// same files and the same metrics for the same records, whatever the options: the localizer host,
+// the scorer and the run folder's recorder, fed through one fan-out (the drivers add the log
+// writer and frame capture where they apply). docs/architecture.md draws it.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "sim/consumers/run_recorder.hpp"
+#include "sim/metrics/error_metrics.hpp"
+#include "sim/metrics/scorer.hpp"
+#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/scenario/scenario_def.hpp"
+#include "sim/stream/record.hpp"
+
+namespace locsim {
+
+/// The options `run` and `replay` share (their command lines share them too).
+struct SessionOptions {
+  std::vector<std::string> localizers;  // NAME[:key=value,...][@label], each on every robot
+  ConvergenceCriterion convergence;     // what "converged" means in metrics.json
+  bool isolate = true;                  // each localizer in its own process
+  double plugin_timeout_s = 60.0;       // longest one plugin call may take [s]; 0: no limit
+  bool readings = true;                 // write readings/ (one CSV per sensor)
+  bool overwrite = false;               // allow writing into a non-empty folder
+};
+
+class Session {
+ public:
+  /// Parses the specs, loads the plugins, checks their parameters and creates every localizer
+  /// (InputError, PluginError); writes nothing.
+  Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
+          std::uint64_t seed, const std::atomic<bool>* interrupt);
+
+  /// Makes the run folder (checked beforehand with RunFolder::check) and opens its files.
+  void open(const std::filesystem::path& out_dir);
+  /// Where the producer's records go: host, scorer, recorder, then what the driver adds.
+  RecordFanout& input() { return fanout_; }
+  LocalizerHost& host() { return *host_; }
+  const RunFolder& folder() const { return folder_; }
+  bool has_localizers() const { return !host_->localizers().empty(); }
+
+  /// Ends the stream at `t_end_s`. With `wait`, every localizer first takes in every record
+  /// (Interrupted if Ctrl-C comes meanwhile); without, they are stopped where they are. Writes
+  /// metrics.json and closes the files; returns run.json's "localizers" block.
+  nlohmann::ordered_json finish(double t_end_s, bool wait);
+  /// Labels of the localizers that failed.
+  std::vector<std::string> failed_localizers() const { return scorer_->failed(); }
+
+ private:
+  const WorldDef& world_;
+  SessionOptions options_;
+  std::unique_ptr<LocalizerHost> host_;
+  std::unique_ptr<Scorer> scorer_;
+  std::unique_ptr<RunRecorder> recorder_;
+  RunFolder folder_;
+  RecordFanout fanout_;
+};
+
+/// Peak resident memory [MB] of this process ("locsim") and of the largest localizer process it
+/// has ended ("largest_localizer"), for run.json's wall-clock block.
+nlohmann::ordered_json peak_memory_json();
+
+}  // namespace locsim
