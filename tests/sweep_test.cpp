@@ -8,6 +8,9 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -34,15 +37,91 @@ fs::path write_experiment(const fs::path& dir, int seeds, const std::string& ext
 }
 
 SweepSummary sweep(const fs::path& experiment, const fs::path& out, int jobs, bool resume = false,
-                   std::optional<std::pair<int, int>> shard = std::nullopt) {
+                   std::optional<std::pair<int, int>> shard = std::nullopt,
+                   const fs::path& binary = LOCSIM_BINARY, bool retry_failed = false) {
   SweepOptions options;
   options.experiment_file = experiment;
   options.out_dir = out;
   options.jobs = jobs;
   options.resume = resume;
+  options.retry_failed = retry_failed;
   options.shard = shard;
-  options.locsim_binary = LOCSIM_BINARY;
+  options.locsim_binary = binary;
   return run_sweep(options);
+}
+
+/// A short experiment on the demo world: `localizers` (the YAML list's items), `seeds`, 1.5 s per
+/// run (the misbehaving test plugins act at one second).
+fs::path write_short_experiment(const fs::path& dir, const std::string& localizers,
+                                const std::string& seeds = "[1]") {
+  const fs::path file = dir / "experiment.yaml";
+  std::ofstream(file) << "name: short\nworld: " << LOCSIM_SOURCE_DIR
+                      << "/worlds/demo/demo.yaml\nduration_s: 1.5\nseeds: " << seeds
+                      << "\ntimeout_s: 60\nlocalizers:\n"
+                      << localizers;
+  return file;
+}
+
+std::string test_plugin(const std::string& kind) {
+  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
+}
+
+/// A stand-in for the locsim binary that each run executes (SweepOptions::locsim_binary): a shell
+/// script doing `cases` (a `case "$*" in` body matched against the run's arguments) and handing
+/// every other run to the real locsim. It makes a run end in error or crash at run time, after
+/// the sweep's checks, whatever locsim and its plugins do: deterministic, and independent of how
+/// `run`/`replay` report a plugin's failures.
+fs::path write_stand_in(const fs::path& dir, const std::string& cases) {
+  const fs::path script = dir / "locsim_stand_in.sh";
+  std::ofstream(script) << "#!/bin/sh\ncase \"$*\" in\n"
+                        << cases << "esac\nexec " << LOCSIM_BINARY << " \"$@\"\n";
+  fs::permissions(script, fs::perms::owner_all);
+  return script;
+}
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout, then stderr
+  double seconds = 0.0;
+};
+
+/// `locsim ARGUMENTS` as a user runs it.
+Outcome locsim(const std::string& arguments, const fs::path& dir) {
+  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const auto start = std::chrono::steady_clock::now();
+  const int status = std::system((std::string(LOCSIM_BINARY) + " " + arguments + " >" +
+                                  out.string() + " 2>" + err.string() + " </dev/null")
+                                     .c_str());
+  Outcome outcome;
+  outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  outcome.output = testing::read_file(out) + testing::read_file(err);
+  return outcome;
+}
+
+/// The message `locsim run` gives for `--localizer SPEC` (after "locsim: ...error: ").
+std::string run_message(const std::string& spec, const fs::path& dir) {
+  const Outcome run = locsim("run " + std::string(LOCSIM_SOURCE_DIR) +
+                                 "/worlds/demo/demo.yaml --duration 0.1 --out " +
+                                 (dir / "run").string() + " --localizer '" + spec + "'",
+                             dir);
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  const std::size_t colon = run.output.find("error: ");
+  return colon == std::string::npos ? run.output : run.output.substr(colon + 7);
+}
+
+std::vector<nlohmann::json> jsonl(const fs::path& file) {
+  std::vector<nlohmann::json> lines;
+  std::istringstream text(testing::read_file(file));
+  for (std::string line; std::getline(text, line);) lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+nlohmann::json result_of_run(const fs::path& out, const std::string& id) {
+  for (const nlohmann::json& r : jsonl(out / "results.jsonl")) {
+    if (r["id"] == id) return r;
+  }
+  return nullptr;
 }
 
 TEST(Sweep, ResultsAreTheSameWhateverTheNumberOfJobs) {
@@ -147,13 +226,175 @@ TEST(Sweep, ASegfaultOrAHangFailsItsRunOnly) {
   EXPECT_EQ(summary.total, 5u);
   EXPECT_EQ(summary.not_ok, 2u);
   const std::string results = testing::read_file(dir / "out/results.csv");
-  EXPECT_NE(results.find("locsim_test_segfault/seed-1,locsim_test_segfault,1,crashed,signal 11 "
-                         "(Segmentation fault)"),
+  // The replay runs each localizer in its own process: the segfault fails the localizer, with
+  // the call, the simulated time and the signal, and its errors up to then are scored.
+  EXPECT_NE(results.find("locsim_test_segfault/seed-1,locsim_test_segfault,1,failed,update at "
+                         "t = 1.000 s: its process was killed by signal 11 (Segmentation fault)"),
             std::string::npos)
       << results;
   EXPECT_NE(results.find("locsim_test_hang/seed-1,locsim_test_hang,1,timeout,"), std::string::npos)
       << results;
   EXPECT_NE(results.find("odometry/seed-1,odometry,1,ok,"), std::string::npos);
+}
+
+TEST(Sweep, AnUnknownPluginExitsWith3AtOnceAndLeavesNoFolder) {
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment = write_short_experiment(
+      dir, "  - plugin: odometry\n  - plugin: odometri\n", "{from: 1, to: 3}");
+  const Outcome outcome =
+      locsim("sweep " + experiment.string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(outcome.exit_code, 3) << outcome.output;
+  EXPECT_LT(outcome.seconds, 1.0) << "simulated before checking?";
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  // run's own words, after where the experiment file names the plugin.
+  EXPECT_NE(outcome.output.find("locsim: plugin error: " + experiment.string() +
+                                ":8:13: 'localizers[1].plugin': " + run_message("odometri", dir)),
+            std::string::npos)
+      << outcome.output;
+}
+
+TEST(Sweep, AParameterOneGridPointRejectsExitsWith2BeforeSimulating) {
+  const fs::path dir = testing::temp_dir("sweep");
+  // gain is declared in [0, 1]: the second grid point is out of range.
+  const fs::path experiment =
+      write_short_experiment(dir, "  - plugin: odometry\n  - plugin: " + test_plugin("probe") +
+                                      "\n    label: probe\n    grid: {gain: [0.5, 2]}\n");
+  const Outcome outcome =
+      locsim("sweep " + experiment.string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  const std::string expected = experiment.string() + ":10:24: 'localizers[1].grid.gain[1]': " +
+                               run_message(test_plugin("probe") + ":gain=2@probe-gain=2", dir);
+  EXPECT_NE(outcome.output.find("locsim: error: " + expected), std::string::npos) << outcome.output;
+
+  // A parameter the plugin does not declare, in the library call too: nothing is written.
+  const fs::path unknown = write_short_experiment(
+      dir, "  - plugin: " + test_plugin("probe") + "\n    label: probe\n    params: {gian: 1}\n");
+  try {
+    sweep(unknown, dir / "out2", 1);
+    ADD_FAILURE() << "accepted an unknown parameter";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  ":9:20: 'localizers[0].params.gian': --localizer probe: plugin 'test_probe' has "
+                  "no parameter 'gian'; did you mean 'gain'?"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "out2"));
+}
+
+TEST(Sweep, ARunInErrorKeepsItsWholeReasonAndTheReportLinksItsLog) {
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment = write_short_experiment(
+      dir, "  - plugin: odometry\n  - plugin: " + test_plugin("noop") + "\n");
+  // The odometry run prints, then fails with a message of three lines; the noop run with a
+  // message longer than the reason keeps.
+  const fs::path stand_in = write_stand_in(
+      dir,
+      "  *runs/odometry/*) echo 'odometry: starting'\n"
+      "    printf 'locsim: error: the first line\\n  the second, indented\\nlocsim: error: the "
+      "third\\n' >&2; exit 2 ;;\n"
+      "  *runs/locsim_test_noop/*) printf 'locsim: failure: ' >&2; head -c 10000 /dev/zero | tr "
+      "'\\0' x >&2; exit 1 ;;\n");
+  const SweepSummary summary = sweep(experiment, dir / "out", 1, false, std::nullopt, stand_in);
+  EXPECT_EQ(summary.errors, 2u);
+  const nlohmann::json odometry = result_of_run(dir / "out", "odometry/seed-1");
+  EXPECT_EQ(odometry["status"], "error");
+  EXPECT_EQ(odometry["reason"],
+            "exit code 2: locsim: error: the first line\n  the second, indented\nlocsim: error: "
+            "the third");
+  EXPECT_EQ(odometry["log"], "runs/odometry/seed-1/log.txt");
+  const std::string long_reason = result_of_run(dir / "out", "locsim_test_noop/seed-1")["reason"];
+  EXPECT_LT(long_reason.size(), 4300u);
+  EXPECT_NE(long_reason.find("more bytes cut; all in log.txt]"), std::string::npos);
+  const std::string csv = testing::read_file(dir / "out/results.csv");
+  EXPECT_NE(csv.find(",error,\"exit code 2: locsim: error: the first line the second, indented "
+                     "locsim: error: the third\","),
+            std::string::npos)
+      << csv;
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3) << "a reason broke its row";
+
+  const Outcome report = locsim("report " + (dir / "out").string(), dir);
+  EXPECT_EQ(report.exit_code, 0) << report.output;
+  const std::string markdown = testing::read_file(dir / "out/report.md");
+  EXPECT_NE(markdown.find("| odometry/seed-1 | error | exit code 2: locsim: error: the first line "
+                          "the second, indented locsim: error: the third | "
+                          "[log.txt](runs/odometry/seed-1/log.txt) |"),
+            std::string::npos)
+      << markdown;
+}
+
+TEST(Sweep, ResumeRunsErroredAndCrashedRunsAgainAndKeepsOneResultPerRun) {
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment = write_short_experiment(
+      dir, "  - plugin: odometry\n  - plugin: " + test_plugin("probe") + "\n", "[1, 2]");
+  const fs::path stand_in =
+      write_stand_in(dir,
+                     "  *runs/odometry/seed-1*) echo 'locsim: failure: disk full' >&2; exit 1 ;;\n"
+                     "  *runs/locsim_test_probe/seed-2*) kill -SEGV $$ ;;\n");
+  const SweepSummary first = sweep(experiment, dir / "out", 2, false, std::nullopt, stand_in);
+  EXPECT_EQ(first.errors, 1u);
+  EXPECT_EQ(first.not_ok, 2u);
+  EXPECT_EQ(result_of_run(dir / "out", "locsim_test_probe/seed-2")["status"], "crashed");
+
+  // The cause fixed (the real locsim), a resume runs those two again, and only those.
+  const SweepSummary resumed = sweep(experiment, dir / "out", 2, true);
+  EXPECT_EQ(resumed.skipped, 2u);
+  EXPECT_EQ(resumed.retried, 2u);
+  EXPECT_EQ(resumed.ran, 2u);
+  EXPECT_EQ(resumed.not_ok, 0u);
+  const std::vector<nlohmann::json> results = jsonl(dir / "out/results.jsonl");
+  ASSERT_EQ(results.size(), 4u);
+  std::set<std::string> ids;
+  for (const nlohmann::json& r : results) {
+    ids.insert(r["id"].get<std::string>());
+    EXPECT_EQ(r["status"], "ok") << r.dump();
+  }
+  EXPECT_EQ(ids.size(), 4u);
+  // The same tables as a sweep that never failed.
+  sweep(experiment, dir / "clean", 2);
+  EXPECT_EQ(testing::read_file(dir / "out/results.csv"),
+            testing::read_file(dir / "clean/results.csv"));
+}
+
+TEST(Sweep, ResumeKeepsFailedRunsAndRetryFailedRunsThemAgain) {
+  const fs::path dir = testing::temp_dir("sweep");
+  // test_throws fails at one second: the localizer's own failure, a result.
+  const fs::path experiment = write_short_experiment(
+      dir, "  - plugin: odometry\n  - plugin: " + test_plugin("throws") + "\n");
+  const SweepSummary first = sweep(experiment, dir / "out", 2);
+  EXPECT_EQ(first.errors, 0u);
+  EXPECT_EQ(result_of_run(dir / "out", "locsim_test_throws/seed-1")["status"], "failed");
+  EXPECT_EQ(sweep(experiment, dir / "out", 2, true).ran, 0u);
+
+  const std::string resume = "sweep " + experiment.string() + " --out " + (dir / "out").string();
+  EXPECT_EQ(locsim(resume + " --retry-failed", dir).exit_code, 2)
+      << "--retry-failed needs --resume";
+  const Outcome retried = locsim(resume + " --resume --retry-failed", dir);
+  EXPECT_EQ(retried.exit_code, 0) << retried.output;
+  EXPECT_NE(retried.output.find("2 runs (1 done before, 1 run again), 1 not ok"), std::string::npos)
+      << retried.output;
+  const std::vector<nlohmann::json> results = jsonl(dir / "out/results.jsonl");
+  EXPECT_EQ(results.size(), 2u);
+  EXPECT_EQ(result_of_run(dir / "out", "locsim_test_throws/seed-1")["status"], "failed");
+}
+
+TEST(Sweep, ARunInErrorMakesTheSweepExitWith1AndSayWhere) {
+  const fs::path dir = testing::temp_dir("sweep");
+  // test_create_fails loads and takes its parameters (the checks pass), but its create call,
+  // which needs the world, fails in the run: locsim cannot produce a result.
+  const fs::path experiment = write_short_experiment(
+      dir, "  - plugin: odometry\n  - plugin: " + test_plugin("create_fails") + "\n");
+  const fs::path out = dir / "out";
+  const Outcome outcome = locsim("sweep " + experiment.string() + " --out " + out.string(), dir);
+  EXPECT_EQ(outcome.exit_code, 1) << outcome.output;
+  const std::string last_line =
+      outcome.output.substr(outcome.output.rfind('\n', outcome.output.size() - 2) + 1);
+  EXPECT_NE(last_line.find("1 run ended in error"), std::string::npos) << outcome.output;
+  EXPECT_NE(last_line.find((out / "results.csv").string()), std::string::npos) << outcome.output;
+  EXPECT_NE(testing::read_file(out / "results.csv").find("needs a map with at least 100 landmarks"),
+            std::string::npos);
+  EXPECT_EQ(result_of_run(out, "odometry/seed-1")["status"], "ok");
 }
 
 TEST(Experiment, MalformedFilesAreReportedWhereTheyAreWrong) {
@@ -185,6 +426,11 @@ TEST(Experiment, MalformedFilesAreReportedWhereTheyAreWrong) {
             std::string::npos);
   EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: odometry}, {plugin: odometry}]\n")
                 .find("label 'odometry' used twice"),
+            std::string::npos);
+  // Grid values the plugin might never see: run keeps one value per parameter.
+  EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: ekf_landmarks, params: {gate_chi2: "
+                          "5}, grid: {gate_chi2: [5, 9]}}]\n")
+                .find("'localizers[0].grid.gate_chi2': also given in params"),
             std::string::npos);
 }
 

@@ -11,6 +11,11 @@ experiment=$1
 out=$2
 shards=$3
 hosts=${4:-:}   # ":" is GNU parallel's name for this machine
-seq 1 "$shards" | parallel -S "$hosts" --workdir "$PWD" --halt now,fail=1 \
-  build/locsim sweep "$experiment" --shard "{}/$shards" --out "$out/shard-{}"
+# Every shard runs to its end: one whose runs ended in error exits with 1 but holds all its other
+# results (a --resume of it runs the errored ones again); bad input or a missing plugin fails every
+# shard at once (exit 2, 3), before anything is simulated.
+status=0
+seq 1 "$shards" | parallel -S "$hosts" --workdir "$PWD" \
+  build/locsim sweep "$experiment" --shard "{}/$shards" --out "$out/shard-{}" || status=$?
 build/locsim merge "$out/merged" "$out"/shard-*
+exit "$status"

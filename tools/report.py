@@ -66,6 +66,30 @@ def mark_kidnaps(ax, times):
         ax.axvline(t, color="#cc00cc", linestyle="--", linewidth=1, label="kidnap" if k == 0 else None)
 
 
+def run_logs(root):
+    """Each run's log.txt, relative to the sweep folder, as results.jsonl names it (the newest
+    result of a run wins: a resume appends its retried runs' new results)."""
+    logs = {}
+    path = os.path.join(root, "results.jsonl")
+    if os.path.exists(path):
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                try:
+                    result = json.loads(line)
+                except ValueError:
+                    continue  # a torn last line
+                if "log" in result:
+                    logs[result["id"]] = result["log"]
+    return logs
+
+
+def table_cell(text, limit=300):
+    """`text` fit for a markdown table cell: no '|', at most `limit` characters (the log has it
+    all)."""
+    text = text.replace("|", "\\|")
+    return text if len(text) <= limit else text[:limit] + " …"
+
+
 def sweep_report(root, out_dir):
     with open(os.path.join(root, "sweep.json")) as f:
         header = json.load(f)
@@ -83,8 +107,15 @@ def sweep_report(root, out_dir):
     lines += ["Run outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(statuses.items())) + ".", ""]
     not_ok = [r for r in results if r["status"] != "ok"]
     if not_ok:
-        lines += ["| run | status | reason |", "|---|---|---|"]
-        lines += [f"| {r['id']} | {r['status']} | {r['reason']} |" for r in not_ok[:50]]
+        logs = run_logs(root)
+        lines += ["| run | status | reason | log |", "|---|---|---|---|"]
+        for r in not_ok[:50]:
+            log = logs.get(r["id"], f"runs/{r['config']}/seed-{r['seed']}/log.txt")
+            # A merged sweep has no run folders: its logs are in the shards' folders.
+            link = f"[log.txt]({log})" if os.path.exists(os.path.join(root, log)) else f"`{log}`"
+            lines.append(f"| {r['id']} | {r['status']} | {table_cell(r['reason'])} | {link} |")
+        if len(not_ok) > 50:
+            lines.append(f"\n{len(not_ok) - 50} more in `results.csv`.")
         lines.append("")
 
     # Error vs time: mean over seeds per configuration, with a 95 % band.

@@ -69,21 +69,30 @@ ExperimentDef load_experiment(const fs::path& file) {
   const YamlNode localizers = root["localizers"];
   for (const YamlNode& item : localizers.items()) {
     item.allow_keys({"plugin", "label", "params", "grid"});
-    const std::string plugin = item["plugin"].as_string();
+    const YamlNode plugin_node = item["plugin"];
+    const std::string plugin = plugin_node.as_string();
     const std::string label = item.get_string("label", fs::path(plugin).stem().string());
+    const auto place = [](const YamlNode& node) { return InputPlace{node.where(), node.path()}; };
     std::vector<std::pair<std::string, std::string>> fixed;
-    // Fixed parameters and grid axes, in file order.
-    std::vector<std::pair<std::string, std::vector<std::string>>> axes;
+    std::vector<InputPlace> fixed_places;
+    // Grid axes in file order: each value with its place.
+    std::vector<std::pair<std::string, std::vector<std::pair<std::string, InputPlace>>>> axes;
     if (const auto params = item.find("params")) {
       if (!params->is_map()) params->fail("expected a map of parameter values");
-      for (const auto& [key, value] : params->entries())
+      for (const auto& [key, value] : params->entries()) {
         fixed.emplace_back(key, scalar_text(value));
+        fixed_places.push_back(place(value));
+      }
     }
     if (const auto grid = item.find("grid")) {
       if (!grid->is_map()) grid->fail("expected a map from parameter to a list of values");
       for (const auto& [key, values] : grid->entries()) {
-        std::vector<std::string> texts;
-        for (const YamlNode& v : values.items()) texts.push_back(scalar_text(v));
+        // run keeps one value per parameter: the grid points could all run alike.
+        const bool also_fixed = std::any_of(fixed.begin(), fixed.end(),
+                                            [&](const auto& param) { return param.first == key; });
+        if (also_fixed) values.fail("also given in params; give it in one of them");
+        std::vector<std::pair<std::string, InputPlace>> texts;
+        for (const YamlNode& v : values.items()) texts.emplace_back(scalar_text(v), place(v));
         if (texts.empty()) values.fail("give at least one value");
         axes.emplace_back(key, texts);
       }
@@ -91,10 +100,12 @@ ExperimentDef load_experiment(const fs::path& file) {
     // Cartesian product, the last axis varying fastest.
     std::vector<std::size_t> digit(axes.size(), 0);
     while (true) {
-      LocalizerConfig config{label, plugin, fixed};
+      LocalizerConfig config{label, plugin, fixed, place(plugin_node), fixed_places};
       for (std::size_t a = 0; a < axes.size(); ++a) {
-        config.params.emplace_back(axes[a].first, axes[a].second[digit[a]]);
-        config.label += "-" + axes[a].first + "=" + axes[a].second[digit[a]];
+        const auto& [text, value_place] = axes[a].second[digit[a]];
+        config.params.emplace_back(axes[a].first, text);
+        config.param_places.push_back(value_place);
+        config.label += "-" + axes[a].first + "=" + text;
       }
       if (!valid_label(config.label)) {
         item.fail("label '" + config.label + "' may hold only a-z, 0-9, '_', '-', '=', '.'");

@@ -9,9 +9,17 @@
 #include <string>
 #include <vector>
 
+#include "sim/common/errors.hpp"
 #include "sim/metrics/error_metrics.hpp"
 
 namespace locsim {
+
+/// A value's place in the experiment file, so that a problem found later (a plugin that cannot
+/// be loaded, a parameter it rejects) is reported where the user can fix it.
+struct InputPlace {
+  SourceLocation where;
+  std::string key;  // e.g. "localizers[1].grid.gain[0]"
+};
 
 /// One localizer configuration of the grid.
 struct LocalizerConfig {
@@ -19,6 +27,8 @@ struct LocalizerConfig {
   std::string plugin;  // name or .so path
   std::vector<std::pair<std::string, std::string>> params;  // as given on the command line
   std::string spec() const;                                 // NAME:key=value,...@label
+  InputPlace plugin_place;                                  // of the `plugin:` value
+  std::vector<InputPlace> param_places;  // of each parameter's value, parallel to `params`
 };
 
 struct ExperimentDef {

@@ -6,20 +6,26 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <deque>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <thread>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
+#include "sim/plugin_host/localizer_instance.hpp"
+#include "sim/plugin_host/plugin_library.hpp"
 #include "sim/producers/simulation.hpp"
 
 namespace locsim {
@@ -28,13 +34,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
 namespace {
-
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream out;
-  out << in.rdbuf();
-  return out.str();
-}
 
 /// FNV-1a of the experiment file: a resume or merge must be of the same experiment.
 std::string fingerprint(const fs::path& file) {
@@ -48,34 +47,109 @@ std::string fingerprint(const fs::path& file) {
   return text;
 }
 
-/// Every complete line of results.jsonl; a torn last line (a kill mid-write) is dropped.
+/// Every run's newest result in results.jsonl, in file order: a resume appends a retried run's
+/// new result after its old one. A torn last line (a kill mid-write) is dropped.
 std::vector<json> read_results(const fs::path& file) {
-  std::vector<json> out;
+  std::vector<json> lines;
   std::ifstream in(file);
   std::string line;
   while (std::getline(in, line)) {
     if (line.empty()) continue;
     try {
-      out.push_back(json::parse(line));
+      lines.push_back(json::parse(line));
     } catch (const json::parse_error&) {
       break;  // only the last line can be torn
     }
   }
+  std::map<std::size_t, std::size_t> newest;  // run index -> its last line
+  for (std::size_t i = 0; i < lines.size(); ++i) newest[lines[i]["index"].get<std::size_t>()] = i;
+  std::vector<json> out;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (newest[lines[i]["index"].get<std::size_t>()] == i) out.push_back(std::move(lines[i]));
+  }
   return out;
 }
 
-std::string last_line(const fs::path& file) {
-  const std::string text = read_text(file);
-  std::size_t end = text.find_last_not_of("\n ");
-  if (end == std::string::npos) return "";
-  const std::size_t start = text.rfind('\n', end);
-  return text.substr(start == std::string::npos ? 0 : start + 1,
-                     end - (start == std::string::npos ? 0 : start + 1) + 1);
+/// A result as one line of results.jsonl. Invalid UTF-8 (a plugin's output in a reason) is
+/// replaced rather than thrown on.
+std::string jsonl_line(const json& result) {
+  return result.dump(-1, ' ', false, json::error_handler_t::replace) + '\n';
 }
 
-/// The result of a finished run, from its exit and its metrics.json.
-json result_of(const RunUnit& run, const fs::path& run_dir, int wait_status, bool timed_out,
-               double wall_s) {
+/// Writes `results` as the whole of `file`, atomically: a kill leaves the old file or the new one.
+void rewrite_results(const fs::path& file, const std::vector<json>& results) {
+  const fs::path temporary = file.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    for (const json& r : results) out << jsonl_line(r);
+    if (!out.flush()) throw std::runtime_error("cannot write " + temporary.string());
+  }
+  fs::rename(temporary, file);
+}
+
+/// Whether a result stands on --resume. ok, and failed (the localizer's own failure: replaying
+/// the same log gives it again) do; error (locsim could not produce a result), crashed and
+/// timeout (may be the machine's doing) are worth running again.
+bool result_stands(const json& result, bool retry_failed) {
+  const std::string status = result.value("status", "");
+  return status == "ok" || (status == "failed" && !retry_failed);
+}
+
+constexpr std::size_t kMaxReasonBytes = 4096;
+
+/// What a process that could not produce a result said: its log from the first `locsim: ` line
+/// on (the error, with a message's continuation lines, e.g. where a plugin was looked for),
+/// or the whole log when it has none (the loader's or the shell's words). Capped: a plugin may
+/// print without end.
+std::string error_output(const fs::path& log) {
+  const std::string text = fs::exists(log) ? read_text(log) : std::string();
+  std::size_t start = 0;
+  if (!text.starts_with("locsim: ")) {
+    const std::size_t at = text.find("\nlocsim: ");
+    start = at == std::string::npos ? text.find_first_not_of(" \t\r\n") : at + 1;
+  }
+  const std::size_t end = text.find_last_not_of(" \t\r\n");
+  if (start == std::string::npos || end == std::string::npos) {
+    return "no output (" + log.filename().string() + " is empty)";
+  }
+  std::string out = text.substr(start, end + 1 - start);
+  if (out.size() > kMaxReasonBytes) {
+    std::size_t cut = kMaxReasonBytes;
+    while (cut > 0 && (static_cast<unsigned char>(out[cut]) & 0xC0) == 0x80) --cut;  // UTF-8
+    const std::size_t left = out.size() - cut;
+    out = out.substr(0, cut) + "\n[" + std::to_string(left) + " more bytes cut; all in " +
+          log.filename().string() + "]";
+  }
+  return out;
+}
+
+/// `text` on one line: each line break, with the next line's indentation, becomes a space.
+std::string one_line(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '\n' && text[i] != '\r') {
+      out += text[i];
+      continue;
+    }
+    while (i + 1 < text.size() && std::isspace(static_cast<unsigned char>(text[i + 1]))) ++i;
+    if (!out.empty() && out.back() != ' ') out += ' ';
+  }
+  return out;
+}
+
+/// Whether a run's process completed: its metrics.json holds the result (exit 5: completed, but
+/// the localizer failed, crash, timeout, NaN or error, and metrics.json says which and why).
+bool completed(int wait_status) {
+  return WIFEXITED(wait_status) &&
+         (WEXITSTATUS(wait_status) == 0 || WEXITSTATUS(wait_status) == kExitLocalizerFailed);
+}
+
+/// The result of a finished run, from its exit and its metrics.json. `log` is the process's
+/// log.txt, relative to the sweep folder.
+json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int wait_status,
+               bool timed_out, double wall_s) {
+  const fs::path run_dir = (out / log).parent_path();
   json r;
   r["index"] = run.index;
   r["id"] = run.id;
@@ -85,6 +159,7 @@ json result_of(const RunUnit& run, const fs::path& run_dir, int wait_status, boo
   for (const auto& [k, v] : run.config->params) params[k] = v;
   r["params"] = params;
   r["seed"] = run.seed;
+  r["log"] = log.generic_string();
   json metrics;
   if (timed_out) {
     r["status"] = "timeout";
@@ -93,20 +168,25 @@ json result_of(const RunUnit& run, const fs::path& run_dir, int wait_status, boo
     const int signal = WTERMSIG(wait_status);
     r["status"] = "crashed";
     r["reason"] = "signal " + std::to_string(signal) + " (" + strsignal(signal) + ")";
-  } else if (WEXITSTATUS(wait_status) != 0) {
+  } else if (!completed(wait_status)) {
     r["status"] = "error";
-    r["reason"] = "exit code " + std::to_string(WEXITSTATUS(wait_status)) + ": " +
-                  last_line(run_dir / "log.txt");
+    r["reason"] =
+        "exit code " + std::to_string(WEXITSTATUS(wait_status)) + ": " + error_output(out / log);
   } else {
     try {
       const json file = json::parse(read_text(run_dir / "metrics.json"));
       metrics = file["localizers"].at(0);
       r["status"] = metrics["status"] == "ok" ? "ok" : "failed";
-      r["reason"] = metrics.contains("failure")
-                        ? metrics["failure"]["call"].get<std::string>() +
-                              " at t = " + fixed(metrics["failure"]["t_s"].get<double>(), 3) +
-                              " s: " + metrics["failure"]["message"].get<std::string>()
-                        : "";
+      std::string reason;
+      if (const auto failure = metrics.find("failure"); failure != metrics.end()) {
+        // "CALL at t = T s: MESSAGE", with whichever of its parts metrics.json gives.
+        const std::string call = failure->value("call", "");
+        const json t_s = failure->value("t_s", json());
+        reason = call + (t_s.is_number() ? " at t = " + fixed(t_s.get<double>(), 3) + " s" : "");
+        const std::string message = failure->value("message", "");
+        reason += (reason.empty() || message.empty() ? "" : ": ") + message;
+      }
+      r["reason"] = reason;
       const json& timing = file["timing"].at(run.config->label);
       r["timing"] = {{"wall_s", wall_s},
                      {"cost_mean_us", timing["cost_per_update_us"]["mean"]},
@@ -133,10 +213,10 @@ json result_of(const RunUnit& run, const fs::path& run_dir, int wait_status, boo
 }
 
 std::string csv_field(const std::string& text) {
-  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  const std::string line = one_line(text);
+  if (line.find_first_of(",\"") == std::string::npos) return line;
   std::string out = "\"";
-  for (const char c : text)
-    out += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  for (const char c : line) out += c == '"' ? std::string("\"\"") : std::string(1, c);
   return out + "\"";
 }
 
@@ -244,6 +324,62 @@ void write_tables(const fs::path& out_dir) {
   }
 }
 
+namespace {
+
+/// Finds and loads every configuration's plugin (each file once) and checks its parameters
+/// exactly as `locsim run` does (parse_localizer_spec, find_plugin, PluginLibrary, ParamSet), so
+/// that a misspelt plugin or parameter fails the sweep at once, with run's own message prefixed
+/// by where the experiment file gives it, rather than every run of it after the simulation.
+/// Creating the filters needs the world's simulation; a plugin whose create call fails is still
+/// found by its runs.
+void check_localizers(const ExperimentDef& experiment) {
+  const auto at = [](const InputPlace& place, const std::string& message) {
+    return place.where.str() + ": '" + place.key + "': " + message;
+  };
+  std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;  // by file
+  for (const LocalizerConfig& config : experiment.localizers) {
+    LocalizerSpec spec;
+    try {
+      spec = parse_localizer_spec(config.spec());
+    } catch (const InputError& e) {
+      throw InputError(at(config.plugin_place, e.what()));
+    }
+    if (spec.params != config.params) {
+      // A value holding ',' reads as more than one parameter on replay's command line.
+      throw InputError(at(config.plugin_place,
+                          "a parameter value of configuration '" + config.label + "' holds a ','"));
+    }
+    std::shared_ptr<const PluginLibrary> library;
+    try {
+      const fs::path file = find_plugin(spec.plugin);
+      std::shared_ptr<const PluginLibrary>& loaded = libraries[file.string()];
+      if (!loaded) loaded = std::make_shared<const PluginLibrary>(file);
+      library = loaded;
+      const ParamSet params(library->table(), spec);
+    } catch (const PluginError& e) {
+      throw PluginError(at(config.plugin_place, e.what()));
+    } catch (const InputError& e) {
+      // ParamSet checks each parameter on its own: the one that fails alone is the one to name.
+      InputPlace place = config.plugin_place;
+      for (std::size_t i = 0; i < spec.params.size(); ++i) {
+        LocalizerSpec alone = spec;
+        alone.params = {spec.params[i]};
+        try {
+          const ParamSet single(library->table(), alone);
+        } catch (const std::exception& single_error) {
+          if (std::string(single_error.what()) == e.what()) {
+            place = config.param_places.at(i);
+            break;
+          }
+        }
+      }
+      throw InputError(at(place, e.what()));
+    }
+  }
+}
+
+}  // namespace
+
 SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt) {
   const ExperimentDef experiment = load_experiment(options.experiment_file);
   if (options.jobs < 1) throw InputError("--jobs: must be >= 1");
@@ -251,6 +387,11 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                         options.shard->first > options.shard->second)) {
     throw InputError("--shard: expected K/N with 1 <= K <= N");
   }
+  if (options.retry_failed && !options.resume) {
+    throw InputError("--retry-failed: only with --resume (a new sweep runs every run)");
+  }
+  // Before the folder is made or touched: a bad plugin or parameter leaves nothing behind.
+  check_localizers(experiment);
   const std::vector<RunUnit> all = expand_runs(experiment);
   std::vector<const RunUnit*> mine;
   for (const RunUnit& run : all) {
@@ -269,7 +410,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       {"runs", all.size()},
       {"shard",
        options.shard ? json::array({options.shard->first, options.shard->second}) : json(nullptr)}};
-  std::set<std::string> done;
+  std::set<std::string> done, retry;  // runs whose result stands; runs to run again
   if (fs::exists(out / "sweep.json")) {
     if (!options.resume) {
       throw InputError(
@@ -281,12 +422,12 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       throw InputError("--resume: '" + out.string() +
                        "' holds a sweep of another experiment file or shard");
     }
-    std::vector<json> results = read_results(out / "results.jsonl");
-    // Rewrite the file without a torn last line before appending to it.
-    std::ofstream rewrite(out / "results.jsonl", std::ios::binary | std::ios::trunc);
+    const std::vector<json> results = read_results(out / "results.jsonl");
+    // One line per run and no torn last line before appending. A retried run's old result stays
+    // until its new one is appended: a resume killed before then retries it again.
+    rewrite_results(out / "results.jsonl", results);
     for (const json& r : results) {
-      rewrite << r.dump() << '\n';
-      done.insert(r["id"].get<std::string>());
+      (result_stands(r, options.retry_failed) ? done : retry).insert(r["id"].get<std::string>());
     }
   } else {
     if (fs::exists(out) && !fs::is_empty(out)) {
@@ -303,6 +444,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     if (done.count(run->id)) {
       ++summary.skipped;
     } else {
+      summary.retried += retry.count(run->id);
       pending.push_back(run);
     }
   }
@@ -329,14 +471,18 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                    std::string(static_cast<std::size_t>(width - filled), '.').c_str(), finished,
                    summary.total, summary.not_ok, left);
     } else {
+      // A glance at the reason (its first line, 200 bytes at most): the rest is in results.csv
+      // and the run's log.
+      const std::string reason = result.value("reason", "");
+      std::string glance = reason.substr(0, std::min<std::size_t>(reason.find('\n'), 200));
+      if (glance.size() < reason.size()) glance += " [...]";
       std::fprintf(stderr, "[%zu/%zu] %s %s%s%s (%.0f s left)\n", finished, summary.total,
                    result["status"].get<std::string>().c_str(), run.id.c_str(),
-                   result.value("reason", "").empty() ? "" : ": ",
-                   result.value("reason", "").c_str(), left);
+                   reason.empty() ? "" : ": ", glance.c_str(), left);
     }
   };
   const auto append_result = [&](const RunUnit& run, const json& result) {
-    const std::string line = result.dump() + "\n";
+    const std::string line = jsonl_line(result);
     // One write per line, flushed to the disk: a kill loses at most the runs in flight.
     if (::write(results_fd, line.data(), line.size()) != static_cast<ssize_t>(line.size())) {
       throw std::runtime_error("cannot append to results.jsonl");
@@ -344,6 +490,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     fsync(results_fd);
     ++summary.ran;
     if (result["status"] != "ok") ++summary.not_ok;
+    if (result["status"] == "error") ++summary.errors;
     report(run, result);
   };
 
@@ -478,14 +625,15 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - a.start).count();
       if (a.task.recording) {
-        const bool ok = !a.timed_out && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+        const bool ok = !a.timed_out && completed(status);
         for (const RunUnit* run : waiting[a.task.seed]) {
           if (ok) {
             queue.push_back(replay_task(*run));
             continue;
           }
           // Without its recording no run of this seed can go on: each gets the reason.
-          json result = result_of(*run, a.task.log.parent_path(), status, a.timed_out, wall);
+          json result =
+              result_of(*run, out, a.task.log.lexically_relative(out), status, a.timed_out, wall);
           if (result["status"] != "ok") {
             result["reason"] = "simulating seed " + std::to_string(a.task.seed) +
                                " failed: " + result["status"].get<std::string>() + ", " +
@@ -496,8 +644,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         }
         continue;
       }
-      append_result(*a.task.run,
-                    result_of(*a.task.run, run_dir_of(*a.task.run), status, a.timed_out, wall));
+      append_result(*a.task.run, result_of(*a.task.run, out, a.task.log.lexically_relative(out),
+                                           status, a.timed_out, wall));
       continue;
     }
     const auto now = std::chrono::steady_clock::now();
@@ -515,6 +663,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
   ::close(results_fd);
   if (options.progress_bar) std::fprintf(stderr, "\n");
+  // One line per run, the newest, as in results.csv: the retried runs' old lines go.
+  rewrite_results(out / "results.jsonl", read_results(out / "results.jsonl"));
   write_tables(out);
   return summary;
 }
@@ -545,7 +695,7 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   std::ofstream(out_dir / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
   {
     std::ofstream results(out_dir / "results.jsonl", std::ios::binary);
-    for (const auto& [index, r] : by_index) results << r.dump() << '\n';
+    for (const auto& [index, r] : by_index) results << jsonl_line(r);
   }
   write_tables(out_dir);
   if (by_index.size() != header["runs"].get<std::size_t>()) {

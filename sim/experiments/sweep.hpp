@@ -16,7 +16,10 @@ struct SweepOptions {
   std::filesystem::path experiment_file;
   std::filesystem::path out_dir;
   int jobs = 1;
-  bool resume = false;                       // skip runs already in results.jsonl
+  // Skip the runs whose result in results.jsonl stands: ok and failed (a localizer's own,
+  // deterministic failure is a result); error, crashed and timeout are run again.
+  bool resume = false;
+  bool retry_failed = false;                 // with resume: run `failed` ones again too
   std::optional<std::pair<int, int>> shard;  // (K, N): runs whose index % N == K - 1
   bool progress_bar = false;                 // else plain lines
   std::filesystem::path locsim_binary;       // the `locsim` that runs each run (default: this one)
@@ -25,12 +28,16 @@ struct SweepOptions {
 struct SweepSummary {
   std::size_t total = 0;    // runs of this sweep (or shard)
   std::size_t skipped = 0;  // already done (resume)
+  std::size_t retried = 0;  // of those ran, how many had a result that did not stand (resume)
   std::size_t ran = 0;
-  std::size_t not_ok = 0;  // failed, crashed, timed out or errored
+  std::size_t not_ok = 0;  // of those ran: failed, crashed, timed out or errored
+  std::size_t errors = 0;  // of those ran: error, locsim could not produce a result
   bool interrupted = false;
 };
 
-/// Throws InputError for a bad experiment or a resume of another experiment.
+/// Throws InputError for a bad experiment, a parameter a plugin rejects or a resume of another
+/// experiment, and PluginError for a plugin that cannot be found or loaded: both before anything
+/// is simulated or written.
 SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
 /// Joins shard folders into `out_dir`: results.jsonl, results.csv and the summary.

@@ -334,14 +334,35 @@ int main(int argc, char** argv) {
   sweep->add_option("--out", sweep_options.out_dir, "Sweep folder")->required();
   sweep->add_option("-j,--jobs", sweep_options.jobs, "Runs at a time, each its own process")
       ->capture_default_str();
-  sweep->add_flag("--resume", sweep_options.resume,
-                  "Finish a sweep in --out without redoing finished runs");
+  CLI::Option* resume_flag = sweep->add_flag(
+      "--resume", sweep_options.resume,
+      "Finish a sweep in --out: keep its ok and failed runs, run the others (not run "
+      "yet, error, crashed, timeout)");
+  sweep
+      ->add_flag("--retry-failed", sweep_options.retry_failed,
+                 "With --resume: run the failed runs again too")
+      ->needs(resume_flag);
   sweep->add_option("--shard", shard,
                     "K/N: run only the K-th of N deterministic slices (merge them after)");
   sweep->footer(
+      "Checks first: every plugin is found and loaded and every configuration's parameters are\n"
+      "checked as `locsim run` does, before anything is simulated or the folder is made.\n"
       "Writes results.jsonl (a line per finished run, flushed at once), then results.csv and\n"
       "summary.csv/summary.md (sorted and free of wall-clock figures: identical for any --jobs,\n"
-      "--shard or --resume). Failed, crashed or timed-out runs are results, not errors.");
+      "--shard or --resume). Statuses: ok; failed (the localizer failed: a result); crashed and\n"
+      "timeout (its process was killed by a signal or after timeout_s); error (locsim could not\n"
+      "produce a result: the reason is the run's whole error output, its log.txt has the rest).\n"
+      "--resume runs error, crashed and timeout runs again (and failed ones with --retry-failed);\n"
+      "their new result replaces the old one.\n\n"
+      "Exit codes:\n"
+      "  0    every run has a result (ok, failed, crashed or timeout)\n"
+      "  1    some run ended in error (the last line says how many; results.csv says why), or a\n"
+      "       failure not caused by the input\n"
+      "  2    bad input: experiment file, world, scenario, command line, or a parameter a plugin\n"
+      "       does not declare or accept (the message names the file:line:col and key)\n"
+      "  3    a plugin not found or not loadable (the message names where the experiment gives "
+      "it)\n"
+      "  130  interrupted (Ctrl-C); --resume finishes it");
   locsim::ReplayOptions replay_options;
   std::string replay_out;
   CLI::App* replay = app.add_subcommand(
@@ -395,11 +416,24 @@ int main(int argc, char** argv) {
       sweep_options.progress_bar = isatty(STDERR_FILENO);
       catch_sigint();
       const locsim::SweepSummary s = locsim::run_sweep(sweep_options, &g_interrupted);
-      std::printf("%s: %zu runs (%zu done before), %zu not ok%s -> %s\n",
-                  sweep_options.experiment_file.c_str(), s.total, s.skipped, s.not_ok,
-                  s.interrupted ? ", interrupted (--resume finishes it)" : "",
+      const std::string retried =
+          s.retried > 0 ? ", " + std::to_string(s.retried) + " run again" : "";
+      std::printf("%s: %zu runs (%zu done before%s), %zu not ok%s -> %s\n",
+                  sweep_options.experiment_file.c_str(), s.total, s.skipped, retried.c_str(),
+                  s.not_ok, s.interrupted ? ", interrupted (--resume finishes it)" : "",
                   sweep_options.out_dir.c_str());
-      return s.interrupted ? locsim::kExitInterrupted : locsim::kExitOk;
+      if (s.interrupted) return locsim::kExitInterrupted;
+      if (s.errors > 0) {
+        std::fflush(stdout);
+        std::fprintf(stderr,
+                     "locsim sweep: %zu run%s ended in error (locsim could not produce a result); "
+                     "the reasons are in %s (column reason) and each such run's log.txt; fix the "
+                     "cause and pass --resume to run them again\n",
+                     s.errors, s.errors == 1 ? "" : "s",
+                     (sweep_options.out_dir / "results.csv").c_str());
+        return locsim::kExitFailure;
+      }
+      return locsim::kExitOk;
     }
     if (*merge) {
       std::vector<std::filesystem::path> parts(merge_parts.begin(), merge_parts.end());
