@@ -187,10 +187,11 @@ json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int
         reason += (reason.empty() || message.empty() ? "" : ": ") + message;
       }
       r["reason"] = reason;
-      const json& timing = file["timing"].at(run.config->label);
+      // Costs are null for a localizer whose process was lost before it could report them.
+      const json cost = file["timing"].at(run.config->label).value("cost_per_update_us", json());
       r["timing"] = {{"wall_s", wall_s},
-                     {"cost_mean_us", timing["cost_per_update_us"]["mean"]},
-                     {"cost_p99_us", timing["cost_per_update_us"]["p99"]}};
+                     {"cost_mean_us", cost.is_object() ? cost["mean"] : json()},
+                     {"cost_p99_us", cost.is_object() ? cost["p99"] : json()}};
     } catch (const std::exception& e) {
       r["status"] = "error";
       r["reason"] = std::string("no readable metrics.json: ") + e.what();
