@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <locsim/models.hpp>
+#include <locsim/numeric_jacobian.hpp>
 #include <numbers>
 #include <random>
 
@@ -74,34 +75,28 @@ TEST(Trilateration, TwoReceiversGiveThePose) {
 TEST(ImuMotion, JacobiansMatchFiniteDifferences) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  constexpr double kStep = 1e-6;
+  // Per entry, stricter than the 1e-7 per column these checks had (entries are at most about 1,
+  // so sqrt(5) (2e-8 + 1e-8) < 1e-7); the differences err by at most 4e-10 here.
+  constexpr sdk::JacobianTolerance kTolerance{.abs_tol = 2e-8, .rel_tol = 1e-8};
   for (int trial = 0; trial < 50; ++trial) {
     sdk::ImuState s;
     s << 5 * u(random), 5 * u(random), u(random), u(random), 3 * u(random);
     const Eigen::Vector2d a(2 * u(random), u(random));
     const double omega = u(random), dt = 0.01 + 0.05 * (u(random) + 1);
-    const Eigen::Matrix<double, 5, 5> f = sdk::imu_motion_jacobian(s, a, dt);
-    const Eigen::Matrix<double, 5, 3> g = sdk::imu_noise_jacobian(s, dt);
-    const auto difference = [](sdk::ImuState d) {
-      d(4) = sdk::wrap(d(4));
-      return d / (2 * kStep);
+    const auto from_state = [&](const sdk::ImuState& state) {
+      return sdk::imu_motion(state, a, omega, dt);
     };
-    for (int j = 0; j < 5; ++j) {
-      sdk::ImuState up = s, down = s;
-      up(j) += kStep, down(j) -= kStep;
-      const sdk::ImuState numeric =
-          difference(sdk::imu_motion(up, a, omega, dt) - sdk::imu_motion(down, a, omega, dt));
-      EXPECT_LT((numeric - f.col(j)).norm(), 1e-7) << "F column " << j;
-    }
-    for (int k = 0; k < 2; ++k) {
-      const Eigen::Vector2d step = Eigen::Vector2d::Unit(k) * kStep;
-      const sdk::ImuState by_a = difference(sdk::imu_motion(s, a + step, omega, dt) -
-                                            sdk::imu_motion(s, a - step, omega, dt));
-      EXPECT_LT((by_a - g.col(k)).norm(), 1e-7) << "G column " << k;
-    }
-    const sdk::ImuState by_omega = difference(sdk::imu_motion(s, a, omega + kStep, dt) -
-                                              sdk::imu_motion(s, a, omega - kStep, dt));
-    EXPECT_LT((by_omega - g.col(2)).norm(), 1e-7);
+    // The noise enters where the readings do: (a_forward, a_left, omega).
+    const auto from_readings = [&](const Eigen::Vector3d& imu) {
+      return sdk::imu_motion(s, imu.head<2>(), imu(2), dt);
+    };
+    const sdk::JacobianCheck f = sdk::check_jacobian(sdk::imu_motion_jacobian(s, a, dt), from_state,
+                                                     s, sdk::WrapAngles{4}, kTolerance);
+    EXPECT_TRUE(f.ok) << "F, trial " << trial << ": " << f.report();
+    const sdk::JacobianCheck g =
+        sdk::check_jacobian(sdk::imu_noise_jacobian(s, dt), from_readings,
+                            Eigen::Vector3d(a.x(), a.y(), omega), sdk::WrapAngles{4}, kTolerance);
+    EXPECT_TRUE(g.ok) << "G, trial " << trial << ": " << g.report();
   }
 }
 
@@ -136,21 +131,21 @@ TEST(BeaconRange, MatchesTheGeometryAndItsJacobianTheFiniteDifferences) {
 
   std::mt19937 random(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  constexpr double kStep = 1e-6;
+  // Per entry, stricter than the 1e-7 these checks had (the gradient's entries are at most about
+  // 1); the differences err by at most 2e-9 here.
+  constexpr sdk::JacobianTolerance kTolerance{.abs_tol = 2e-8, .rel_tol = 1e-8};
   for (int trial = 0; trial < 50; ++trial) {
     const sdk::Pose pose(5 * u(random), 5 * u(random), 3 * u(random));
     const Eigen::Vector2d receiver(0.3 * u(random), 0.3 * u(random));
     const Eigen::Vector2d beacon(10 * u(random), 10 * u(random));
     const double dz = 2.0 + u(random);
     const sdk::BeaconRangeModel model = sdk::beacon_range(pose, receiver, beacon, dz);
-    for (int j = 0; j < 3; ++j) {
-      sdk::Pose up = pose, down = pose;
-      up(j) += kStep, down(j) -= kStep;
-      const double numeric = (sdk::beacon_range(up, receiver, beacon, dz).range_m -
-                              sdk::beacon_range(down, receiver, beacon, dz).range_m) /
-                             (2 * kStep);
-      EXPECT_NEAR(model.jacobian(j), numeric, 1e-7) << "column " << j;
-    }
+    const auto range_from = [&](const sdk::Pose& p) {
+      return sdk::beacon_range(p, receiver, beacon, dz).range_m;
+    };
+    const sdk::JacobianCheck check =
+        sdk::check_jacobian(model.jacobian, range_from, pose, sdk::Subtract{}, kTolerance);
+    EXPECT_TRUE(check.ok) << "trial " << trial << ": " << check.report();
   }
 }
 

@@ -1,5 +1,6 @@
 // Filter maths shared by locsim's localizers and available to every plugin author: motion and
-// measurement models with their analytic Jacobians (each tested against finite differences).
+// measurement models with their analytic Jacobians (each tested against finite differences with
+// locsim/numeric_jacobian.hpp).
 #pragma once
 
 #include <Eigen/Dense>

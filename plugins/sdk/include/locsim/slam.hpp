@@ -2,7 +2,8 @@
 // observation of a point landmark with its Jacobians, a landmark's first estimate from one
 // observation, and the per-landmark EKF update with the innovation's likelihood.
 //   z = h(x, m) = (sqrt(dx^2 + dy^2), atan2(dy, dx) - theta),  (dx, dy) = m - (x, y).
-// Every Jacobian is tested against finite differences (tests/slam_test.cpp).
+// Every Jacobian is tested against finite differences (tests/slam_test.cpp, with
+// locsim/numeric_jacobian.hpp).
 #pragma once
 
 #include <Eigen/Dense>
