@@ -137,16 +137,15 @@ void LocalizerHost::flush() {
 
 template <class Done>
 void LocalizerHost::pump_until(Done&& done) {
-  std::vector<WorkerProcess::Message> messages;
   std::vector<pollfd> fds;
   while (true) {
-    for (const auto& worker : workers_) {
-      if (!worker->alive()) continue;
-      worker->send_some();  // a child that is gone shows as the end of its socket below
-      messages.clear();
-      const bool open = worker->receive_some(messages);
-      dispatch(*worker, messages);
-      if (!open) lost(*worker);
+    for (std::size_t w = 0; w < workers_.size(); ++w) {
+      WorkerProcess& worker = *workers_[w];
+      if (!worker.alive()) continue;
+      worker.send_some();  // a child that is gone shows as the end of its socket below
+      const bool open = worker.receive_some(
+          [&](std::uint8_t type, std::string_view payload) { dispatch(w, type, payload); });
+      if (!open) lost(worker);
     }
     if (done()) return;
     const auto now = std::chrono::steady_clock::now();
@@ -178,35 +177,33 @@ void LocalizerHost::pump_until(Done&& done) {
   }
 }
 
-void LocalizerHost::dispatch(WorkerProcess& worker, std::vector<WorkerProcess::Message>& messages) {
-  const std::size_t w = slot_of(worker);
-  for (WorkerProcess::Message& m : messages) {
-    switch (m.type) {
-      case kWorkerReady:
-        worker.ready = true;
-        break;
-      case kWorkerCreateFailed: {
-        ByteReader in(m.payload);
-        create_errors_[w] = in.get_string();
-        break;
-      }
-      case kWorkerSample:
-        estimate(decode_sample(m.payload));
-        break;
-      case kWorkerFailure:
-        failure(decode_failure(m.payload));
-        break;
-      case kWorkerSnapshot:
-        snapshots_[w] = decode_snapshots(m.payload);
-        snapshot_ready_[w] = true;
-        break;
-      case kWorkerFinal:
-        finals_[w] = decode_finals(m.payload);
-        worker.finished = true;
-        break;
-      default:
-        throw std::logic_error("localizer worker sent message type " + std::to_string(m.type));
+void LocalizerHost::dispatch(std::size_t w, std::uint8_t type, std::string_view payload) {
+  WorkerProcess& worker = *workers_[w];
+  switch (type) {
+    case kWorkerReady:
+      worker.ready = true;
+      break;
+    case kWorkerCreateFailed: {
+      ByteReader in(payload);
+      create_errors_[w] = in.get_string();
+      break;
     }
+    case kWorkerSample:
+      estimate(decode_sample(payload));
+      break;
+    case kWorkerFailure:
+      failure(decode_failure(payload));
+      break;
+    case kWorkerSnapshot:
+      snapshots_[w] = decode_snapshots(payload);
+      snapshot_ready_[w] = true;
+      break;
+    case kWorkerFinal:
+      finals_[w] = decode_finals(payload);
+      worker.finished = true;
+      break;
+    default:
+      throw std::logic_error("localizer worker sent message type " + std::to_string(type));
   }
 }
 

@@ -61,7 +61,7 @@ class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
   /// Services every worker (sending, receiving, the watchdog) until `done()`; throws Interrupted.
   template <class Done>
   void pump_until(Done&& done);
-  void dispatch(WorkerProcess& worker, std::vector<WorkerProcess::Message>& messages);
+  void dispatch(std::size_t worker, std::uint8_t type, std::string_view payload);
   /// Its socket closed: reaps it and, unless it had finished, fails its localizers with how it
   /// ended (signal, exit, timeout) and the call and time it was in.
   void lost(WorkerProcess& worker);

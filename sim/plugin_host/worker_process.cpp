@@ -20,28 +20,10 @@ namespace locsim {
 
 namespace {
 
-constexpr std::size_t kFrameHeader = 1 + 4;
-
 void put_frame(std::string& out, std::uint8_t type, std::string_view payload) {
   put<std::uint8_t>(out, type);
   put<std::uint32_t>(out, static_cast<std::uint32_t>(payload.size()));
   out += payload;
-}
-
-/// Complete frames at the front of `buffer`, handed to `handle(type, payload)`; consumed bytes
-/// are removed.
-template <class Handle>
-void take_frames(std::string& buffer, Handle&& handle) {
-  std::size_t pos = 0;
-  while (buffer.size() - pos >= kFrameHeader) {
-    std::uint32_t length = 0;
-    std::memcpy(&length, buffer.data() + pos + 1, 4);
-    if (buffer.size() - pos - kFrameHeader < length) break;
-    const auto type = static_cast<std::uint8_t>(buffer[pos]);
-    handle(type, std::string_view(buffer).substr(pos + kFrameHeader, length));
-    pos += kFrameHeader + length;
-  }
-  buffer.erase(0, pos);
 }
 
 void put_pose(std::string& out, double x, double y, double theta) {
@@ -356,27 +338,6 @@ bool WorkerProcess::send_some() {
     out_sent_ = 0;
   }
   return true;
-}
-
-bool WorkerProcess::receive_some(std::vector<Message>& messages) {
-  if (!alive()) return false;
-  char chunk[1 << 16];
-  bool open = true;
-  while (true) {
-    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
-    if (n > 0) {
-      in_.append(chunk, static_cast<std::size_t>(n));
-      continue;
-    }
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-    open = false;  // 0: closed; ECONNRESET and the like: gone
-    break;
-  }
-  take_frames(in_, [&](std::uint8_t type, std::string_view payload) {
-    messages.push_back({type, std::string(payload)});
-  });
-  return open;
 }
 
 std::string WorkerProcess::reap(std::optional<int>* signal) {

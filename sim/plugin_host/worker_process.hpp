@@ -9,9 +9,12 @@
 // Frames, both ways: u8 type, u32 payload length, payload (stream/record_codec for records).
 #pragma once
 
+#include <sys/socket.h>
 #include <sys/types.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,14 +44,12 @@ class WorkerProcess {
   /// Sends what the socket takes now, without blocking. False when the child is gone.
   bool send_some();
 
-  /// What the child said, parsed.
-  struct Message {
-    std::uint8_t type = 0;
-    std::string payload;
-  };
-  /// Reads what arrived, without blocking, appending complete messages to `messages`. Returns
-  /// false once the child has closed its end (it ended or died; see `reap`).
-  bool receive_some(std::vector<Message>& messages);
+  /// Reads what arrived (at most a few hundred KiB, so that the parent's memory stays small
+  /// whatever the backlog), without blocking, and hands each complete message to
+  /// `handle(type, payload)`. Returns false once the child has closed its end (it ended or died;
+  /// see `reap`).
+  template <class Handle>
+  bool receive_some(Handle&& handle);
 
   /// After the socket closed: waits for the child and says how it ended ("killed by signal 11
   /// (Segmentation fault)", "exited with code 0"); the signal, if one ended it.
@@ -94,6 +95,38 @@ inline constexpr std::uint8_t kWorkerSample = 32;        // EstimateSample
 inline constexpr std::uint8_t kWorkerFailure = 33;       // LocalizerFailure
 inline constexpr std::uint8_t kWorkerSnapshot = 34;      // u32 n, n LocalizerSnapshot
 inline constexpr std::uint8_t kWorkerFinal = 35;         // u32 n, n LocalizerFinal
+
+/// Complete frames at the front of `buffer`, handed to `handle(type, payload)`; consumed bytes
+/// are removed.
+template <class Handle>
+void take_frames(std::string& buffer, Handle&& handle) {
+  constexpr std::size_t kHeader = 1 + 4;
+  std::size_t pos = 0;
+  while (buffer.size() - pos >= kHeader) {
+    std::uint32_t length = 0;
+    std::memcpy(&length, buffer.data() + pos + 1, 4);
+    if (buffer.size() - pos - kHeader < length) break;
+    const auto type = static_cast<std::uint8_t>(buffer[pos]);
+    handle(type, std::string_view(buffer).substr(pos + kHeader, length));
+    pos += kHeader + length;
+  }
+  buffer.erase(0, pos);
+}
+
+template <class Handle>
+bool WorkerProcess::receive_some(Handle&& handle) {
+  if (!alive()) return false;
+  char chunk[1 << 16];
+  for (int round = 0; round < 4; ++round) {
+    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
+    if (n <= 0) return false;  // 0: closed; ECONNRESET and the like: gone
+    in_.append(chunk, static_cast<std::size_t>(n));
+    take_frames(in_, handle);
+  }
+  return true;
+}
 
 EstimateSample decode_sample(std::string_view payload);
 LocalizerFailure decode_failure(std::string_view payload);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <locsim/localizer.hpp>
@@ -88,6 +89,22 @@ class Plugin final : public Probe {
   using Probe::Probe;
   void on_reading(const locsim_reading& r) override {
     if (r.t_s >= 1.0) std::raise(SIGSEGV);  // as a wild pointer would
+  }
+};
+#elif defined(LOCSIM_TEST_EXITS)
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading& r) override {
+    if (r.t_s >= 1.0) std::exit(0);  // as a library that "handles" an error by exiting would
+  }
+};
+#elif defined(LOCSIM_TEST_ABORTS)
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading& r) override {
+    if (r.t_s >= 1.0) std::abort();  // as a failed assert() would
   }
 };
 #elif defined(LOCSIM_TEST_HANG)
