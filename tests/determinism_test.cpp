@@ -1,7 +1,14 @@
-// Same inputs and seed: byte-identical run folders (all but run.json's wall-clock "timing").
+// Same inputs and seed: byte-identical run folders (all but run.json's wall-clock "timing"); a
+// component added to a world leaves the others' streams as they were; and the demo's outputs
+// pinned by hash, so that any change of behaviour is seen and made on purpose.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <string_view>
+#include <vector>
 
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
@@ -10,6 +17,13 @@ namespace locsim {
 namespace {
 
 namespace fs = std::filesystem;
+
+// Pinned behaviour (Determinism.PinnedHashesOfTheDemo): the demo world, seed 7, 30 s (past the
+// first kidnap) with odometry and ekf_landmarks. Any change to the physics, the sensors, the
+// random streams, these two filters, the scorer or the file formats moves them. Update them only
+// on purpose, with a one-line note in the commit message saying why the behaviour changed.
+constexpr std::string_view kPinnedStateHash = "e8179cbeba8d3c97";   // run.json "state_hash"
+constexpr std::uint64_t kPinnedOutputHash = 0x6d033e9b1ae85558ULL;  // FNV-1a of the outputs
 
 RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   RunOptions options;
@@ -124,6 +138,216 @@ TEST(RunFolder, HoldsTumGroundTruthEventsAndResolvedConfig) {
   EXPECT_NE(events.find("22.0000,put_down,robot,\"to=(1.2000,5.0000,-1.5708)\""),
             std::string::npos);
   EXPECT_NE(events.find("45.0000,end,,"), std::string::npos);
+}
+
+// ---- Component independence -------------------------------------------------------------------
+// Every random stream derives from the run seed and the component's name (sim/common/random.hpp),
+// so adding a sensor, a person or a localizer must leave every other component's numbers as they
+// were. A world with a west room where the robot drives (landmarks, beacons) and an east room
+// closed off by a full-height wall, where a person can walk unseen.
+std::string independence_world(const std::string& sensors, const std::string& movers) {
+  return R"(
+name: independence
+walls:
+  - points: [[0, 0], [14, 0], [14, 6], [0, 6]]
+    closed: true
+  - points: [[7, 0], [7, 6]]
+landmarks:
+  - {id: 1, position: [0.3, 0.3], color: red}
+  - {id: 2, position: [6.7, 0.3], color: green}
+  - {id: 3, position: [6.7, 5.7], color: blue}
+  - {id: 4, position: [0.3, 5.7], color: yellow}
+beacons:
+  - {id: 1, position: [0.1, 0.1], height_m: 2.5}
+  - {id: 2, position: [6.9, 0.1], height_m: 2.5}
+  - {id: 3, position: [6.9, 5.9], height_m: 2.5}
+  - {id: 4, position: [0.1, 5.9], height_m: 2.5}
+)" + movers +
+         R"(
+robots:
+  - name: robot
+    start: {x: 1.5, y: 1.5, theta_deg: 0}
+    sensors:
+)" + sensors +
+         R"(
+scenario:
+  duration_s: 15
+  drive:
+    mode: waypoints
+    path: [[5.5, 1.5], [5.5, 4.5], [1.5, 4.5], [1.5, 1.5]]
+    loop: true
+    speed_mps: 0.4
+  ptz: {policy: nearest_landmark}
+  events:
+    - {at_s: 8, kidnap: {to: random, within: {min: [0.5, 0.5], max: [6.5, 5.5]}}}
+)";
+}
+
+const char* const kEncoders = "      encoders: {rate_hz: 50}\n";
+const char* const kPtz = "      ptz_camera: {rate_hz: 10, mount: {x: 0.1, y: 0, theta: 0}}\n";
+const char* const kOtherSensors[] = {
+    "      imu: {rate_hz: 100}\n",
+    "      omni_camera: {rate_hz: 10}\n",
+    "      ultrasonic: {rate_hz: 20}\n",
+    "      laser: {rate_hz: 10, mount: {x: 0.12, y: 0, theta: 0}}\n",
+};
+
+/// Runs `world_yaml` (seed 5) into `dir`/out with `localizers`; returns the run folder.
+fs::path run_world(const fs::path& dir, const std::string& world_yaml,
+                   const std::vector<std::string>& localizers = {}, bool isolate = true) {
+  fs::create_directories(dir);
+  std::ofstream(dir / "world.yaml") << world_yaml;
+  RunOptions options;
+  options.world_file = dir / "world.yaml";
+  options.seed = 5;
+  options.out_dir = dir / "out";
+  options.localizers = localizers;
+  options.isolate = isolate;
+  EXPECT_EQ(run_simulation(options).status, "completed");
+  return options.out_dir;
+}
+
+TEST(Independence, AddingASensorLeavesTheOthersReadingsAlone) {
+  const fs::path base = testing::temp_dir("sensors");
+  const std::string sensors = std::string(kEncoders) + kPtz;
+  const fs::path alone = run_world(base / "alone", independence_world(sensors, ""));
+  // The kidnap happened, and the PTZ camera saw landmarks: the streams compared are busy ones.
+  EXPECT_NE(testing::read_file(alone / "events.csv").find(",kidnap,"), std::string::npos);
+  EXPECT_NE(testing::read_file(alone / "readings/ptz_camera.csv").find(",red,"), std::string::npos);
+  int n = 0;
+  for (const char* other : kOtherSensors) {
+    SCOPED_TRACE(other);
+    const fs::path with =
+        run_world(base / std::to_string(n++), independence_world(sensors + other, ""));
+    for (const char* file :
+         {"readings/encoders.csv", "readings/ptz_camera.csv", "groundtruth.tum"}) {
+      EXPECT_TRUE(testing::read_file(alone / file) == testing::read_file(with / file))
+          << file << " changed when a sensor was added";
+    }
+  }
+}
+
+TEST(Independence, APersonOutOfSightLeavesTruthAndReadingsAlone) {
+  const fs::path base = testing::temp_dir("person");
+  std::string sensors = std::string(kEncoders) + kPtz;
+  for (const char* other : kOtherSensors) sensors += other;
+  // Walking in the east room, behind the partition: no sensor can see or hear them.
+  const std::string person = R"(
+movers:
+  - {name: carol, kind: person, path: [[9, 1.5], [12.5, 4.5]], speed_mps: 0.8}
+)";
+  // The control: the same person walking across the robot's room is seen, so the comparison
+  // below can tell.
+  const std::string in_view = R"(
+movers:
+  - {name: carol, kind: person, path: [[3.5, 0.5], [3.5, 5.5]], speed_mps: 0.8}
+)";
+  const fs::path alone = run_world(base / "alone", independence_world(sensors, ""));
+  const fs::path with = run_world(base / "with", independence_world(sensors, person));
+  const fs::path seen = run_world(base / "seen", independence_world(sensors, in_view));
+  EXPECT_NE(testing::read_file(alone / "readings/laser.csv"),
+            testing::read_file(seen / "readings/laser.csv"));
+  // The person is simulated (the state hash covers the movers), only out of sight.
+  const auto state_hash = [](const fs::path& out) {
+    return nlohmann::json::parse(testing::read_file(out / "run.json"))["state_hash"];
+  };
+  EXPECT_NE(state_hash(alone), state_hash(with));
+  const std::vector<fs::path> files = {"groundtruth.tum",         "events.csv",
+                                       "readings/encoders.csv",   "readings/imu.csv",
+                                       "readings/ptz_camera.csv", "readings/omni_camera.csv",
+                                       "readings/ultrasonic.csv", "readings/laser.csv"};
+  for (const fs::path& file : files) {
+    const std::string expected = testing::read_file(alone / file);
+    EXPECT_GT(expected.size(), 100u) << file;
+    EXPECT_TRUE(expected == testing::read_file(with / file))
+        << file << " changed when a person walked in another room";
+  }
+}
+
+/// `label`'s entry in metrics.json.
+std::string metrics_entry(const fs::path& out, const std::string& label) {
+  const auto metrics = nlohmann::ordered_json::parse(testing::read_file(out / "metrics.json"));
+  for (const auto& entry : metrics["localizers"]) {
+    if (entry["label"] == label) return entry.dump();
+  }
+  ADD_FAILURE() << "no metrics for " << label << " in " << out;
+  return "";
+}
+
+TEST(Independence, AddingALocalizerLeavesTheOthersEstimatesAlone) {
+  const fs::path base = testing::temp_dir("localizers");
+  std::string sensors = std::string(kEncoders) + kPtz + kOtherSensors[1];  // + omni
+  const std::string world = independence_world(sensors, "");
+  // A particle filter: it draws random numbers all the time, so a shared stream would show.
+  const std::string mcl = "mcl:particles=100";
+  const std::vector<std::vector<std::string>> added = {
+      {"ekf_landmarks", mcl},                                 // before it
+      {mcl, mcl + "@second", "augmented_mcl:particles=100"},  // after it, the same plugin too
+  };
+  // In-process too: instances of one plugin then share its library's static state.
+  for (const bool isolate : {true, false}) {
+    SCOPED_TRACE(isolate ? "isolated" : "in-process");
+    const fs::path dir = base / (isolate ? "isolated" : "in_process");
+    const fs::path alone = run_world(dir / "alone", world, {mcl}, isolate);
+    const std::string estimates = testing::read_file(alone / "mcl.tum");
+    const std::string metrics = metrics_entry(alone, "mcl");
+    EXPECT_GT(estimates.size(), 1000u);
+    for (std::size_t k = 0; k < added.size(); ++k) {
+      const fs::path with = run_world(dir / std::to_string(k), world, added[k], isolate);
+      EXPECT_TRUE(estimates == testing::read_file(with / "mcl.tum"))
+          << "mcl.tum changed when localizers were added (" << k << ")";
+      EXPECT_EQ(metrics, metrics_entry(with, "mcl")) << k;
+    }
+  }
+}
+
+// ---- Pinned hashes (the constants are at the top of this file) ------------------------------
+
+/// FNV-1a, 64 bits, continuing from `hash`.
+std::uint64_t fnv1a(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222325ULL) {
+  for (const char c : bytes) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+TEST(Determinism, PinnedHashesOfTheDemo) {
+  const fs::path out = testing::temp_dir("pinned") / "out";
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.seed = 7;
+  options.duration_s = 30.0;
+  options.out_dir = out;
+  options.localizers = {"odometry", "ekf_landmarks"};
+  run_simulation(options);
+  const auto run = nlohmann::json::parse(testing::read_file(out / "run.json"));
+  EXPECT_EQ(run["state_hash"].get<std::string>(), kPinnedStateHash);
+
+  std::vector<fs::path> files = {"groundtruth.tum", "events.csv"};
+  std::vector<fs::path> readings;
+  for (const auto& entry : fs::directory_iterator(out / "readings")) {
+    if (entry.path().extension() == ".csv") readings.push_back(fs::relative(entry.path(), out));
+  }
+  std::sort(readings.begin(), readings.end());
+  EXPECT_EQ(readings.size(), 6u);  // every sensor of the demo robot
+  files.insert(files.end(), readings.begin(), readings.end());
+  files.insert(files.end(), {"odometry.tum", "ekf_landmarks.tum"});
+  // Each file's name, a NUL, then its bytes: a byte moved from one file to the next shows too.
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const fs::path& file : files) {
+    const std::string name = file.generic_string();
+    hash = fnv1a(name + '\0', hash);
+    hash = fnv1a(testing::read_file(out / file), hash);
+  }
+  // metrics.json without its wall-clock block, keys sorted (nlohmann::json), compact.
+  auto metrics = nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+  metrics.erase("timing");
+  hash = fnv1a(std::string("metrics.json") + '\0', hash);
+  hash = fnv1a(metrics.dump(), hash);
+  char hex[24];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(hash));
+  EXPECT_EQ(hash, kPinnedOutputHash) << "output hash: 0x" << hex;
 }
 
 }  // namespace
