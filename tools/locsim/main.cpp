@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -274,6 +275,16 @@ int main(int argc, char** argv) {
   std::optional<std::string> validate_scenario;
   double converged_deg = rad_to_deg_default();
   std::string isolation = "process";
+  // CLI11's range checks compare, and every comparison with NaN is false: refuse it first.
+  const CLI::Validator finite(
+      [](std::string& text) {
+        try {
+          return std::isfinite(std::stod(text)) ? std::string() : "must be a finite number";
+        } catch (const std::exception&) {
+          return std::string("must be a number");
+        }
+      },
+      "FINITE");
   // What `run` and `replay` share: the localizers and how they are run and judged.
   const auto add_session_options = [&](CLI::App* command, locsim::SessionOptions& session) {
     command->add_option(
@@ -290,7 +301,7 @@ int main(int argc, char** argv) {
         ->add_option("--plugin-timeout", session.plugin_timeout_s,
                      "Longest a single plugin call may take before its localizer is failed "
                      "[s]; 0: no limit (needs --isolation process)")
-        ->check(CLI::Range(0.0, 1e6))
+        ->check(finite & CLI::Range(0.0, 1e6))
         ->capture_default_str();
     command->add_flag("!--no-readings", session.readings,
                       "Do not write readings/ (one CSV per sensor)");
@@ -298,12 +309,12 @@ int main(int argc, char** argv) {
     command
         ->add_option("--converged-within-m", session.convergence.position_m,
                      "Convergence: position error at most this [m]")
-        ->check(CLI::PositiveNumber)
+        ->check(finite & CLI::PositiveNumber)
         ->capture_default_str();
     command
         ->add_option("--converged-within-deg", converged_deg,
                      "Convergence: heading error at most this [deg]")
-        ->check(CLI::Range(1e-9, 180.0))
+        ->check(finite & CLI::Range(1e-9, 180.0))
         ->capture_default_str();
     command
         ->add_option("--converged-hold", session.convergence.hold_samples,
