@@ -534,14 +534,13 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     Task task;
     task.run = &run;
     task.log = run_dir_of(run) / "log.txt";
-    task.args = {
-        binary.string(),           "replay",
-        log_of(run.seed).string(), "--localizer",
-        run.config->spec(),        "--out",
-        run_dir_of(run).string(),  "--overwrite",
-        "--converged-within-m",    fixed(experiment.convergence.position_m, 9),
-        "--converged-within-deg",  fixed(rad_to_deg(experiment.convergence.heading_rad), 9),
-        "--converged-hold",        std::to_string(experiment.convergence.hold_samples)};
+    task.args = {binary.string(), "replay", log_of(run.seed).string(), "--localizer",
+                 run.config->spec(), "--out", run_dir_of(run).string(), "--overwrite",
+                 // The seed's recording folder has the readings already.
+                 "--no-readings", "--converged-within-m",
+                 fixed(experiment.convergence.position_m, 9), "--converged-within-deg",
+                 fixed(rad_to_deg(experiment.convergence.heading_rad), 9), "--converged-hold",
+                 std::to_string(experiment.convergence.hold_samples)};
     return task;
   };
   for (const RunUnit* run : pending) {

@@ -48,9 +48,12 @@ BENCHMARK(BM_DemoSweep40Runs)
 namespace {
 
 /// The demo world's 60 s with the landmark EKF: simulated (every sensor, all logs written) vs
-/// replayed from its recording. The ratio is what a sweep over filter parameters saves per run.
+/// replayed from its recording as a sweep does (no readings/ written again). The ratio is what a
+/// sweep over filter parameters saves per run. `isolate`: the EKF in its own process (the
+/// default) or in locsim's; the difference is what isolation costs a run.
 void BM_DemoEkf(benchmark::State& state) {
   const bool replay = state.range(0) == 1;
+  const bool isolate = state.range(1) == 1;
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_replay";
   fs::remove_all(dir);
   locsim::RunOptions run;
@@ -59,6 +62,7 @@ void BM_DemoEkf(benchmark::State& state) {
   run.overwrite = true;
   run.localizers = {LOCSIM_BUILD_PLUGIN_DIR "/locsim_ekf_landmarks.so"};
   run.log_file = dir / "demo.locsimlog";
+  run.isolate = isolate;
   locsim::run_simulation(run);
   for (auto _ : state) {
     if (replay) {
@@ -67,6 +71,8 @@ void BM_DemoEkf(benchmark::State& state) {
       options.out_dir = dir / "replay";
       options.overwrite = true;
       options.localizers = run.localizers;
+      options.isolate = isolate;
+      options.readings = false;
       benchmark::DoNotOptimize(locsim::replay_log(options));
     } else {
       benchmark::DoNotOptimize(locsim::run_simulation(run));
@@ -77,9 +83,8 @@ void BM_DemoEkf(benchmark::State& state) {
       60.0 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_DemoEkf)
-    ->ArgName("replay")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"replay", "isolate"})
+    ->ArgsProduct({{0, 1}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
