@@ -17,25 +17,9 @@ namespace locsim {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::locsim;
+using testing::Outcome;
 using json = nlohmann::json;
-
-struct Outcome {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-Outcome locsim(const std::string& arguments) {
-  const std::string command = std::string(LOCSIM_BINARY) + " " + arguments + " 2>&1 </dev/null";
-  FILE* pipe = popen(command.c_str(), "r");
-  Outcome outcome;
-  if (pipe == nullptr) return outcome;
-  char buffer[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) outcome.output.append(buffer, n);
-  const int status = pclose(pipe);
-  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return outcome;
-}
 
 const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
 
@@ -121,18 +105,8 @@ TEST(Isolation, CtrlCEndsARunWithAHungPluginPromptly) {
   EXPECT_EQ(entry(out / "metrics.json", "odometry")["status"], "ok");
 }
 
-/// Keeps the frames in memory (no renderer needed).
-class KeepFrames final : public FrameSink {
- public:
-  void start(const WorldDef&) override {}
-  void frame(const FrameState& frame) override { kept.push_back(frame); }
-  void finish() override {}
-  long frames() const override { return static_cast<long>(kept.size()); }
-  std::vector<FrameState> kept;
-};
-
 TEST(Isolation, AVideoOfARunWithACrashedPluginShowsTheSurvivors) {
-  KeepFrames sink;
+  testing::KeepFrames sink;
   RunOptions options;
   options.world_file = kDemo;
   options.duration_s = 3.0;

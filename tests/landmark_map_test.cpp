@@ -270,19 +270,10 @@ TEST(LandmarkMapRun, SweepResultsHaveTheLandmarkErrorColumn) {
 }
 
 // ------------------------------------------------------------------------------------- frames
-/// Keeps the frames it is given.
-class KeepFrames final : public FrameSink {
- public:
-  void start(const WorldDef&) override {}
-  void frame(const FrameState& frame) override { kept.push_back(frame); }
-  void finish() override {}
-  long frames() const override { return static_cast<long>(kept.size()); }
-  std::vector<FrameState> kept;
-};
 
 TEST(LandmarkMapFrames, CaptureCarriesTheMapAndTheRendererDrawsIt) {
   const fs::path dir = testing::temp_dir("run");
-  KeepFrames sink;
+  testing::KeepFrames sink;
   RunOptions options;
   options.world_file = write_world(dir);
   options.out_dir = dir / "out";

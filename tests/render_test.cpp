@@ -206,19 +206,6 @@ TEST(Render, RunWithAVideoKeepsEveryOtherOutputAndLocksFramesToSimulatedTime) {
             without_costs(dir / "with_video/metrics.json"));
 }
 
-/// Keeps every frame, for tests of what a frame shows.
-class KeepFrames final : public FrameSink {
- public:
-  void start(const WorldDef&) override {}
-  void frame(const FrameState& f) override { frames_.push_back(f); }
-  void finish() override {}
-  long frames() const override { return static_cast<long>(frames_.size()); }
-  const std::vector<FrameState>& all() const { return frames_; }
-
- private:
-  std::vector<FrameState> frames_;
-};
-
 TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
   // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
   // both are marked from where the robot was picked up to where it landed, and the true path
@@ -236,7 +223,7 @@ scenario:
 )";
   const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
   Simulation sim(inputs.world, inputs.scenario, 1);
-  KeepFrames sink;
+  testing::KeepFrames sink;
   VideoOptions video;
   video.fps = 10.0;
   FrameCapture capture(sink, video, sim);
@@ -252,12 +239,12 @@ scenario:
     capture.after_step(sim);
   }
   ASSERT_EQ(floor.size(), 2u);
-  ASSERT_EQ(sink.all().size(), 31u);
-  const FrameState& middle = sink.all()[15];  // t = 1.5 s: in the air
+  ASSERT_EQ(sink.kept.size(), 31u);
+  const FrameState& middle = sink.kept[15];  // t = 1.5 s: in the air
   ASSERT_EQ(middle.kidnaps.size(), 1u);
   EXPECT_FALSE(middle.kidnaps[0].landed);
   EXPECT_TRUE(middle.robots[0].carried);
-  const FrameState& end = sink.all().back();
+  const FrameState& end = sink.kept.back();
   ASSERT_EQ(end.kidnaps.size(), 2u);
   for (int k = 0; k < 2; ++k) {
     const KidnapMark& mark = end.kidnaps[static_cast<std::size_t>(k)];

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "sim/common/yaml_node.hpp"
+#include "sim/consumers/frame_state.hpp"
 #include "sim/producers/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/world/world_loader.hpp"
@@ -62,5 +64,35 @@ inline std::filesystem::path temp_dir(const std::string& name) {
   std::filesystem::create_directories(dir);
   return dir;
 }
+
+/// What the `locsim` command did.
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+/// `locsim ARGUMENTS` as a user runs it (no standard input).
+inline Outcome locsim(const std::string& arguments) {
+  const std::string command = std::string(LOCSIM_BINARY) + " " + arguments + " 2>&1 </dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  Outcome outcome;
+  if (pipe == nullptr) return outcome;
+  char buffer[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) outcome.output.append(buffer, n);
+  const int status = pclose(pipe);
+  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return outcome;
+}
+
+/// A frame sink that keeps the frames it is given (no renderer needed).
+class KeepFrames final : public FrameSink {
+ public:
+  void start(const WorldDef&) override {}
+  void frame(const FrameState& frame) override { kept.push_back(frame); }
+  void finish() override {}
+  long frames() const override { return static_cast<long>(kept.size()); }
+  std::vector<FrameState> kept;
+};
 
 }  // namespace locsim::testing

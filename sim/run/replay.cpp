@@ -21,9 +21,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   RecordConsumer& input = session.input();
 
   ReplayResult result;
-  result.status = "completed";
-  std::string error;
-  std::exception_ptr failure;
+  RunEnd end;
   const auto start = std::chrono::steady_clock::now();
   try {
     Record record;
@@ -38,38 +36,24 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
         since_flush = 0;
         input.flush();
         if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
-          result.status = "interrupted";
+          end.status = "interrupted";
           break;
         }
       }
     }
-  } catch (const Interrupted&) {
-    result.status = "interrupted";
-  } catch (const std::exception& e) {
-    result.status = "failed";
-    error = e.what();
-    failure = std::current_exception();
+  } catch (...) {
+    end.caught();
   }
-  json localizers;
-  try {
-    localizers = session.finish(result.replayed_s, result.status == "completed");
-  } catch (const Interrupted&) {
-    result.status = "interrupted";
-  } catch (const std::exception& e) {
-    if (!failure) {
-      result.status = "failed";
-      error = e.what();
-      failure = std::current_exception();
-    }
-  }
+  const json localizers = session.finish(result.replayed_s, end);
+  result.status = end.status;
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.failed_localizers = session.failed_localizers();
 
   const json& header = source.header();
   json run;
   run["locsim_version"] = locsim_version();
-  run["status"] = result.status;
-  if (!error.empty()) run["error"] = error;
+  run["status"] = end.status;
+  if (!end.error.empty()) run["error"] = end.error;
   run["source"] = "replay";
   run["log_file"] = options.log_file.string();
   run["recorded_with"] = header.value("locsim_version", "");
@@ -82,7 +66,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   run["config"] = {{"world", to_json(source.world())}, {"scenario", to_json(source.scenario())}};
   run["timing"] = {{"wall_s", result.wall_s}, {"peak_memory_mb", peak_memory_json()}};
   write_json_atomically(options.out_dir / "run.json", run);
-  if (failure) std::rethrow_exception(failure);
+  if (end.failure) std::rethrow_exception(end.failure);
   return result;
 }
 

@@ -104,9 +104,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   const auto wall_start = std::chrono::steady_clock::now();
   auto next_progress = wall_start + std::chrono::seconds(1);
   bool progress_shown = false;
-  std::string error;
-  std::exception_ptr failure;
-  result.status = "completed";
+  RunEnd end;
   try {
     if (options.video != nullptr) {
       capture.emplace(*options.video, options.video_options, sim, &session.host());
@@ -116,7 +114,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
     if (capture) capture->after_step(sim);
     while (!sim.done()) {
       if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
-        result.status = "interrupted";
+        end.status = "interrupted";
         break;
       }
       sim.step();
@@ -140,42 +138,24 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
         }
       }
     }
-  } catch (const Interrupted&) {
-    result.status = "interrupted";
-  } catch (const std::exception& e) {
-    result.status = "failed";
-    error = e.what();
-    failure = std::current_exception();
+  } catch (...) {
+    end.caught();
   }
   if (progress_shown) std::fprintf(stderr, "\n");
-  json localizers;
-  try {
-    localizers = session.finish(sim.time_s(), result.status == "completed");
-  } catch (const Interrupted&) {
-    result.status = "interrupted";
-  } catch (const std::exception& e) {
-    if (!failure) {
-      result.status = "failed";
-      error = e.what();
-      failure = std::current_exception();
-    }
-  }
+  const json localizers = session.finish(sim.time_s(), end);
   if (options.video != nullptr) {
     // Closed whatever the status: the frames so far make a valid video of a failed run too.
     try {
       options.video->finish();
-    } catch (const std::exception& e) {
-      if (!failure) {
-        result.status = "failed";
-        error = std::string("video: ") + e.what();
-        failure = std::current_exception();
-      }
+    } catch (...) {
+      end.caught("video: ");
     }
   }
   if (log) {
     log->flush();
-    if (result.status == "completed") log->finish();  // else it reads as truncated, rightly
+    if (end.completed()) log->finish();  // else it reads as truncated, rightly
   }
+  result.status = end.status;
   result.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   result.simulated_s = sim.time_s();
@@ -184,8 +164,8 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
 
   json run;
   run["locsim_version"] = locsim_version();
-  run["status"] = result.status;
-  if (!error.empty()) run["error"] = error;
+  run["status"] = end.status;
+  if (!end.error.empty()) run["error"] = end.error;
   run["seed"] = options.seed;
   run["world_file"] = options.world_file.string();
   run["scenario_file"] = inputs.scenario.source.string();
@@ -220,7 +200,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
       {"realtime_paced", options.realtime},
       {"peak_memory_mb", peak_memory_json()}};
   write_json_atomically(result.out_dir / "run.json", run);
-  if (failure) std::rethrow_exception(failure);
+  if (end.failure) std::rethrow_exception(end.failure);
   return result;
 }
 

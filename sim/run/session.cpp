@@ -2,6 +2,7 @@
 
 #include <sys/resource.h>
 
+#include "sim/common/errors.hpp"
 #include "sim/world/occupancy.hpp"
 #include "sim/world/physics_world.hpp"
 
@@ -37,24 +38,40 @@ void Session::open(const std::filesystem::path& out_dir) {
   fanout_.add(*recorder_);
 }
 
-nlohmann::ordered_json Session::finish(double t_end_s, bool wait) {
-  std::vector<LocalizerFinal> finals(host_->localizers().size());
-  // In this process nothing is waited for: the final state is always there to be had.
-  if (wait || !options_.isolate) {
-    try {
-      finals = host_->finish(t_end_s);
-    } catch (const Interrupted&) {
-      host_->abort();
-      recorder_->close();
-      scorer_->write(folder_.robot_dirs, finals);
-      throw;
-    }
-  } else {
-    host_->abort();
+void RunEnd::caught(const std::string& context) {
+  try {
+    throw;
+  } catch (const Interrupted&) {
+    if (!failure) status = "interrupted";
+  } catch (const std::exception& e) {
+    if (failure) return;
+    status = "failed";
+    error = context + e.what();
+    failure = std::current_exception();
   }
-  recorder_->close();
-  if (host_->localizers().empty()) return nlohmann::ordered_json::array();
-  return scorer_->write(folder_.robot_dirs, finals);
+}
+
+nlohmann::ordered_json Session::finish(double t_end_s, RunEnd& end) {
+  std::vector<LocalizerFinal> finals(host_->localizers().size());
+  try {
+    // In this process nothing is waited for: the final state is always there to be had.
+    if (end.completed() || !options_.isolate) {
+      try {
+        finals = host_->finish(t_end_s);
+      } catch (const Interrupted&) {
+        end.caught();
+        host_->abort();
+      }
+    } else {
+      host_->abort();
+    }
+    recorder_->close();
+    if (host_->localizers().empty()) return nlohmann::ordered_json::array();
+    return scorer_->write(folder_.robot_dirs, finals);
+  } catch (const std::exception&) {
+    end.caught();
+    return nlohmann::ordered_json::array();
+  }
 }
 
 nlohmann::ordered_json peak_memory_json() {

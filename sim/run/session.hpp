@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -30,6 +31,18 @@ struct SessionOptions {
   bool overwrite = false;               // allow writing into a non-empty folder
 };
 
+/// How a run or replay ended: completed, interrupted (Ctrl-C) or failed (with the first error,
+/// which the driver rethrows once run.json is written).
+struct RunEnd {
+  std::string status = "completed";
+  std::string error;
+  std::exception_ptr failure;
+  bool completed() const { return status == "completed"; }
+  /// In a catch block: Interrupted makes it interrupted, anything else failed (the first failure
+  /// is the one kept).
+  void caught(const std::string& context = "");
+};
+
 class Session {
  public:
   /// Parses the specs, loads the plugins, checks their parameters and creates every localizer
@@ -45,10 +58,11 @@ class Session {
   const RunFolder& folder() const { return folder_; }
   bool has_localizers() const { return !host_->localizers().empty(); }
 
-  /// Ends the stream at `t_end_s`. With `wait`, every localizer first takes in every record
-  /// (Interrupted if Ctrl-C comes meanwhile); without, they are stopped where they are. Writes
-  /// metrics.json and closes the files; returns run.json's "localizers" block.
-  nlohmann::ordered_json finish(double t_end_s, bool wait);
+  /// Ends the stream at `t_end_s`. When `end` is completed, every localizer first takes in every
+  /// record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are. Writes
+  /// metrics.json and closes the files (a failure there goes into `end`); returns run.json's
+  /// "localizers" block.
+  nlohmann::ordered_json finish(double t_end_s, RunEnd& end);
   /// Labels of the localizers that failed.
   std::vector<std::string> failed_localizers() const { return scorer_->failed(); }
 
