@@ -92,10 +92,6 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
   session.open(result.out_dir);
   std::unique_ptr<LogWriter> log;
-  if (options.log_file) {
-    log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
-    session.input().add(*log);
-  }
   SimulationSource source(sim);
   RecordConsumer& input = session.input();
   std::optional<FrameCapture> capture;
@@ -106,6 +102,10 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   bool progress_shown = false;
   RunEnd end;
   try {
+    if (options.log_file) {
+      log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
+      session.input().add(*log);
+    }
     if (options.video != nullptr) {
       capture.emplace(*options.video, options.video_options, sim, &session.host());
       session.input().add(*capture);
@@ -152,8 +152,12 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
     }
   }
   if (log) {
-    log->flush();
-    if (end.completed()) log->finish();  // else it reads as truncated, rightly
+    try {
+      log->flush();
+      if (end.completed()) log->finish();  // else it reads as truncated, rightly
+    } catch (...) {
+      end.caught();
+    }
   }
   result.status = end.status;
   result.wall_s =

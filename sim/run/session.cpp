@@ -54,24 +54,30 @@ void RunEnd::caught(const std::string& context) {
 nlohmann::ordered_json Session::finish(double t_end_s, RunEnd& end) {
   std::vector<LocalizerFinal> finals(host_->localizers().size());
   try {
-    // In this process nothing is waited for: the final state is always there to be had.
-    if (end.completed() || !options_.isolate) {
-      try {
-        finals = host_->finish(t_end_s);
-      } catch (const Interrupted&) {
-        end.caught();
-        host_->abort();
-      }
+    // Only Ctrl-C stops the localizers where they are; otherwise (a failed run too) they take in
+    // every record sent so far, so that the outputs end at the same instant.
+    if (end.status != "interrupted" || !options_.isolate) {
+      finals = host_->finish(t_end_s);
     } else {
       host_->abort();
     }
-    recorder_->close();
-    if (host_->localizers().empty()) return nlohmann::ordered_json::array();
-    return scorer_->write(folder_.robot_dirs, finals);
-  } catch (const std::exception&) {
+  } catch (...) {
     end.caught();
-    return nlohmann::ordered_json::array();
+    host_->abort();
   }
+  // Each output on its own: a file that cannot be written costs the others nothing.
+  nlohmann::ordered_json localizers = nlohmann::ordered_json::array();
+  try {
+    if (!host_->localizers().empty()) localizers = scorer_->write(folder_.robot_dirs, finals);
+  } catch (...) {
+    end.caught();
+  }
+  try {
+    recorder_->close();
+  } catch (...) {
+    end.caught();
+  }
+  return localizers;
 }
 
 nlohmann::ordered_json peak_memory_json() {

@@ -58,8 +58,8 @@ class Session {
   const RunFolder& folder() const { return folder_; }
   bool has_localizers() const { return !host_->localizers().empty(); }
 
-  /// Ends the stream at `t_end_s`. When `end` is completed, every localizer first takes in every
-  /// record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are. Writes
+  /// Ends the stream at `t_end_s`. Unless `end` is interrupted, every localizer first takes in
+  /// every record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are. Writes
   /// metrics.json and closes the files (a failure there goes into `end`); returns run.json's
   /// "localizers" block.
   nlohmann::ordered_json finish(double t_end_s, RunEnd& end);

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <cerrno>
 #include <cstring>
 
 #include "sim/common/errors.hpp"
@@ -23,8 +24,8 @@ std::uint32_t crc(std::uint8_t type, const std::string& payload) {
 }  // namespace
 
 LogWriter::LogWriter(const std::filesystem::path& file, const nlohmann::ordered_json& header)
-    : out_(file, std::ios::binary | std::ios::trunc) {
-  if (!out_) throw std::runtime_error("cannot write " + file.string());
+    : file_(file), out_(file, std::ios::binary | std::ios::trunc) {
+  check();
   const std::string text = header.dump();
   out_.write(kMagic, sizeof(kMagic));
   std::string head;
@@ -33,6 +34,19 @@ LogWriter::LogWriter(const std::filesystem::path& file, const nlohmann::ordered_
   head += text;
   put<std::uint32_t>(head, crc(0, text));
   out_ << head;
+  flush();
+}
+
+void LogWriter::check() {
+  if (!out_) {
+    throw std::runtime_error("cannot write the log " + file_.string() + ": " +
+                             std::strerror(errno));
+  }
+}
+
+void LogWriter::flush() {
+  out_.flush();
+  check();
 }
 
 void LogWriter::write_frame(Record::Type type) {
@@ -56,6 +70,7 @@ void LogWriter::finish() {
   put<std::uint64_t>(payload_, records_);
   write_frame(Record::Type::kEnd);
   out_.close();
+  check();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -25,14 +25,19 @@ inline constexpr std::uint32_t kLogFormatVersion = 1;
 
 class LogWriter final : public RecordConsumer {
  public:
+  /// Every write is checked (when flushed, and at the end): a log that cannot be written whole
+  /// throws std::runtime_error naming the file and the system's reason, so that no run that lost
+  /// part of its log says it completed.
   LogWriter(const std::filesystem::path& file, const nlohmann::ordered_json& header);
   void consume(const Record& record) override;
-  void flush() override { out_.flush(); }
+  void flush() override;
   /// Writes the end record and closes; a log without it reads as truncated.
   void finish();
 
  private:
   void write_frame(Record::Type type);
+  void check();
+  std::filesystem::path file_;
   std::ofstream out_;
   std::string payload_, frame_;
   std::uint64_t records_ = 0;

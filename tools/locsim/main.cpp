@@ -381,6 +381,8 @@ int main(int argc, char** argv) {
   replay->add_option("log", replay_options.log_file, "Log file written by `locsim run --log`")
       ->required();
   replay->add_option("--out", replay_out, "Output folder")->required();
+  bool replay_quiet = false;
+  replay->add_flag("-q,--quiet", replay_quiet, "No summary line");
   add_session_options(replay, replay_options);
   std::string report_dir;
   CLI::App* report_cmd =
@@ -409,9 +411,11 @@ int main(int argc, char** argv) {
       replay_options.isolate = isolation == "process";
       catch_sigint();
       const locsim::ReplayResult r = locsim::replay_log(replay_options, &g_interrupted);
-      std::printf("%s: %s, replayed %.1f s (%zu records) in %.3f s -> %s\n",
-                  replay_options.log_file.c_str(), r.status.c_str(), r.replayed_s, r.records,
-                  r.wall_s, replay_out.c_str());
+      if (!replay_quiet) {
+        std::printf("%s: %s, replayed %.1f s (%zu records) in %.3f s -> %s\n",
+                    replay_options.log_file.c_str(), r.status.c_str(), r.replayed_s, r.records,
+                    r.wall_s, replay_out.c_str());
+      }
       return exit_code(r.status, r.failed_localizers);
     }
     if (*sweep) {
