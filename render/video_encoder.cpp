@@ -79,7 +79,11 @@ VideoEncoder::VideoEncoder(const fs::path& file, int width, int height, double f
   if (extension != ".mp4" && extension != ".mkv" && extension != ".mov" && extension != ".avi")
     fail("use .mp4, .mkv, .mov or .avi");
   if (width % 2 != 0 || height % 2 != 0) fail("width and height must be even (4:2:0 chroma)");
-  if (file.has_parent_path()) fs::create_directories(file.parent_path());
+  if (file.has_parent_path()) {
+    std::error_code error;  // a RenderError (exit 4) like every other video failure
+    fs::create_directories(file.parent_path(), error);
+    if (error) fail("cannot make its folder: " + error.message());
+  }
   av_log_set_level(AV_LOG_ERROR);  // x264's statistics are not for the run's console
   State& s = *state_;
   int status = avformat_alloc_output_context2(&s.format, nullptr, nullptr, file.c_str());

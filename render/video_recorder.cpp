@@ -40,7 +40,14 @@ void VideoRecorder::start(const WorldDef& world) {
                                               options_.height_px, options_.fps);
     codec_ = encoder_->codec();
   }
-  if (options_.frames_dir) fs::create_directories(*options_.frames_dir);
+  if (options_.frames_dir) {
+    std::error_code error;  // a RenderError (exit 4) like every other video failure
+    fs::create_directories(*options_.frames_dir, error);
+    if (error) {
+      throw RenderError("--frames: cannot make '" + options_.frames_dir->string() +
+                        "': " + error.message());
+    }
+  }
   worker_ = std::thread([this] { work(); });
 }
 

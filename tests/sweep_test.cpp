@@ -185,6 +185,112 @@ TEST(Sweep, ShardsMergedEqualTheWholeSweep) {
   EXPECT_THROW(merge_sweeps(dir / "bad", {dir / "a", other_dir / "out"}), InputError);
 }
 
+/// The office world (a ROS map: YAML and PGM) copied to `dir`, and an experiment on it with a
+/// scenario file and a plugin copied there too, 0.3 s per run: every kind of input a fingerprint
+/// covers, each a file the test can change.
+fs::path write_map_experiment(const fs::path& dir) {
+  for (const char* file : {"office_world.yaml", "office.yaml", "office.pgm"}) {
+    fs::copy_file(fs::path(LOCSIM_SOURCE_DIR) / "worlds/maps" / file, dir / file);
+  }
+  fs::copy_file(test_plugin("probe"), dir / "locsim_probe_copy.so");
+  std::ofstream(dir / "scenario.yaml") << "name: still\nduration_s: 0.3\n";
+  const fs::path file = dir / "experiment.yaml";
+  std::ofstream(file) << "name: map\nworld: office_world.yaml\nscenario: scenario.yaml\n"
+                         "seeds: [1, 2]\nlocalizers:\n  - plugin: "
+                      << (dir / "locsim_probe_copy.so").string() << "\n    label: probe\n";
+  return file;
+}
+
+/// The message of a refused resume of `out`, after which nothing in `out` may have changed.
+std::string refused_resume(const fs::path& experiment, const fs::path& out) {
+  const std::string before =
+      testing::read_file(out / "results.jsonl") + testing::read_file(out / "sweep.json");
+  std::string message = "accepted";
+  try {
+    sweep(experiment, out, 1, true);
+  } catch (const InputError& e) {
+    message = e.what();
+  }
+  EXPECT_EQ(testing::read_file(out / "results.jsonl") + testing::read_file(out / "sweep.json"),
+            before);
+  return message;
+}
+
+TEST(Fingerprint, ResumeRefusesAChangedWorldMapScenarioOrPluginAndSaysWhich) {
+  const fs::path dir = testing::temp_dir("fingerprint");
+  const fs::path experiment = write_map_experiment(dir);
+  const fs::path out = dir / "out";
+  ASSERT_EQ(sweep(experiment, out, 1).total, 2u);
+  EXPECT_EQ(refused_resume(experiment, out), "accepted");  // nothing changed: nothing to run
+  // Each file changed in a way that still loads: a comment, a pixel 0 -> 1 (still occupied).
+  const auto change = [&](const char* file) {
+    const std::string original = testing::read_file(dir / file);
+    std::string changed = original;
+    if (fs::path(file).extension() == ".pgm") {
+      changed.back() = static_cast<char>(changed.back() == 0 ? 1 : changed.back() - 1);
+    } else {
+      changed += "# a comment\n";
+    }
+    std::ofstream(dir / file, std::ios::binary | std::ios::trunc) << changed;
+    const std::string message = refused_resume(experiment, out);
+    EXPECT_NE(message.find(std::string("file ") + file + " changed"), std::string::npos) << message;
+    EXPECT_NE(message.find("holds a sweep of other inputs"), std::string::npos) << message;
+    std::ofstream(dir / file, std::ios::binary | std::ios::trunc) << original;
+  };
+  for (const char* file :
+       {"office_world.yaml", "office.yaml", "office.pgm", "scenario.yaml", "experiment.yaml"}) {
+    change(file);
+  }
+  std::ofstream(dir / "locsim_probe_copy.so", std::ios::binary | std::ios::app) << '\0';
+  const std::string plugin = refused_resume(experiment, out);
+  EXPECT_NE(plugin.find("plugin " + (dir / "locsim_probe_copy.so").string() + " changed"),
+            std::string::npos)
+      << plugin;
+}
+
+TEST(Fingerprint, MergeRefusesShardsOfOtherInputsAndWritesNothing) {
+  const fs::path dir = testing::temp_dir("fingerprint");
+  const fs::path experiment = write_map_experiment(dir);
+  sweep(experiment, dir / "a", 1, false, std::pair{1, 2});
+  std::string pgm = testing::read_file(dir / "office.pgm");
+  pgm.back() = static_cast<char>(pgm.back() == 0 ? 1 : pgm.back() - 1);
+  std::ofstream(dir / "office.pgm", std::ios::binary | std::ios::trunc) << pgm;
+  sweep(experiment, dir / "b", 1, false, std::pair{2, 2});
+  try {
+    merge_sweeps(dir / "merged", {dir / "a", dir / "b"});
+    ADD_FAILURE() << "merged";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("file office.pgm changed"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "merged"));
+}
+
+TEST(Fingerprint, AFolderOfAnOlderLocsimIsRefusedWithTheReason) {
+  const fs::path dir = testing::temp_dir("fingerprint");
+  const fs::path experiment = write_map_experiment(dir);
+  const fs::path out = dir / "out";
+  sweep(experiment, out, 1);
+  // Before: the fingerprint was a hash of the experiment file alone.
+  nlohmann::ordered_json header =
+      nlohmann::ordered_json::parse(testing::read_file(out / "sweep.json"));
+  header["fingerprint"] = "0123456789abcdef";
+  std::ofstream(out / "sweep.json") << header.dump(2) << '\n';
+  EXPECT_NE(refused_resume(experiment, out).find("made by an older locsim"), std::string::npos);
+  EXPECT_THROW(merge_sweeps(dir / "merged", {out}), InputError);
+  EXPECT_FALSE(fs::exists(dir / "merged"));
+}
+
+TEST(Sweep, ARunsLogHoldsWhatItsPluginPrintedLabelled) {
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment =
+      write_short_experiment(dir, "  - plugin: " + test_plugin("chatty") + "\n    label: chatty\n");
+  sweep(experiment, dir / "out", 1);
+  const std::string log = testing::read_file(dir / "out/runs/chatty/seed-1/log.txt");
+  EXPECT_NE(log.find("[chatty] reading 1 at t = "), std::string::npos) << log.substr(0, 1000);
+  EXPECT_NE(log.find("bytes of output dropped here"), std::string::npos);
+  EXPECT_LT(log.size(), 2u << 20);
+}
+
 TEST(Sweep, KilledWithSigkillAndResumedEqualsUninterrupted) {
   const fs::path dir = testing::temp_dir("sweep");
   const fs::path experiment = write_experiment(dir, 6);

@@ -71,9 +71,9 @@ struct Outcome {
   std::string output;  // stdout and stderr
 };
 
-/// `locsim ARGUMENTS` as a user runs it (no standard input).
-inline Outcome locsim(const std::string& arguments) {
-  const std::string command = std::string(LOCSIM_BINARY) + " " + arguments + " 2>&1 </dev/null";
+/// A shell command line (no standard input; stderr with stdout).
+inline Outcome run_command(const std::string& command_line) {
+  const std::string command = command_line + " 2>&1 </dev/null";
   FILE* pipe = popen(command.c_str(), "r");
   Outcome outcome;
   if (pipe == nullptr) return outcome;
@@ -83,6 +83,11 @@ inline Outcome locsim(const std::string& arguments) {
   const int status = pclose(pipe);
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return outcome;
+}
+
+/// `locsim ARGUMENTS` as a user runs it (no standard input).
+inline Outcome locsim(const std::string& arguments) {
+  return run_command(std::string(LOCSIM_BINARY) + " " + arguments);
 }
 
 /// A frame sink that keeps the frames it is given (no renderer needed).

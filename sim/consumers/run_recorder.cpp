@@ -21,13 +21,35 @@ void RunFolder::check(const fs::path& root, bool overwrite) {
   if (fs::exists(root) && !fs::is_directory(root)) {
     throw InputError("--out: '" + root.string() + "' exists and is not a folder");
   }
-  if (fs::exists(root) && !fs::is_empty(root) && !overwrite) {
+  if (!fs::exists(root) || fs::is_empty(root)) return;
+  if (!overwrite) {
     throw InputError("--out: folder '" + root.string() +
                      "' is not empty; choose another or pass --overwrite");
   }
+  if (!fs::exists(root / "run.json")) {
+    throw InputError("--out: folder '" + root.string() +
+                     "' is not empty and holds no run.json: --overwrite empties only a run "
+                     "folder; choose another folder");
+  }
 }
 
-RunFolder RunFolder::create(const fs::path& root, const WorldDef& world) {
+RunFolder RunFolder::create(const fs::path& root, const WorldDef& world, bool overwrite,
+                            const std::vector<fs::path>& keep) {
+  if (overwrite && fs::is_directory(root)) {
+    // An entry is kept when it is a kept file or a folder holding one (--frames inside --out).
+    const auto kept = [&](const fs::path& entry) {
+      const fs::path candidate = fs::weakly_canonical(entry);
+      return std::any_of(keep.begin(), keep.end(), [&](const fs::path& file) {
+        const fs::path target = fs::weakly_canonical(file);
+        return std::mismatch(candidate.begin(), candidate.end(), target.begin(), target.end())
+                   .first == candidate.end();
+      });
+    };
+    for (const fs::directory_entry& entry : fs::directory_iterator(root)) {
+      // remove_all removes a symbolic link itself, never what it points to.
+      if (!kept(entry.path())) fs::remove_all(entry.path());
+    }
+  }
   RunFolder folder{root, {}};
   fs::create_directories(root);
   for (const RobotDef& robot : world.robots) {

@@ -22,11 +22,16 @@ struct RunFolder {
   std::filesystem::path root;
   std::vector<std::filesystem::path> robot_dirs;
 
-  /// Refuses (InputError) a path that is not a folder, or a non-empty folder without
-  /// `overwrite`. Writes nothing.
+  /// Refuses (InputError) a path that is not a folder, and a non-empty folder without
+  /// `overwrite`, or with it one that holds no run.json: --overwrite empties a run folder, and a
+  /// folder of the user's that only looks like one is never emptied. Writes nothing.
   static void check(const std::filesystem::path& root, bool overwrite);
-  /// Makes the folders.
-  static RunFolder create(const std::filesystem::path& root, const WorldDef& world);
+  /// With `overwrite`, first empties the folder (a previous run's LABEL.tum or readings/ must not
+  /// stand beside the new ones), except `keep`: files this same command writes into it (--log,
+  /// --video, --frames). Then makes the folders.
+  static RunFolder create(const std::filesystem::path& root, const WorldDef& world,
+                          bool overwrite = false,
+                          const std::vector<std::filesystem::path>& keep = {});
 };
 
 /// A file written as it goes; every write is checked (on flush and close): one that fails throws

@@ -129,7 +129,8 @@ ExperimentDef load_experiment(const fs::path& file) {
         convergence->get_int("hold_samples", e.convergence.hold_samples, 1, 1000000));
   }
   // The world and scenario must load now, not in every run.
-  load_run_inputs(e.world, e.scenario, e.duration_s);
+  e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;
+  e.files.insert(e.files.begin(), file);
   return e;
 }
 

@@ -41,6 +41,9 @@ struct ExperimentDef {
   std::vector<LocalizerConfig> localizers;
   ConvergenceCriterion convergence;
   double timeout_s = 600.0;  // per run, wall clock [s]
+  /// Every file the experiment was read from: this one, then its world's and scenario's
+  /// (RunInputs::files).
+  std::vector<std::filesystem::path> files;
 };
 
 /// Reads and checks an experiment file (including that the world and scenario load).

@@ -1,6 +1,7 @@
 #include "sim/experiments/sweep.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -20,6 +21,7 @@
 #include <sstream>
 #include <thread>
 
+#include "sim/common/capped_text.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/experiments/experiment.hpp"
@@ -27,6 +29,7 @@
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/producers/simulation.hpp"
+#include "sim/run/runner.hpp"
 
 namespace locsim {
 
@@ -35,8 +38,8 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-/// FNV-1a of the experiment file: a resume or merge must be of the same experiment.
-std::string fingerprint(const fs::path& file) {
+/// FNV-1a of a file's bytes: whether it is the same file as before.
+std::string content_hash(const fs::path& file) {
   std::uint64_t hash = 0xcbf29ce484222325ULL;
   for (const char c : read_text(file)) {
     hash ^= static_cast<unsigned char>(c);
@@ -45,6 +48,57 @@ std::string fingerprint(const fs::path& file) {
   char text[24];
   std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
   return text;
+}
+
+/// What the results of a sweep depend on, each input on its own so that a resume or merge can
+/// say which changed: the locsim version, every file the experiment was read from (itself, the
+/// world, its map's YAML and image, the scenario) and every plugin (`plugins`, from
+/// check_localizers: its declared name, ABI version and its file's hash; not the file's path,
+/// which differs between machines).
+json input_fingerprint(const ExperimentDef& experiment, const json& plugins) {
+  // Named relative to the experiment file's folder: the same on resume from another working
+  // folder, and for shards run on other machines.
+  const fs::path base = fs::absolute(experiment.files.front()).parent_path();
+  json files = json::object();
+  for (const fs::path& file : experiment.files) {
+    const std::string name =
+        fs::absolute(file).lexically_normal().lexically_relative(base).generic_string();
+    files[name] = content_hash(file);
+  }
+  return {
+      {"format", 2}, {"locsim_version", locsim_version()}, {"files", files}, {"plugins", plugins}};
+}
+
+/// How fingerprint `now` differs from `before` ("" when it does not), input by input.
+std::string fingerprint_change(const json& before, const json& now) {
+  if (!before.is_object() || before.value("format", 0) != 2) {
+    return "it was made by an older locsim, whose fingerprint covers the experiment file only "
+           "(not the world, scenario, map or plugins), so it cannot be told whether its inputs "
+           "changed; finish it with that locsim, or run the sweep again into a new folder";
+  }
+  std::vector<std::string> changes;
+  const json version_before = before.value("locsim_version", json()),
+             version_now = now.value("locsim_version", json());
+  if (version_before != version_now) {
+    changes.push_back("locsim version " + version_before.dump() + " -> " + version_now.dump());
+  }
+  for (const char* kind : {"files", "plugins"}) {
+    const std::string what = std::string(kind) == "files" ? "file" : "plugin";
+    const json was = before.value(kind, json::object()), is = now.value(kind, json::object());
+    for (const auto& [name, value] : was.items()) {
+      if (!is.contains(name)) {
+        changes.push_back(what + " " + name + " is no longer used");
+      } else if (is.at(name) != value) {
+        changes.push_back(what + " " + name + " changed");
+      }
+    }
+    for (const auto& [name, value] : is.items()) {
+      if (!was.contains(name)) changes.push_back(what + " " + name + " is new");
+    }
+  }
+  std::string out;
+  for (const std::string& change : changes) out += (out.empty() ? "" : "; ") + change;
+  return out;
 }
 
 /// Every run's newest result in results.jsonl, in file order: a resume appends a retried run's
@@ -96,6 +150,8 @@ bool result_stands(const json& result, bool retry_failed) {
 }
 
 constexpr std::size_t kMaxReasonBytes = 4096;
+// A run's log.txt keeps this much of what its process printed first and last.
+constexpr std::size_t kLogHeadBytes = 2 << 20, kLogTailBytes = 256 << 10;
 
 /// What a process that could not produce a result said: its log from the first `locsim: ` line
 /// on (the error, with a message's continuation lines, e.g. where a plugin was looked for),
@@ -333,7 +389,8 @@ namespace {
 /// by where the experiment file gives it, rather than every run of it after the simulation.
 /// Creating the filters needs the world's simulation; a plugin whose create call fails is still
 /// found by its runs.
-void check_localizers(const ExperimentDef& experiment) {
+json check_localizers(const ExperimentDef& experiment) {
+  json stamps = json::object();  // by plugin, as the experiment names it: for the fingerprint
   const auto at = [](const InputPlace& place, const std::string& message) {
     return place.where.str() + ": '" + place.key + "': " + message;
   };
@@ -356,6 +413,9 @@ void check_localizers(const ExperimentDef& experiment) {
       std::shared_ptr<const PluginLibrary>& loaded = libraries[file.string()];
       if (!loaded) loaded = std::make_shared<const PluginLibrary>(file);
       library = loaded;
+      stamps[spec.plugin] = {{"name", library->table().name},
+                             {"abi_version", library->table().abi_version},
+                             {"hash", content_hash(file)}};
       const ParamSet params(library->table(), spec);
     } catch (const PluginError& e) {
       throw PluginError(at(config.plugin_place, e.what()));
@@ -377,6 +437,7 @@ void check_localizers(const ExperimentDef& experiment) {
       throw InputError(at(place, e.what()));
     }
   }
+  return stamps;
 }
 
 }  // namespace
@@ -392,7 +453,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     throw InputError("--retry-failed: only with --resume (a new sweep runs every run)");
   }
   // Before the folder is made or touched: a bad plugin or parameter leaves nothing behind.
-  check_localizers(experiment);
+  const json plugins = check_localizers(experiment);
   const std::vector<RunUnit> all = expand_runs(experiment);
   std::vector<const RunUnit*> mine;
   for (const RunUnit& run : all) {
@@ -407,7 +468,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   const json header = {
       {"experiment", experiment.name},
       {"file", options.experiment_file.string()},
-      {"fingerprint", fingerprint(options.experiment_file)},
+      {"fingerprint", input_fingerprint(experiment, plugins)},
       {"runs", all.size()},
       {"shard",
        options.shard ? json::array({options.shard->first, options.shard->second}) : json(nullptr)}};
@@ -419,9 +480,16 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
           "' already holds a sweep; pass --resume to finish it, or choose another folder");
     }
     const json previous = json::parse(read_text(out / "sweep.json"));
-    if (previous["fingerprint"] != header["fingerprint"] || previous["shard"] != header["shard"]) {
+    if (const std::string change =
+            fingerprint_change(previous["fingerprint"], header["fingerprint"]);
+        !change.empty()) {
       throw InputError("--resume: '" + out.string() +
-                       "' holds a sweep of another experiment file or shard");
+                       "' holds a sweep of other inputs, whose results cannot be joined with new "
+                       "ones: " +
+                       change);
+    }
+    if (previous["shard"] != header["shard"]) {
+      throw InputError("--resume: '" + out.string() + "' holds another shard of this sweep");
     }
     const std::vector<json> results = read_results(out / "results.jsonl");
     // One line per run and no torn last line before appending. A retried run's old result stays
@@ -508,6 +576,25 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     Task task;
     std::chrono::steady_clock::time_point start;
     bool timed_out = false;
+    int output_fd = -1;  // the read end of the pipe its stdout and stderr go to
+    CappedText output{kLogHeadBytes, kLogTailBytes};
+  };
+  // What a process printed goes to its log.txt when it ends, capped: a plugin that prints without
+  // end costs neither the disk nor the memory. Written at the end (not as it comes) because the
+  // run empties its folder first.
+  const auto drain = [](Active& a) {
+    char chunk[1 << 16];
+    while (a.output_fd >= 0) {
+      const ssize_t n = ::read(a.output_fd, chunk, sizeof(chunk));
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+      if (n <= 0) {
+        ::close(a.output_fd);
+        a.output_fd = -1;
+        return;
+      }
+      a.output.add(std::string_view(chunk, static_cast<std::size_t>(n)));
+    }
   };
   std::map<pid_t, Active> active;
   std::deque<Task> queue;
@@ -535,7 +622,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     task.run = &run;
     task.log = run_dir_of(run) / "log.txt";
     task.args = {binary.string(), "replay", log_of(run.seed).string(), "--localizer",
-                 run.config->spec(), "--out", run_dir_of(run).string(), "--overwrite",
+                 run.config->spec(), "--out", run_dir_of(run).string(),
                  // The seed's recording folder has the readings already.
                  "--no-readings", "--converged-within-m",
                  fixed(experiment.convergence.position_m, 9), "--converged-within-deg",
@@ -560,7 +647,6 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                    std::to_string(run->seed),
                    "--out",
                    recording_dir(run->seed).string(),
-                   "--overwrite",
                    "-q",
                    "--log",
                    log_of(run->seed).string()};
@@ -580,10 +666,24 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   sigemptyset(&child_signal);
   sigaddset(&child_signal, SIGCHLD);
   sigprocmask(SIG_BLOCK, &child_signal, &previous_mask);
+  // SIGCHLD, blocked but for the wait in ppoll, interrupts it: a handler that does nothing (the
+  // default disposition would discard the signal without waking anyone).
+  struct sigaction wake_on_child {
+  }, previous_child_action{};
+  wake_on_child.sa_handler = [](int) {};
+  sigemptyset(&wake_on_child.sa_mask);
+  sigaction(SIGCHLD, &wake_on_child, &previous_child_action);
+  sigset_t wait_mask = previous_mask;
+  sigdelset(&wait_mask, SIGCHLD);
+  std::vector<pollfd> outputs;
   while (!queue.empty() || !active.empty()) {
     if (interrupt != nullptr && interrupt->load()) {
       for (const auto& [pid, a] : active) kill(-pid, SIGKILL);
-      for (const auto& [pid, a] : active) waitpid(pid, nullptr, 0);
+      for (auto& [pid, a] : active) {
+        waitpid(pid, nullptr, 0);
+        drain(a);  // what it printed until then, for whoever wonders what it was doing
+        write_file(a.task.log, a.output.kept());
+      }
       summary.interrupted = true;
       break;
     }
@@ -596,7 +696,9 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       std::vector<char*> argv;
       for (std::string& a : task.args) argv.push_back(a.data());
       argv.push_back(nullptr);
-      const std::string log = task.log.string();
+      int output[2];
+      if (::pipe2(output, O_CLOEXEC) != 0)
+        throw std::runtime_error(std::string("pipe failed: ") + std::strerror(errno));
       const pid_t pid = fork();
       if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
       if (pid == 0) {
@@ -604,24 +706,31 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         // A sweep killed hard takes its runs with it, so a --resume never races a survivor.
         prctl(PR_SET_PDEATHSIG, SIGKILL);
         if (getppid() == 1) _exit(127);  // the sweep died before prctl took effect
+        sigaction(SIGCHLD, &previous_child_action, nullptr);
         sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
-        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd >= 0) {
-          dup2(fd, STDOUT_FILENO);
-          dup2(fd, STDERR_FILENO);
-          ::close(fd);
-        }
+        dup2(output[1], STDOUT_FILENO);  // dup2 clears close-on-exec on the copies
+        dup2(output[1], STDERR_FILENO);
         execv(argv[0], argv.data());
         _exit(127);
       }
+      ::close(output[1]);
+      ::fcntl(output[0], F_SETFL, O_NONBLOCK);
       setpgid(pid, pid);
-      active[pid] = {std::move(task), std::chrono::steady_clock::now()};
+      Active& started = active[pid];
+      started.task = std::move(task);
+      started.start = std::chrono::steady_clock::now();
+      started.output_fd = output[0];
     }
+    for (auto& [child, a] : active) drain(a);
     int status = 0;
     const pid_t pid = waitpid(-1, &status, WNOHANG);
     if (pid > 0 && active.count(pid)) {
-      const Active a = active[pid];
+      Active a = std::move(active[pid]);
       active.erase(pid);
+      drain(a);  // what it wrote before it ended (a process it left behind may hold the pipe)
+      if (a.output_fd >= 0) ::close(a.output_fd);
+      fs::create_directories(a.task.log.parent_path());
+      write_file(a.task.log, a.output.kept());
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - a.start).count();
       if (a.task.recording) {
@@ -656,10 +765,19 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         kill(-child, SIGKILL);
       }
     }
-    const timespec wait_at_most{0,
-                                50'000'000};  // 50 ms: timeouts and Ctrl-C are checked that often
-    sigtimedwait(&child_signal, nullptr, &wait_at_most);
+    // 50 ms: timeouts and Ctrl-C are checked that often. Output to read or a child that ended
+    // (SIGCHLD) wakes it at once.
+    const timespec wait_at_most{0, 50'000'000};
+    outputs.clear();
+    for (const auto& [child, a] : active) {
+      if (a.output_fd >= 0) outputs.push_back({a.output_fd, POLLIN, 0});
+    }
+    ppoll(outputs.data(), outputs.size(), &wait_at_most, &wait_mask);
   }
+  for (auto& [child, a] : active) {
+    if (a.output_fd >= 0) ::close(a.output_fd);
+  }
+  sigaction(SIGCHLD, &previous_child_action, nullptr);
   sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
   ::close(results_fd);
   if (options.progress_bar) std::fprintf(stderr, "\n");
@@ -671,18 +789,22 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
 
 void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   if (parts.empty()) throw InputError("merge: give the shard folders to join");
-  std::string fingerprint_seen;
   std::map<std::size_t, json> by_index;
-  json header;
+  json header, first;
   for (const fs::path& part : parts) {
     if (!fs::exists(part / "sweep.json"))
       throw InputError("merge: '" + part.string() + "' is not a sweep folder");
     header = json::parse(read_text(part / "sweep.json"));
-    const std::string fp = header["fingerprint"];
-    if (!fingerprint_seen.empty() && fp != fingerprint_seen) {
-      throw InputError("merge: '" + part.string() + "' is a sweep of another experiment file");
+    if (first.is_null()) first = header;
+    // Against itself first: a folder of an older locsim is refused even alone.
+    for (const json* other : {&header, &first}) {
+      if (const std::string change =
+              fingerprint_change(header["fingerprint"], (*other)["fingerprint"]);
+          !change.empty()) {
+        throw InputError("merge: '" + part.string() + "' is a sweep of other inputs than '" +
+                         parts.front().string() + "': " + change);
+      }
     }
-    fingerprint_seen = fp;
     for (json& r : read_results(part / "results.jsonl"))
       by_index.emplace(r["index"].get<std::size_t>(), std::move(r));
   }

@@ -79,7 +79,10 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
   }
   // One process per localizer: a failure costs nobody else anything.
   for (const LocalizerDef& def : defs_) {
-    workers_.push_back(std::make_unique<WorkerProcess>(std::vector<const LocalizerDef*>{&def}));
+    const std::string label =
+        world.robots.size() > 1 ? def.info.robot_name + "/" + def.info.label : def.info.label;
+    workers_.push_back(
+        std::make_unique<WorkerProcess>(std::vector<const LocalizerDef*>{&def}, label));
   }
   create_errors_.assign(workers_.size(), "");
   snapshots_.assign(workers_.size(), {});
@@ -142,7 +145,8 @@ void LocalizerHost::pump_until(Done&& done) {
     for (std::size_t w = 0; w < workers_.size(); ++w) {
       WorkerProcess& worker = *workers_[w];
       if (!worker.alive()) continue;
-      worker.send_some();  // a child that is gone shows as the end of its socket below
+      worker.forward_output();  // else a plugin that prints may wait on a full pipe
+      worker.send_some();       // a child that is gone shows as the end of its socket below
       const bool open = worker.receive_some(
           [&](std::uint8_t type, std::string_view payload) { dispatch(w, type, payload); });
       if (!open) lost(worker);
@@ -171,6 +175,7 @@ void LocalizerHost::pump_until(Done&& done) {
       if (!worker->alive()) continue;
       fds.push_back({worker->fd(),
                      static_cast<short>(POLLIN | (worker->pending_bytes() > 0 ? POLLOUT : 0)), 0});
+      if (worker->output_fd() >= 0) fds.push_back({worker->output_fd(), POLLIN, 0});
     }
     const auto wait_ms = std::chrono::ceil<std::chrono::milliseconds>(wake - now).count();
     ::poll(fds.data(), fds.size(), static_cast<int>(std::max<long>(wait_ms, 1)));

@@ -46,6 +46,10 @@ LocalizerSpec parse_localizer_spec(const std::string& text) {
         throw InputError("--localizer '" + text + "': expected key=value, got '" + item + "'");
       }
       const std::string key = item.substr(0, equals);
+      if (equals + 1 == item.size()) {
+        // A value left out (a shell variable that was empty) is a mistake, not an empty string.
+        throw InputError("--localizer '" + text + "': parameter '" + key + "' has no value");
+      }
       for (const auto& [given, value] : spec.params) {
         if (given == key) {
           throw InputError("--localizer '" + text + "': parameter '" + key + "' given twice (" +

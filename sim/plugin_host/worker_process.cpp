@@ -1,6 +1,7 @@
 #include "sim/plugin_host/worker_process.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
@@ -260,7 +261,8 @@ std::vector<LocalizerFinal> decode_finals(std::string_view payload) {
 }
 
 // ---------------------------------------------------------------------------------------------
-WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
+WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::string label)
+    : label_(std::move(label)) {
   for (const LocalizerDef* def : defs) {
     indices_.push_back(def->index);
     if (robots_.size() <= def->info.robot) robots_.resize(def->info.robot + 1, false);
@@ -275,6 +277,15 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
     ::close(sockets[0]), ::close(sockets[1]);
     throw std::runtime_error(std::string("mmap: ") + std::strerror(errno));
   }
+  int output[2];
+  if (::pipe2(output, O_CLOEXEC) != 0) {
+    const int error = errno;
+    ::close(sockets[0]), ::close(sockets[1]);
+    ::munmap(page, sizeof(CallState));
+    throw std::runtime_error(std::string("pipe: ") + std::strerror(error));
+  }
+  // A larger pipe: a plugin that prints a lot between two of the parent's reads rarely waits.
+  ::fcntl(output[1], F_SETPIPE_SZ, 1 << 20);
   calls_ = new (page) CallState();
   // Larger socket buffers let the simulation run further ahead of a slow filter before it waits.
   const int bytes = 1 << 20;
@@ -286,6 +297,7 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
   if (pid_ < 0) {
     const int error = errno;
     ::close(sockets[0]), ::close(sockets[1]);
+    ::close(output[0]), ::close(output[1]);
     ::munmap(page, sizeof(CallState));
     throw std::runtime_error(std::string("fork: ") + std::strerror(error));
   }
@@ -293,6 +305,11 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a parent killed hard takes its workers along
     if (::getppid() != parent) _exit(1);
     std::signal(SIGINT, SIG_IGN);  // Ctrl-C is the parent's to handle; it ends the workers
+    // What the plugin prints goes to the parent, which labels and caps it; stdout by lines, so
+    // that prints reach the parent in order with stderr's and before a crash.
+    ::dup2(output[1], STDOUT_FILENO);
+    ::dup2(output[1], STDERR_FILENO);
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);
     // Keep stdio and this worker's socket only: another worker's socket held open here would
     // hide that worker's end from the parent.
     const int fd = sockets[1];
@@ -301,7 +318,35 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs) {
     child_main(fd, defs, calls_);
   }
   ::close(sockets[1]);
+  ::close(output[1]);
+  ::fcntl(output[0], F_SETFL, O_NONBLOCK);
   fd_ = sockets[0];
+  output_fd_ = output[0];
+}
+
+void WorkerProcess::write_output(std::string_view text) {
+  std::string lines;
+  for (const char c : text) {
+    if (at_line_start_) lines += "[" + label_ + "] ";
+    lines += c;
+    at_line_start_ = c == '\n';
+  }
+  std::fwrite(lines.data(), 1, lines.size(), stderr);
+}
+
+void WorkerProcess::forward_output() {
+  char chunk[1 << 16];
+  while (output_fd_ >= 0) {
+    const ssize_t n = ::read(output_fd_, chunk, sizeof(chunk));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+    if (n <= 0) {
+      ::close(output_fd_);
+      output_fd_ = -1;
+      return;
+    }
+    write_output(output_.add(std::string_view(chunk, static_cast<std::size_t>(n))));
+  }
 }
 
 WorkerProcess::~WorkerProcess() {
@@ -309,6 +354,7 @@ WorkerProcess::~WorkerProcess() {
     if (alive()) kill_now();
     reap();
   }
+  if (output_fd_ >= 0) ::close(output_fd_);
   if (calls_ != nullptr) ::munmap(calls_, sizeof(CallState));
 }
 
@@ -344,9 +390,23 @@ std::string WorkerProcess::reap(std::optional<int>* signal) {
   if (fd_ >= 0) ::close(fd_), fd_ = -1;
   if (pid_ <= 0) return "ended";
   int status = 0;
-  while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+  while (true) {
+    // While the child runs, what it prints is read: one blocked on a full pipe never ends.
+    const pid_t ended = ::waitpid(pid_, &status, output_fd_ >= 0 ? WNOHANG : 0);
+    if (ended < 0 && errno == EINTR) continue;
+    if (ended != 0) break;
+    pollfd readable{output_fd_, POLLIN, 0};
+    ::poll(&readable, 1, 10);
+    forward_output();
   }
   pid_ = -1;
+  forward_output();  // what it printed last
+  if (output_.dropped_bytes() > 0) {
+    if (!at_line_start_) write_output("\n");
+    write_output(output_.dropped_line() + "\n");
+    write_output(output_.tail());
+  }
+  if (!at_line_start_) write_output("\n");
   if (WIFSIGNALED(status)) {
     const int number = WTERMSIG(status);
     if (signal != nullptr) *signal = number;

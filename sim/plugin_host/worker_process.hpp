@@ -6,6 +6,12 @@
 // final state at the end. Which call it is in, and since when, it keeps in a page of memory shared
 // with the parent, whose watchdog kills a call that outlasts --plugin-timeout.
 //
+// The child's stdout and stderr go to a pipe that the parent reads whenever it waits for its
+// workers, and forwards to its own stderr, each line prefixed with "[LABEL] ": a plugin's prints
+// arrive in order and labelled, without blocking the plugin, and without end no more: after the
+// first kOutputHeadBytes only the last kOutputTailBytes are kept, printed when the worker ends
+// after a line saying how much was dropped.
+//
 // Frames, both ways: u8 type, u32 payload length, payload (stream/record_codec for records).
 #pragma once
 
@@ -19,20 +25,29 @@
 #include <string>
 #include <vector>
 
+#include "sim/common/capped_text.hpp"
 #include "sim/plugin_host/instance_runner.hpp"
 
 namespace locsim {
 
+/// How much of what a localizer's process prints is forwarded: the first and the last bytes.
+inline constexpr std::size_t kOutputHeadBytes = 1 << 20, kOutputTailBytes = 64 << 10;
+
 class WorkerProcess {
  public:
   /// Forks the child, which creates `defs`' instances and says whether that worked
-  /// (`wait_ready` reads the answer). The parent's stdio is flushed first.
-  explicit WorkerProcess(const std::vector<const LocalizerDef*>& defs);
+  /// (`wait_ready` reads the answer). The parent's stdio is flushed first. `label` prefixes the
+  /// lines the child prints.
+  WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::string label);
   ~WorkerProcess();  // kills the child if it still runs
   WorkerProcess(const WorkerProcess&) = delete;
   WorkerProcess& operator=(const WorkerProcess&) = delete;
 
   int fd() const { return fd_; }
+  /// The read end of the child's stdout and stderr; -1 once it is closed.
+  int output_fd() const { return output_fd_; }
+  /// Reads what the child printed, without blocking, and forwards it (within the cap).
+  void forward_output();
   pid_t pid() const { return pid_; }
   bool alive() const { return fd_ >= 0; }
   const std::vector<std::size_t>& indices() const { return indices_; }
@@ -51,8 +66,9 @@ class WorkerProcess {
   template <class Handle>
   bool receive_some(Handle&& handle);
 
-  /// After the socket closed: waits for the child and says how it ended ("killed by signal 11
-  /// (Segmentation fault)", "exited with code 0"); the signal, if one ended it.
+  /// After the socket closed: waits for the child (forwarding what it prints meanwhile, then the
+  /// kept tail) and says how it ended ("killed by signal 11 (Segmentation fault)", "exited with
+  /// code 0"); the signal, if one ended it.
   std::string reap(std::optional<int>* signal = nullptr);
   /// Kills the child now (SIGKILL), e.g. after a timeout or on Ctrl-C.
   void kill_now();
@@ -75,8 +91,13 @@ class WorkerProcess {
   bool finished = false;   // it sent its final state
 
  private:
+  void write_output(std::string_view text);
   pid_t pid_ = -1;
   int fd_ = -1;
+  int output_fd_ = -1;
+  std::string label_;
+  CappedText output_{kOutputHeadBytes, kOutputTailBytes};
+  bool at_line_start_ = true;
   CallState* calls_ = nullptr;  // shared page
   std::vector<std::size_t> indices_;
   std::vector<bool> robots_;

@@ -11,6 +11,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
 LogSource::LogSource(const fs::path& file) : reader_(file) {
+  reader_.check_end();  // a cut log is refused before any output exists
   const json& header = reader_.header();
   try {
     const fs::path world_dir = header.at("world_dir").get<std::string>();

@@ -30,7 +30,7 @@ using json = nlohmann::ordered_json;
 
 RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::path>& scenario_file,
                           std::optional<double> duration_s) {
-  RunInputs inputs{load_world(world_file), ScenarioDef{}};
+  RunInputs inputs{load_world(world_file), ScenarioDef{}, {}};
   if (scenario_file) {
     inputs.scenario = load_scenario(*scenario_file);
   } else if (inputs.world.scenario) {
@@ -44,6 +44,12 @@ RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::pa
     inputs.scenario.duration_s = *duration_s;
   }
   bind_scenario(inputs.scenario, inputs.world);
+  inputs.files.push_back(inputs.world.source);
+  if (inputs.world.map) {
+    inputs.files.push_back(inputs.world.map->yaml_file);
+    inputs.files.push_back(inputs.world.map->image_file);
+  }
+  if (scenario_file) inputs.files.push_back(inputs.scenario.source);
   return inputs;
 }
 
@@ -90,11 +96,24 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   // The localizers' processes start before the simulation (and any renderer) has threads.
   Session session(options, inputs.world, inputs.scenario, options.seed, interrupt);
   Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
-  session.open(result.out_dir);
+  // The log and the video are opened before the run folder is made: one that cannot be written
+  // (exit 1 for the log, 4 for the video, naming the path and the reason) leaves no folder.
   std::unique_ptr<LogWriter> log;
+  if (options.log_file) {
+    log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
+  }
+  std::optional<FrameCapture> capture;
+  if (options.video != nullptr) {
+    capture.emplace(*options.video, options.video_options, sim, &session.host());
+  }
+  std::vector<fs::path> keep;  // --overwrite empties the folder, but not of these
+  for (const auto& file :
+       {options.log_file, options.video_options.video_file, options.video_options.frames_dir}) {
+    if (file) keep.push_back(*file);
+  }
+  session.open(result.out_dir, keep);
   SimulationSource source(sim);
   RecordConsumer& input = session.input();
-  std::optional<FrameCapture> capture;
   const auto flush_every = std::max<std::int64_t>(1, std::llround(sim.world_def().physics.step_hz));
 
   const auto wall_start = std::chrono::steady_clock::now();
@@ -102,14 +121,8 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   bool progress_shown = false;
   RunEnd end;
   try {
-    if (options.log_file) {
-      log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
-      session.input().add(*log);
-    }
-    if (options.video != nullptr) {
-      capture.emplace(*options.video, options.video_options, sim, &session.host());
-      session.input().add(*capture);
-    }
+    if (log) session.input().add(*log);
+    if (capture) session.input().add(*capture);
     source.emit(input);
     if (capture) capture->after_step(sim);
     while (!sim.done()) {

@@ -45,6 +45,9 @@ struct RunResult {
 struct RunInputs {
   WorldDef world;
   ScenarioDef scenario;
+  /// Every file they were read from, as the loaders recorded them: the world, its map's YAML and
+  /// image, the scenario file. What a sweep's fingerprint covers.
+  std::vector<std::filesystem::path> files;
 };
 RunInputs load_run_inputs(const std::filesystem::path& world_file,
                           const std::optional<std::filesystem::path>& scenario_file,

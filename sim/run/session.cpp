@@ -27,8 +27,9 @@ Session::Session(const SessionOptions& options, const WorldDef& world, const Sce
   scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence);
 }
 
-void Session::open(const std::filesystem::path& out_dir) {
-  folder_ = RunFolder::create(out_dir, world_);
+void Session::open(const std::filesystem::path& out_dir,
+                   const std::vector<std::filesystem::path>& keep) {
+  folder_ = RunFolder::create(out_dir, world_, options_.overwrite, keep);
   recorder_ =
       std::make_unique<RunRecorder>(folder_, world_, host_->localizers(), options_.readings);
   host_->add_output(*scorer_);

@@ -50,8 +50,10 @@ class Session {
   Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
           std::uint64_t seed, const std::atomic<bool>* interrupt);
 
-  /// Makes the run folder (checked beforehand with RunFolder::check) and opens its files.
-  void open(const std::filesystem::path& out_dir);
+  /// Makes the run folder (checked beforehand with RunFolder::check; with overwrite, emptied but
+  /// for `keep`, the driver's own outputs that lie in it) and opens its files.
+  void open(const std::filesystem::path& out_dir,
+            const std::vector<std::filesystem::path>& keep = {});
   /// Where the producer's records go: host, scorer, recorder, then what the driver adds.
   RecordFanout& input() { return fanout_; }
   LocalizerHost& host() { return *host_; }
@@ -59,8 +61,8 @@ class Session {
   bool has_localizers() const { return !host_->localizers().empty(); }
 
   /// Ends the stream at `t_end_s`. Unless `end` is interrupted, every localizer first takes in
-  /// every record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are. Writes
-  /// metrics.json and closes the files (a failure there goes into `end`); returns run.json's
+  /// every record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are.
+  /// Writes metrics.json and closes the files (a failure there goes into `end`); returns run.json's
   /// "localizers" block.
   nlohmann::ordered_json finish(double t_end_s, RunEnd& end);
   /// Labels of the localizers that failed.

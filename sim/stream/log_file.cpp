@@ -105,6 +105,30 @@ LogReader::LogReader(const std::filesystem::path& file) : file_(file), in_(file,
   }
 }
 
+void LogReader::check_end() {
+  // type, length, the u64 count and the CRC: the end record's 17 bytes.
+  constexpr std::uint64_t kEndBytes = 1 + 4 + 8 + 4;
+  const std::uint64_t size = std::filesystem::file_size(file_);
+  std::string tail(kEndBytes, '\0');
+  if (size >= offset_ + kEndBytes) {
+    in_.seekg(static_cast<std::streamoff>(size - kEndBytes));
+    in_.read(tail.data(), static_cast<std::streamsize>(kEndBytes));
+  }
+  const bool read = in_ && size >= offset_ + kEndBytes;
+  in_.clear();
+  in_.seekg(static_cast<std::streamoff>(offset_));
+  const auto type = static_cast<std::uint8_t>(tail[0]);
+  std::uint32_t length = 0, checksum = 0;
+  std::memcpy(&length, tail.data() + 1, 4);
+  std::memcpy(&checksum, tail.data() + 1 + 4 + 8, 4);
+  if (!read || static_cast<Record::Type>(type) != Record::Type::kEnd || length != 8 ||
+      checksum != crc(type, tail.substr(1 + 4, 8))) {
+    fail(
+        "truncated: the file does not end with an end record (was the run that wrote it cut "
+        "short?)");
+  }
+}
+
 void LogReader::fail(const std::string& problem) const {
   throw InputError(SourceLocation{file_.string()}, "", problem);
 }

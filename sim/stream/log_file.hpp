@@ -51,6 +51,9 @@ class LogReader {
   const std::filesystem::path& file() const { return file_; }
   /// The next record; false after the end record. Throws InputError on a corrupt or truncated log.
   bool next(Record& record);
+  /// Checks, by reading the file's last bytes only, that it ends with an end record: a log whose
+  /// recording was cut short is refused before anything is replayed. Throws InputError.
+  void check_end();
 
  private:
   [[noreturn]] void fail(const std::string& problem) const;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -157,6 +158,26 @@ class Plugin final : public Probe {
   double map_count_, map_null_;
   std::string fail_;
   std::vector<locsim_mapped_landmark> map_;
+};
+#elif defined(LOCSIM_TEST_CHATTY)
+/// Prints as a plugin being debugged does, on stdout and stderr: a line per reading, and at one
+/// second a flood of 3 MiB, then one more line (what the cap keeps last).
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading& r) override {
+    std::printf("reading %ld at t = %.3f\n", readings_, r.t_s);
+    if (readings_ % 10 == 1) std::fprintf(stderr, "stderr: reading %ld\n", readings_);
+    if (r.t_s >= 1.0 && !flooded_) {
+      flooded_ = true;
+      const std::string line(1023, 'x');
+      for (int i = 0; i < 3 * 1024; ++i) std::printf("%s\n", line.c_str());
+      std::printf("after the flood\n");
+    }
+  }
+
+ private:
+  bool flooded_ = false;
 };
 #elif defined(LOCSIM_TEST_NOOP)
 /// Does nothing at all: what is measured is the host.

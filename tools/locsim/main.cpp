@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 #include "plugin_template.hpp"
@@ -72,6 +74,93 @@ constexpr const char* kExitCodes = R"(Exit codes:
        metrics.json says which failed, in which call, at what simulated time and why
   130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted";
        another Ctrl-C a second or more later ends locsim at once)";
+
+/// A bound as a user reads it: "1e+06", "180", "0.001" (CLI11's own ranges print
+/// std::to_string of their bounds, 309 digits for the largest double).
+std::string short_number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", value);
+  return text;
+}
+
+/// A finite number in [lo, hi] (lo excluded when `lo_open`). CLI11's range checks compare, and
+/// every comparison with NaN is false: NaN and the infinities are refused first.
+CLI::Validator number_in(double lo, double hi, bool lo_open = false) {
+  const bool unbounded = hi == std::numeric_limits<double>::max();
+  const std::string range = unbounded ? (lo_open ? "> " : ">= ") + short_number(lo)
+                                      : "in " + std::string(lo_open ? "(" : "[") +
+                                            short_number(lo) + ", " + short_number(hi) + "]";
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size())
+          return "'" + text + "' is not a number";
+        if (!std::isfinite(value)) return "must be a finite number " + range + ", got " + text;
+        if (value < lo || (lo_open && value == lo) || value > hi) {
+          return "must be " + range + ", got " + text;
+        }
+        return {};
+      },
+      range);
+}
+
+/// A finite number > lo (and at most hi).
+CLI::Validator number_above(double lo, double hi = std::numeric_limits<double>::max()) {
+  return number_in(lo, hi, true);
+}
+
+/// A whole number in [lo, hi], in decimal digits. CLI11 alone reads "-1" into an unsigned option
+/// as 2^64 - 1, a number too large as the largest one, and "010" as octal 8. A transform (a
+/// check's changes are dropped): the option then reads the number in decimal.
+CLI::Validator whole_number_in(std::int64_t lo, std::uint64_t hi) {
+  const std::string range = "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        const bool negative = text.starts_with('-');
+        const std::string digits = negative ? text.substr(1) : text;
+        std::uint64_t magnitude = 0;
+        const auto [end, error] =
+            std::from_chars(digits.data(), digits.data() + digits.size(), magnitude);
+        if (digits.empty() || end != digits.data() + digits.size() ||
+            (error != std::errc() && error != std::errc::result_out_of_range)) {
+          return "'" + text + "' is not a whole number";
+        }
+        // Compared as magnitudes: lo is at most 0 or a small positive number here.
+        const bool below =
+            negative ? (magnitude > 0 && (lo >= 0 || magnitude > static_cast<std::uint64_t>(-lo)))
+                     : (lo > 0 && magnitude < static_cast<std::uint64_t>(lo));
+        if (error == std::errc::result_out_of_range || below || (!negative && magnitude > hi)) {
+          return "must be a whole number " + range + ", got " + text;
+        }
+        // Decimal from here on: CLI11 would read a leading zero as octal.
+        text = (negative && magnitude > 0 ? "-" : "") + std::to_string(magnitude);
+        return {};
+      },
+      range);
+}
+
+/// --video-size: WxH, each even (encoders want 4:2:0 chroma) and in [kMinFramePx, kMaxFramePx].
+constexpr int kMinFramePx = 64, kMaxFramePx = 8192;
+std::optional<std::pair<int, int>> parse_frame_size(const std::string& text) {
+  int width = 0, height = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%dx%d%c", &width, &height, &tail) != 2) return std::nullopt;
+  return std::pair{width, height};
+}
+const CLI::Validator kFrameSize(
+    [](std::string& text) -> std::string {
+      const auto size = parse_frame_size(text);
+      if (!size) return "'" + text + "' is not WxH, e.g. 1280x720";
+      for (const int px : {size->first, size->second}) {
+        if (px < kMinFramePx || px > kMaxFramePx || px % 2 != 0) {
+          return "'" + text + "': width and height must be even and in [" +
+                 std::to_string(kMinFramePx) + ", " + std::to_string(kMaxFramePx) + "]";
+        }
+      }
+      return {};
+    },
+    "WxH");
 
 /// The renderer, loaded on first use (it brings OpenGL, OpenCV and FFmpeg along): for --video and
 /// --frames, and for PTZ cameras in mode: rendered.
@@ -235,6 +324,7 @@ int main(int argc, char** argv) {
   run->add_option("--scenario", scenario_file,
                   "Scenario file (YAML); default: the world's own 'scenario:' section");
   run->add_option("--seed", options.seed, "Run seed; every random stream derives from it")
+      ->transform(whole_number_in(0, std::numeric_limits<std::uint64_t>::max()))
       ->capture_default_str();
   run->add_option("--duration", options.duration_s, "Simulated seconds (overrides the scenario)")
       ->check(CLI::PositiveNumber);
@@ -253,10 +343,14 @@ int main(int argc, char** argv) {
   run->add_option("--frames", frames_dir, "Also write every frame as a PNG into this folder")
       ->group("Video");
   run->add_option("--video-size", video_size, "Frame size WxH [px] (default 1280x720)")
+      ->check(kFrameSize)
       ->group("Video");
-  run->add_option("--video-fps", video.fps, "Video frames per second (default 30)")->group("Video");
+  run->add_option("--video-fps", video.fps, "Video frames per second (default 30)")
+      ->check(number_above(0.0, 1000.0))
+      ->group("Video");
   run->add_option("--video-speed", video.speed,
                   "Simulated seconds per second of video (default 1: real time)")
+      ->check(number_above(0.0, 1e6))
       ->group("Video");
   run->add_flag("!--no-particles", video.particles, "Do not draw the particle clouds")
       ->group("Video");
@@ -275,16 +369,6 @@ int main(int argc, char** argv) {
   std::optional<std::string> validate_scenario;
   double converged_deg = rad_to_deg_default();
   std::string isolation = "process";
-  // CLI11's range checks compare, and every comparison with NaN is false: refuse it first.
-  const CLI::Validator finite(
-      [](std::string& text) {
-        try {
-          return std::isfinite(std::stod(text)) ? std::string() : "must be a finite number";
-        } catch (const std::exception&) {
-          return std::string("must be a number");
-        }
-      },
-      "FINITE");
   // What `run` and `replay` share: the localizers and how they are run and judged.
   const auto add_session_options = [&](CLI::App* command, locsim::SessionOptions& session) {
     command->add_option(
@@ -301,25 +385,27 @@ int main(int argc, char** argv) {
         ->add_option("--plugin-timeout", session.plugin_timeout_s,
                      "Longest a single plugin call may take before its localizer is failed "
                      "[s]; 0: no limit (needs --isolation process)")
-        ->check(finite & CLI::Range(0.0, 1e6))
+        ->check(number_in(0.0, 1e6))
         ->capture_default_str();
     command->add_flag("!--no-readings", session.readings,
                       "Do not write readings/ (one CSV per sensor)");
-    command->add_flag("--overwrite", session.overwrite, "Allow writing into a non-empty folder");
+    command->add_flag("--overwrite", session.overwrite,
+                      "Empty the --out folder first if it holds a run (run.json); any other "
+                      "non-empty folder is refused");
     command
         ->add_option("--converged-within-m", session.convergence.position_m,
                      "Convergence: position error at most this [m]")
-        ->check(finite & CLI::PositiveNumber)
+        ->check(number_above(0.0))
         ->capture_default_str();
     command
         ->add_option("--converged-within-deg", converged_deg,
                      "Convergence: heading error at most this [deg]")
-        ->check(finite & CLI::Range(1e-9, 180.0))
+        ->check(number_above(0.0, 180.0))
         ->capture_default_str();
     command
         ->add_option("--converged-hold", session.convergence.hold_samples,
                      "Convergence: for this many consecutive ground-truth samples")
-        ->check(CLI::Range(1, 1000000))
+        ->transform(whole_number_in(1, 1000000))
         ->capture_default_str();
   };
   add_session_options(run, options);
@@ -344,6 +430,7 @@ int main(int argc, char** argv) {
       ->required();
   sweep->add_option("--out", sweep_options.out_dir, "Sweep folder")->required();
   sweep->add_option("-j,--jobs", sweep_options.jobs, "Runs at a time, each its own process")
+      ->transform(whole_number_in(1, 4096))
       ->capture_default_str();
   CLI::Option* resume_flag = sweep->add_flag(
       "--resume", sweep_options.resume,
@@ -468,12 +555,7 @@ int main(int argc, char** argv) {
     options.make_landmark_imager = imager_factory(video.backend);
     std::shared_ptr<locsim::FrameSink> recorder;
     if (!video_file.empty() || !frames_dir.empty()) {
-      int width = 0, height = 0;
-      char tail = 0;
-      if (std::sscanf(video_size.c_str(), "%dx%d%c", &width, &height, &tail) != 2) {
-        throw locsim::InputError("--video-size: '" + video_size + "' is not WxH, e.g. 1280x720");
-      }
-      video.width_px = width, video.height_px = height;
+      std::tie(video.width_px, video.height_px) = *parse_frame_size(video_size);  // checked
       if (!video_file.empty()) video.video_file = video_file;
       if (!frames_dir.empty()) video.frames_dir = frames_dir;
       recorder = renderer()->make_recorder(video);
