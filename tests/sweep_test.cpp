@@ -291,6 +291,21 @@ TEST(Sweep, ARunsLogHoldsWhatItsPluginPrintedLabelled) {
   EXPECT_LT(log.size(), 2u << 20);
 }
 
+TEST(Sweep, ARunsLogIsCappedWhateverItsProcessPrints) {
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment = write_short_experiment(dir, "  - plugin: odometry\n");
+  // 8 MB on stdout before the run itself (as a plugin printing in --isolation none would).
+  const fs::path stand_in =
+      write_stand_in(dir, std::string("  *replay*) yes 'noise noise noise' | head -c 8000000; ") +
+                              LOCSIM_BINARY + " \"$@\"; exit $? ;;\n");
+  const SweepSummary summary = sweep(experiment, dir / "out", 1, false, std::nullopt, stand_in);
+  EXPECT_EQ(summary.not_ok, 0u);
+  const fs::path log = dir / "out/runs/odometry/seed-1/log.txt";
+  EXPECT_LT(fs::file_size(log), (2u << 20) + (256u << 10) + 200u);
+  EXPECT_GT(fs::file_size(log), 2u << 20);
+  EXPECT_NE(testing::read_file(log).find("bytes of output dropped here"), std::string::npos);
+}
+
 TEST(Sweep, KilledWithSigkillAndResumedEqualsUninterrupted) {
   const fs::path dir = testing::temp_dir("sweep");
   const fs::path experiment = write_experiment(dir, 6);
