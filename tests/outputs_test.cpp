@@ -97,6 +97,18 @@ TEST(PluginOutput, IsLabelledInOrderAndCappedPerLocalizer) {
   EXPECT_EQ(json::parse(testing::read_file(out / "run.json"))["status"], "completed");
 }
 
+TEST(PluginOutput, AnExitInLocsimsOwnProcessIsNoSuccess) {
+  // Isolated, exit() fails the localizer alone (Isolation.*); in locsim's own process it ends
+  // locsim, which then says so and exits 1 rather than with the plugin's 0.
+  const fs::path out = testing::temp_dir("exit") / "out";
+  const Outcome o = locsim("run " + kDemo + " --duration 2 -q --isolation none --localizer " +
+                           test_plugin("exits") + " --out " + out.string());
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_NE(o.output.find("a localizer plugin called exit() in its update call at t = 1.000 s"),
+            std::string::npos)
+      << o.output;
+}
+
 /// A command refused on its command line: exit 2, a short message naming what is wrong.
 void expect_refused(const std::string& arguments, const std::string& says) {
   SCOPED_TRACE(arguments);

@@ -1,9 +1,13 @@
 #include "sim/plugin_host/localizer_host.hpp"
 
 #include <poll.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 
 #include "sim/common/errors.hpp"
@@ -16,6 +20,24 @@ namespace {
 // Records queued for a worker are sent once this many bytes wait: few system calls per reading,
 // and the worker's memory for them stays small.
 constexpr std::size_t kBatchBytes = 64 * 1024;
+
+// With isolation off, a plugin that calls exit() ends locsim itself: without this it would end
+// with the plugin's exit code (0 for exit(0)) and no run.json, a run that looks like it
+// succeeded. The call in progress, if any, of the host running plugins in this process.
+std::atomic<const CallState*> g_in_process_calls{nullptr};
+
+extern "C" void on_exit_in_plugin_call() {
+  const CallState* calls = g_in_process_calls.load();
+  if (calls == nullptr || calls->started_ns.load() == 0) return;
+  const auto call = static_cast<PluginCall>(calls->call.load());
+  std::fprintf(stderr,
+               "locsim: failure: a localizer plugin called exit() in its %s call at t = %.3f s "
+               "(--isolation none, so it ended locsim): the run is incomplete, with no run.json; "
+               "run it with --isolation process to contain it\n",
+               plugin_call_name(call), calls->t_s.load());
+  std::fflush(nullptr);
+  _exit(kExitFailure);
+}
 }  // namespace
 
 LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const WorldDef& world,
@@ -74,7 +96,10 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
   if (!options_.isolate) {
     std::vector<const LocalizerDef*> all;
     for (const LocalizerDef& def : defs_) all.push_back(&def);
-    runner_ = std::make_unique<InstanceRunner>(all);
+    static const bool registered = std::atexit(on_exit_in_plugin_call) == 0;
+    (void)registered;
+    g_in_process_calls.store(&in_process_calls_);
+    runner_ = std::make_unique<InstanceRunner>(all, &in_process_calls_);
     return;
   }
   // One process per localizer: a failure costs nobody else anything.
@@ -97,7 +122,11 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
   }
 }
 
-LocalizerHost::~LocalizerHost() = default;  // workers still running are killed and reaped
+LocalizerHost::~LocalizerHost() {
+  // Workers still running are killed and reaped by their destructors.
+  const CallState* mine = &in_process_calls_;
+  g_in_process_calls.compare_exchange_strong(mine, nullptr);
+}
 
 void LocalizerHost::estimate(const EstimateSample& sample) {
   for (EstimateConsumer* out : outputs_) out->estimate(sample);

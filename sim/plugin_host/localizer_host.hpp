@@ -74,6 +74,7 @@ class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
   std::vector<EstimateConsumer*> outputs_;
   std::vector<bool> failed_;
   std::unique_ptr<InstanceRunner> runner_;  // isolation off
+  CallState in_process_calls_;              // isolation off: the call in progress, for exit()
   std::vector<std::unique_ptr<WorkerProcess>> workers_;
   std::vector<std::string> create_errors_;                 // by worker
   std::vector<std::vector<LocalizerSnapshot>> snapshots_;  // by worker, while asked
