@@ -55,9 +55,12 @@ TEST(WritesAreChecked, AFullDiskUnderTheRunFolderFailsRunAndReplayAndKeepsTheOth
     const fs::path out = dir / (command.starts_with("run") ? "run" : "replay");
     // The ground truth goes to a disk that is full; everything else to one that is not.
     const testing::Outcome o =
-        testing::run_command("LD_PRELOAD=" + std::string(LOCSIM_TEST_FULL_DISK) +
-                             " LOCSIM_TEST_FULL_FILE=/groundtruth.tum " + LOCSIM_BINARY + " " +
-                             command + " -q --localizer odometry --out " + out.string());
+        // Under AddressSanitizer, a library preloaded before its runtime is allowed explicitly.
+        testing::run_command(
+            "ASAN_OPTIONS=${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0"
+            " LD_PRELOAD=" +
+            std::string(LOCSIM_TEST_FULL_DISK) + " LOCSIM_TEST_FULL_FILE=/groundtruth.tum " +
+            LOCSIM_BINARY + " " + command + " -q --localizer odometry --out " + out.string());
     expect_failed_for_a_full_disk(o, out / "run.json", (out / "groundtruth.tum").string());
     // It stopped at the first failed write (a flush, or the close at the end); the other outputs
     // are whole up to there: the localizer's estimates and its metrics agree, row for sample.
