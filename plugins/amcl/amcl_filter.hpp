@@ -179,7 +179,10 @@ class AmclFilter {
     const Eigen::Matrix3d l = llt.matrixL();
     particles_.resize(max_particles_);
     for (std::size_t i = 0; i < max_particles_; ++i) {
-      const Eigen::Vector3d z(random_.normal(1.0), random_.normal(1.0), random_.normal(1.0));
+      // One draw per statement: a constructor's arguments are unsequenced and compilers differ.
+      // Last component first, as gcc drew them (the results so far are gcc's).
+      const double z2 = random_.normal(1.0), z1 = random_.normal(1.0), z0 = random_.normal(1.0);
+      const Eigen::Vector3d z(z0, z1, z2);
       const Eigen::Vector3d p = pose + l * z;
       particles_.x[i] = p(0), particles_.y[i] = p(1), particles_.theta[i] = sdk::wrap(p(2));
     }

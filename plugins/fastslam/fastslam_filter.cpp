@@ -265,8 +265,10 @@ void FastSlam::resample() {
                                  ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
     const auto from_board = [&](sdk::Random& random) {
       SlamParticle p = moved;
-      const Eigen::Vector3d v =
-          root * Eigen::Vector3d(random.normal(), random.normal(), random.normal());
+      // One draw per statement: a constructor's arguments are unsequenced and compilers differ.
+      // Last component first, as gcc drew them (the results so far are gcc's).
+      const double n2 = random.normal(), n1 = random.normal(), n0 = random.normal();
+      const Eigen::Vector3d v = root * Eigen::Vector3d(n0, n1, n2);
       p.pose(0) += v(0);
       p.pose(1) += v(1);
       p.pose(2) = sdk::wrap(p.pose(2) + v(2));

@@ -88,8 +88,10 @@ ExperimentDef load_experiment(const fs::path& file) {
       if (!grid->is_map()) grid->fail("expected a map from parameter to a list of values");
       for (const auto& [key, values] : grid->entries()) {
         // run keeps one value per parameter: the grid points could all run alike.
+        // (A named copy: clang 14 cannot capture a structured binding.)
+        const std::string& name = key;
         const bool also_fixed = std::any_of(fixed.begin(), fixed.end(),
-                                            [&](const auto& param) { return param.first == key; });
+                                            [&](const auto& param) { return param.first == name; });
         if (also_fixed) values.fail("also given in params; give it in one of them");
         std::vector<std::pair<std::string, InputPlace>> texts;
         for (const YamlNode& v : values.items()) texts.emplace_back(scalar_text(v), place(v));

@@ -1,5 +1,7 @@
 #include "sim/producers/log_source.hpp"
 
+#include <cmath>
+
 #include "sim/common/errors.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/scenario/scenario_loader.hpp"
@@ -13,6 +15,9 @@ using json = nlohmann::ordered_json;
 LogSource::LogSource(const fs::path& file) : reader_(file) {
   reader_.check_end();  // a cut log is refused before any output exists
   const json& header = reader_.header();
+  const auto fail = [&](const std::string& problem) {
+    throw InputError(SourceLocation{file.string()}, "", "header: " + problem);
+  };
   try {
     const fs::path world_dir = header.at("world_dir").get<std::string>();
     world_ = parse_world(YamlNode::load_string(header.at("world_yaml"), header.at("world_file")),
@@ -20,19 +25,107 @@ LogSource::LogSource(const fs::path& file) : reader_(file) {
     world_.source = header.at("world_file").get<std::string>();
     if (!header.at("scenario_yaml").is_null()) {
       scenario_ = parse_scenario(
-          YamlNode::load_string(header["scenario_yaml"], header["scenario_file"]), world_dir);
-      scenario_.source = header["scenario_file"].get<std::string>();
+          YamlNode::load_string(header.at("scenario_yaml"), header.at("scenario_file")), world_dir);
+      scenario_.source = header.at("scenario_file").get<std::string>();
     } else if (world_.scenario) {
       scenario_ = *world_.scenario;
       scenario_.source = world_.source;
     }
-    scenario_.duration_s = header.at("duration_s");
-    seed_ = header.at("seed");
+    // Numbers as the writer wrote them (runner.cpp, log_header): converting others would be
+    // undefined (a negative or fractional seed) or meaningless.
+    const json& duration = header.at("duration_s");
+    if (!duration.is_number() || !(duration.get<double>() > 0.0) ||
+        !std::isfinite(duration.get<double>())) {
+      fail("duration_s is not a positive number of seconds");
+    }
+    scenario_.duration_s = duration.get<double>();
+    const json& seed = header.at("seed");
+    if (!seed.is_number_unsigned()) fail("seed is not an unsigned integer");
+    seed_ = seed.get<std::uint64_t>();
   } catch (const json::exception& e) {
-    throw InputError(SourceLocation{file.string()}, "",
-                     std::string("header lacks a field: ") + e.what());
+    fail(std::string("lacks a field or has one of another type: ") + e.what());
   }
   bind_scenario(scenario_, world_);
+}
+
+bool LogSource::next(Record& record) {
+  if (!reader_.next(record)) return false;
+  check(record);
+  return true;
+}
+
+void LogSource::check(const Record& record) const {
+  const std::size_t robots = world_.robots.size();
+  const auto robot_known = [&](int robot) {
+    return robot >= 0 && static_cast<std::size_t>(robot) < robots;
+  };
+  switch (record.type) {
+    case Record::Type::kReading: {
+      const Reading& reading = record.reading;
+      if (!robot_known(reading.robot)) {
+        reader_.reject("a reading of robot " + std::to_string(reading.robot) + " in a world of " +
+                       std::to_string(robots) + " robots");
+      }
+      const RobotDef& robot = world_.robots[static_cast<std::size_t>(reading.robot)];
+      const SensorsDef& sensors = robot.sensors;
+      const auto has = [](const auto& def) { return def && def->common.enabled; };
+      bool known = false;
+      switch (reading.kind) {
+        case SensorKind::kEncoders:
+          known = has(sensors.encoders);
+          break;
+        case SensorKind::kImu:
+          known = has(sensors.imu);
+          break;
+        case SensorKind::kPtzCamera:
+          known = has(sensors.ptz_camera);
+          break;
+        case SensorKind::kOmniCamera:
+          known = has(sensors.omni_camera);
+          break;
+        case SensorKind::kUltrasonic:
+          known = has(sensors.ultrasonic);
+          if (known) {
+            for (const BeaconRange& range : std::get<UltrasonicReading>(reading.data).ranges) {
+              if (range.receiver < 0 ||
+                  static_cast<std::size_t>(range.receiver) >= sensors.ultrasonic->receivers.size())
+                reader_.reject("an ultrasonic range from receiver " +
+                               std::to_string(range.receiver) + ", which robot '" + robot.name +
+                               "' does not have");
+            }
+          }
+          break;
+        case SensorKind::kLaser:
+          known = has(sensors.laser);
+          if (known) {
+            const std::size_t beams = std::get<LaserScan>(reading.data).ranges_m.size();
+            if (beams != static_cast<std::size_t>(sensors.laser->beams))
+              reader_.reject("a laser scan of " + std::to_string(beams) + " beams; robot '" +
+                             robot.name + "'s laser has " + std::to_string(sensors.laser->beams));
+          }
+          break;
+      }
+      if (!known) {
+        reader_.reject(std::string("a reading of the ") + sensor_name(reading.kind) +
+                       ", which robot '" + robot.name + "' does not have");
+      }
+      break;
+    }
+    case Record::Type::kGroundTruth:
+      if (!robot_known(record.robot)) {
+        reader_.reject("a true pose of robot " + std::to_string(record.robot) + " in a world of " +
+                       std::to_string(robots) + " robots");
+      }
+      break;
+    case Record::Type::kEvent:
+      if (record.robot != -1 && !robot_known(record.robot)) {
+        reader_.reject("an event about robot " + std::to_string(record.robot) + " in a world of " +
+                       std::to_string(robots) + " robots");
+      }
+      break;
+    case Record::Type::kEnd:
+      break;
+  }
 }
 
 }  // namespace locsim

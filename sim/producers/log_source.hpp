@@ -20,10 +20,13 @@ class LogSource {
   const ScenarioDef& scenario() const { return scenario_; }
   std::uint64_t seed() const { return seed_; }
   const nlohmann::ordered_json& header() const { return reader_.header(); }
-  /// The next record; false after the last. Throws InputError on a corrupt or truncated log.
-  bool next(Record& record) { return reader_.next(record); }
+  /// The next record; false after the last. Throws InputError on a corrupt or truncated log, and
+  /// on a record its world cannot have produced (another robot's, a sensor the robot lacks, a
+  /// laser scan of another beam count), which the consumers could not take.
+  bool next(Record& record);
 
  private:
+  void check(const Record& record) const;
   LogReader reader_;
   WorldDef world_;
   ScenarioDef scenario_;

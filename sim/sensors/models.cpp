@@ -419,8 +419,12 @@ std::optional<ReadingData> OmniCameraSensor::measure(const SensorContext& contex
     const Vec2 along = local / range;
     const Vec2 across{-along.y(), along.x()};
     const double sigma_major = def_.sigma_major_m + def_.sigma_major_per_m * range;
-    const Vec2 noisy = local + rng().normal(0.0, sigma_major) * along +
-                       rng().normal(0.0, def_.sigma_minor_m) * across;
+    // One draw per statement: the operands of + are unsequenced and compilers draw them in
+    // different orders, which made the readings depend on the compiler. Across first, as gcc drew
+    // them (the outputs so far, and the pinned hashes, are gcc's).
+    const double across_noise_m = rng().normal(0.0, def_.sigma_minor_m);
+    const double along_noise_m = rng().normal(0.0, sigma_major);
+    const Vec2 noisy = local + along_noise_m * along + across_noise_m * across;
     Detection detection;
     detection.color = color_label(landmark);
     detection.id = def_.report_ids ? landmark.id : -1;

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -92,8 +93,8 @@ LogReader::LogReader(const std::filesystem::path& file) : file_(file), in_(file,
   }
   in_.read(reinterpret_cast<char*>(&length), 4);
   if (!in_ || length > (1u << 30)) fail("truncated or corrupt header");
-  std::string text(length, '\0');
-  in_.read(text.data(), length);
+  std::string text;
+  if (!read_bytes(text, length)) fail("truncated in the header");
   in_.read(reinterpret_cast<char*>(&checksum), 4);
   if (!in_) fail("truncated in the header");
   if (checksum != crc(0, text)) fail("header checksum mismatch: the file is corrupt");
@@ -133,6 +134,25 @@ void LogReader::fail(const std::string& problem) const {
   throw InputError(SourceLocation{file_.string()}, "", problem);
 }
 
+void LogReader::reject(const std::string& problem) const {
+  fail(problem + " (record " + std::to_string(records_) + ", byte " + std::to_string(last_offset_) +
+       ")");
+}
+
+bool LogReader::read_bytes(std::string& out, std::size_t n) {
+  // In chunks: the string grows only as far as the file really goes.
+  constexpr std::size_t kChunk = std::size_t{1} << 20;
+  out.clear();
+  while (out.size() < n) {
+    const std::size_t done = out.size();
+    const std::size_t chunk = std::min(kChunk, n - done);
+    out.resize(done + chunk);
+    in_.read(out.data() + done, static_cast<std::streamsize>(chunk));
+    if (!in_) return false;
+  }
+  return true;
+}
+
 bool LogReader::next(Record& record) {
   const std::uint64_t offset = offset_;  // tracked by hand: tellg() is a syscall per record
   const auto where = [&] {
@@ -146,10 +166,10 @@ bool LogReader::next(Record& record) {
          " records: no end record (was the run cut short?)");
   in_.read(reinterpret_cast<char*>(&length), 4);
   if (!in_ || length > (1u << 28)) fail("truncated or corrupt record length" + where());
-  payload_.resize(length);
-  in_.read(payload_.data(), length);
+  if (!read_bytes(payload_, length)) fail("truncated in a record" + where());
   in_.read(reinterpret_cast<char*>(&checksum), 4);
   if (!in_) fail("truncated in a record" + where());
+  last_offset_ = offset;
   offset_ += 1 + 4 + length + 4;
   if (checksum != crc(type, payload_)) fail("checksum mismatch: the file is corrupt" + where());
   if (static_cast<Record::Type>(type) == Record::Type::kEnd) {

@@ -54,14 +54,21 @@ class LogReader {
   /// Checks, by reading the file's last bytes only, that it ends with an end record: a log whose
   /// recording was cut short is refused before anything is replayed. Throws InputError.
   void check_end();
+  /// Throws InputError naming the file, `problem`, and the number and offset of the record last
+  /// read (for checks of a record's contents, producers/log_source).
+  [[noreturn]] void reject(const std::string& problem) const;
 
  private:
   [[noreturn]] void fail(const std::string& problem) const;
+  /// Reads `n` bytes into `out`, allocating no more than what the file holds (plus a chunk), so
+  /// that a corrupt length cannot ask for gigabytes. False when the file ends first.
+  bool read_bytes(std::string& out, std::size_t n);
   std::filesystem::path file_;
   std::ifstream in_;
   nlohmann::ordered_json header_;
   std::uint64_t records_ = 0;
-  std::uint64_t offset_ = 0;  // of the next record [byte]
+  std::uint64_t offset_ = 0;       // of the next record [byte]
+  std::uint64_t last_offset_ = 0;  // of the record last read [byte]
   std::string payload_;
 };
 

@@ -148,9 +148,12 @@ long pso_move(std::vector<Pose>& poses, Fitness&& fitness, const PsoDef& def, Ra
       const Eigen::Vector3d to_leader =
           pose_difference(poses[i], best[leader], def.heading_scale_m);
       for (int k = 0; k < 3; ++k) {
-        velocity[i](k) = def.inertia * velocity[i](k) +
-                         def.cognitive * random.uniform() * to_own(k) +
-                         def.social * random.uniform() * to_leader(k);
+        // One draw per statement: the operands of + are unsequenced and compilers differ (this
+        // is the order gcc drew them in, which the results so far have).
+        const double own_pull = random.uniform();
+        const double leader_pull = random.uniform();
+        velocity[i](k) = def.inertia * velocity[i](k) + def.cognitive * own_pull * to_own(k) +
+                         def.social * leader_pull * to_leader(k);
       }
       const double speed = velocity[i].norm();
       if (speed > def.max_speed) velocity[i] *= def.max_speed / speed;
