@@ -52,10 +52,53 @@ TEST(Cli, MalformedWorldNamesFileLineColumnAndKeyAndWritesNothing) {
   const Outcome o =
       locsim("run " + (dir / "bad.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_EQ(o.exit_code, 2);
-  EXPECT_NE(o.output.find("bad.yaml:3:21: 'robots[0].wheel_radius_m': must be > 0"),
-            std::string::npos)
+  EXPECT_NE(
+      o.output.find("bad.yaml:3:21: 'robots[0].wheel_radius_m': -1 m is outside [0.001, 10] m"),
+      std::string::npos)
       << o.output;
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// Issue 22: values a run cannot use are refused before its folder is made, with the place that
+// gives them.
+TEST(Cli, OutOfRangeValuesExitWithTwoBeforeAnyFolderIsMade) {
+  const fs::path dir = testing::temp_dir("cli");
+  // --duration has the scenario's declared range (before: 1e17 s ran 0 steps and said completed).
+  Outcome o = locsim("run " + kDemo + " --duration 1e17 --out " + (dir / "long").string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("--duration: must be in [0.001, 1e+07], got 1e17"), std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(dir / "long"));
+  // A random kidnap with no room for the robot (before: an error half-way, a half-written folder).
+  std::ofstream(dir / "full.yaml")
+      << "boxes:\n  - {center: [5, 4], size: [2, 2]}\nrobots:\n  - start: {x: 2, y: 2}\n"
+         "scenario:\n  duration_s: 5\n  events:\n    - {at_s: 1, kidnap: {to: random, within: "
+         "{min: [4.5, 3.5], max: [5.5, 4.5]}}}\n";
+  o = locsim("run " + (dir / "full.yaml").string() + " --out " + (dir / "kidnap").string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("full.yaml:8:7: 'scenario.events[0].kidnap.within': robot 'robot0' "
+                          "fits nowhere"),
+            std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(dir / "kidnap"));
+  // A scenario file whose ground-truth rate does not divide the physics rate: at its line.
+  std::ofstream(dir / "gt.yaml") << "name: gt\nduration_s: 1\ngroundtruth_hz: 30\n";
+  o = locsim("run " + kDemo + " --scenario " + (dir / "gt.yaml").string() + " --out " +
+             (dir / "gt").string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("gt.yaml:3:17: 'groundtruth_hz': rate 30 Hz must divide the physics "
+                          "rate (200 Hz)"),
+            std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(dir / "gt"));
+}
+
+TEST(Cli, ADirectoryGivenAsTheWorldSaysSo) {
+  const fs::path dir = testing::temp_dir("cli");
+  const Outcome o = locsim("validate " + dir.string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find(dir.string() + ": is a directory, not a file"), std::string::npos)
+      << o.output;
 }
 
 TEST(Cli, RunWritesTheRunFolder) {
@@ -145,8 +188,9 @@ TEST(Cli, ValidateChecksWithoutRunning) {
                                        "robots:\n  - start: {x: 0, y: 0}\n";
   const Outcome stuck = locsim("validate " + (dir / "stuck.yaml").string());
   EXPECT_EQ(stuck.exit_code, 2);
-  EXPECT_NE(stuck.output.find("stuck.yaml:4:5: 'start': robot 'robot0' starts in collision"),
-            std::string::npos)
+  EXPECT_NE(
+      stuck.output.find("stuck.yaml:4:5: 'robots[0].start': robot 'robot0' starts in collision"),
+      std::string::npos)
       << stuck.output;
 }
 

@@ -43,7 +43,7 @@ const Malformed kMalformedWorlds[] = {
     {"unknown_robot_key", "robots:\n  - start: {x: 0, y: 0}\n    wheel_bas_m: 0.3\n",
      "test.yaml:3:5: 'robots[0].wheel_bas_m': unknown key; did you mean 'wheel_base_m'?"},
     {"negative_radius", "robots:\n  - start: {x: 0, y: 0}\n    wheel_radius_m: -0.05\n",
-     "test.yaml:3:21: 'robots[0].wheel_radius_m': must be > 0, got -0.05"},
+     "test.yaml:3:21: 'robots[0].wheel_radius_m': -0.05 m is outside [0.001, 10] m"},
     {"wrong_type", "robots:\n  - start: {x: 0, y: 0}\n    mass_kg: heavy\n",
      "test.yaml:3:14: 'robots[0].mass_kg': expected a number, got 'heavy'"},
     {"nan", "robots:\n  - start: {x: .nan, y: 0}\n",
@@ -60,7 +60,7 @@ const Malformed kMalformedWorlds[] = {
      "5}\n",
      "'polygons[0].points': polygon must be convex"},
     {"negative_friction", "floor: {friction: -1}\nrobots:\n  - start: {x: 0, y: 0}\n",
-     "test.yaml:1:19: 'floor.friction': must be >= 0"},
+     "test.yaml:1:19: 'floor.friction': -1 is outside [0, 10]"},
     {"region_two_shapes",
      "floor:\n  regions:\n    - {name: a, friction: 1, box: {min: [0, 0], max: [1, 1]}, polygon: "
      "[[0, 0], [1, 0], [0, 1]]}\n"
@@ -80,7 +80,7 @@ const Malformed kMalformedWorlds[] = {
     {"duplicate_key", "robots:\n  - start: {x: 0, y: 0}\n    mass_kg: 1\n    mass_kg: 2\n",
      "'robots[0].mass_kg': key given twice"},
     {"step_rate", "physics: {step_hz: 5}\nrobots:\n  - start: {x: 0, y: 0}\n",
-     "'physics.step_hz': must be in [10, 10000] Hz"},
+     "'physics.step_hz': 5 Hz is outside [10, 10000] Hz"},
     {"bad_robot_name", "robots:\n  - {name: my robot, start: {x: 0, y: 0}}\n",
      "'robots[0].name': a robot name names its output folder"},
     {"missing_map", "map: nowhere/map.yaml\nrobots:\n  - start: {x: 0, y: 0}\n",
@@ -91,8 +91,8 @@ const Malformed kMalformedWorlds[] = {
     {"unknown_sensor_key", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {laser: {beems: 10}}\n",
      "'robots[0].sensors.laser.beems': unknown key; did you mean 'beams'?"},
     {"sensor_rate", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {imu: {rate_hz: 30}}\n",
-     "test.yaml:3:30: 'robots[0].sensors.imu.rate_hz': rate 30.000000 Hz must divide the physics "
-     "rate"},
+     "test.yaml:3:30: 'robots[0].sensors.imu.rate_hz': rate 30 Hz must divide the physics rate "
+     "(200 Hz)"},
     {"laser_mixture",
      "robots:\n  - start: {x: 0, y: 0}\n    sensors: {laser: {p_max: 0.7, p_random: 0.5}}\n",
      "p_short + p_max + p_random exceeds 1"},
@@ -128,10 +128,82 @@ const Malformed kMalformedWorlds[] = {
 INSTANTIATE_TEST_SUITE_P(Syntax, MalformedWorld, ::testing::ValuesIn(kMalformedWorlds),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 
+// Well-formed numbers outside their declared ranges (issue 22): before, each of these crashed
+// Box2D (SIGABRT), overflowed a step count, hung, produced NaN poses or allocated gigabytes.
+const Malformed kOutOfRange[] = {
+    {"mass_huge", "robots:\n  - start: {x: 0, y: 0}\n    mass_kg: 1.0e38\n",
+     "test.yaml:3:14: 'robots[0].mass_kg': 1e+38 kg is outside [0.01, 100000] kg"},
+    {"mass_tiny", "robots:\n  - start: {x: 0, y: 0}\n    mass_kg: 1.0e-40\n",
+     "test.yaml:3:14: 'robots[0].mass_kg': 1e-40 kg is outside [0.01, 100000] kg"},
+    {"start_far", "robots:\n  - start: {x: 1.0e300, y: 0}\n",
+     "test.yaml:2:16: 'robots[0].start.x': 1e+300 m is outside [-10000, 10000] m"},
+    {"heading_huge", "robots:\n  - start: {x: 0, y: 0, theta: 1.0e300}\n",
+     "test.yaml:2:32: 'robots[0].start.theta': 1e+300 rad is outside [-1000000, 1000000] rad"},
+    {"heading_huge_deg", "robots:\n  - start: {x: 0, y: 0, theta_deg: -1.0e9}\n",
+     "'robots[0].start.theta_deg': -1e+09 deg is outside [-5.72958e+07, 5.72958e+07] deg"},
+    {"wanderer_far", "robots:\n  - start: {x: 1.0e10, y: 0}\nscenario:\n  drive: {mode: wander}\n",
+     "test.yaml:2:16: 'robots[0].start.x': 1e+10 m is outside [-10000, 10000] m"},
+    {"groundtruth_rate_tiny",
+     "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  groundtruth_hz: 1.0e-300\n",
+     "test.yaml:4:19: 'scenario.groundtruth_hz': 1e-300 Hz is outside [0.01, 10000] Hz"},
+    {"groundtruth_rate_not_dividing",
+     "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  groundtruth_hz: 30\n",
+     "test.yaml:4:19: 'scenario.groundtruth_hz': rate 30 Hz must divide the physics rate (200 Hz)"},
+    {"mover_speed_huge",
+     "movers:\n  - {name: m, path: [[3, 3], [4, 3]], speed_mps: 1.0e300}\nrobots:\n  - start: {x: "
+     "0, "
+     "y: 0}\n",
+     "test.yaml:2:50: 'movers[0].speed_mps': 1e+300 m/s is outside [0, 50] m/s"},
+    {"mover_path_standing",
+     "movers:\n  - {name: m, path: [[3, 3], [3, 3.001]]}\nrobots:\n  - start: {x: 0, y: 0}\n",
+     "test.yaml:2:21: 'movers[0].path': points 0 and 1 are closer than 1 cm"},
+    {"footprint_tiny", "robots:\n  - start: {x: 0, y: 0}\n    footprint: {radius_m: 1.0e-300}\n",
+     "test.yaml:3:27: 'robots[0].footprint.radius_m': 1e-300 m is outside [0.01, 50] m"},
+    {"footprint_polygon_tiny",
+     "robots:\n  - start: {x: 0, y: 0}\n    footprint: {polygon: [[0.001, 0], [0, 0.001], [-0.001, "
+     "0]]}\n",
+     "'robots[0].footprint.polygon': points 0 and 1 are closer than 1 cm"},
+    {"footprint_polygon_sliver",
+     "robots:\n  - start: {x: 0, y: 0}\n    footprint: {polygon: [[0.3, 0], [0, 0.0001], [-0.3, "
+     "0]]}\n",
+     "'robots[0].footprint.polygon': polygon's area 3e-05 m² is below 0.0001 m²"},
+    {"duration_huge", "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  duration_s: 1.0e300\n",
+     "test.yaml:4:15: 'scenario.duration_s': 1e+300 s is outside [0.001, 10000000] s"},
+    {"wall_long", "walls:\n  - points: [[0, 0], [2.1e9, 0]]\nrobots:\n  - start: {x: 2, y: 2}\n",
+     "test.yaml:2:23: 'walls[0].points[1][0]': 2.1e+09 m is outside [-10000, 10000] m"},
+    {"room_30km",
+     "walls:\n  - points: [[0, 0], [30000, 0], [30000, 30000], [0, 30000]]\n    closed: true\n"
+     "robots:\n  - start: {x: 2, y: 2}\n",
+     "test.yaml:2:23: 'walls[0].points[1][0]': 30000 m is outside [-10000, 10000] m"},
+    {"grid_resolution_tiny",
+     "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  localization: {grid_resolution_m: 1.0e-5}\n",
+     "test.yaml:4:37: 'scenario.localization.grid_resolution_m': 1e-05 m is outside [0.001, 100] "
+     "m"},
+    {"grid_over_budget",
+     "walls:\n  - points: [[0, 0], [2000, 0], [2000, 2000], [0, 2000]]\n    closed: true\n"
+     "robots:\n  - start: {x: 2, y: 2}\nscenario:\n  localization: {grid_resolution_m: 0.05}\n",
+     "test.yaml:7:37: 'scenario.localization.grid_resolution_m': the localizers' occupancy grid of "
+     "40005 x 40005 cells of 0.05 m would need about 35.8 GiB; a world may need at most 1 GiB"},
+    {"rendered_camera_over_budget",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      ptz_camera: {mode: rendered, width_px: "
+     "8192, height_px: 8192}\n",
+     "test.yaml:4:19: 'robots[0].sensors.ptz_camera': a rendered 8192 x 8192 px camera would need "
+     "about "
+     "2 "
+     "GiB; a world may need at most 1 GiB"},
+    {"sweep_rate_zero",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors: {ptz_camera: {}}\nscenario:\n  ptz: {policy: "
+     "sweep, sweep_rate_deg: 0}\n",
+     "'scenario.ptz.sweep_rate_deg': 0 deg/s is outside [0.01, 10000] deg/s"},
+};
+
+INSTANTIATE_TEST_SUITE_P(Ranges, MalformedWorld, ::testing::ValuesIn(kOutOfRange),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
+
 // Problems only the assembled world or the scenario's names reveal.
 const Malformed kInconsistentWorlds[] = {
     {"start_in_wall", "walls:\n  - points: [[1, -1], [1, 1]]\nrobots:\n  - start: {x: 1.1, y: 0}\n",
-     "test.yaml:4:5: 'start': robot 'robot0' starts in collision"},
+     "test.yaml:4:5: 'robots[0].start': robot 'robot0' starts in collision"},
     {"start_in_box",
      "boxes:\n  - {center: [0, 0], size: [1, 1]}\nrobots:\n  - start: {x: 0, y: 0}\n",
      "starts in collision"},
@@ -156,6 +228,20 @@ const Malformed kInconsistentWorlds[] = {
      "'scenario.events[0].sensor_fault.sensor': robot 'robot0' has no laser"},
     {"ptz_without_camera", "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  ptz: {policy: sweep}\n",
      "'scenario.ptz': robot 'robot0' has no ptz_camera"},
+    // A kidnap that would put its robot inside a wall: Box2D would push it out to either side,
+    // outside the room as likely as in.
+    {"kidnap_into_wall",
+     "walls:\n  - points: [[0, 0], [10, 0], [10, 8], [0, 8]]\n    closed: true\nrobots:\n  - "
+     "start: {x: 2, y: 2}\nscenario:\n  events:\n    - {at_s: 1, kidnap: {to: {x: 10, y: 4}}}\n",
+     "test.yaml:8:7: 'scenario.events[0].kidnap.to': robot 'robot0' would be put down at "
+     "(10.0000,4.0000,0.0000) overlapping a wall, shape or map cell"},
+    // A random kidnap into a region filled by a box: found now, not half-way through the run.
+    {"kidnap_random_nowhere",
+     "boxes:\n  - {center: [5, 4], size: [2, 2]}\nrobots:\n  - start: {x: 2, y: 2}\nscenario:\n"
+     "  events:\n    - {at_s: 1, kidnap: {to: random, within: {min: [4.5, 3.5], max: [5.5, "
+     "4.5]}}}\n",
+     "test.yaml:7:7: 'scenario.events[0].kidnap.within': robot 'robot0' fits nowhere in x 4.5..5.5 "
+     "m, y 3.5..4.5 m"},
     {"unknown_obstacle",
      "robots:\n  - start: {x: 0, y: 0}\nscenario:\n  events:\n    - {at_s: 1, obstacle: {name: "
      "carol, action: stop}}\n",
@@ -269,6 +355,23 @@ TEST(OccupancyMap, MissingImageIsReportedAtTheImageKey) {
   }
 }
 
+TEST(OccupancyMap, AnImageOverTheLimitIsReportedAtTheImageKey) {
+  // 19 bytes announcing 50 000 x 50 000 pixels: before, 2.5 GB were allocated to read them.
+  const auto dir = testing::temp_dir("map");
+  std::ofstream(dir / "huge.pgm") << "P5\n50000 50000\n255\n";
+  std::ofstream(dir / "lab.yaml") << "image: huge.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n";
+  try {
+    load_occupancy_map(dir / "lab.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("lab.yaml:1:8: 'image': " + (dir / "huge.pgm").string() +
+                                         ": not a readable PGM image: 50000 x 50000 pixels; a "
+                                         "map has at most 33554432"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Pgm, ReadsTextAndSixteenBitImagesScaledTo255) {
   const auto dir = testing::temp_dir("pgm");
   std::ofstream(dir / "text.pgm") << "P2\n# comment\n3 2\n15\n0 15 5\n15 0 10\n";
@@ -300,6 +403,23 @@ TEST(Pgm, RejectsOtherFormatsAndTruncatedFiles) {
       std::string::npos);
   EXPECT_NE(message(dir / "short.pgm").find("truncated pixel data"), std::string::npos);
   EXPECT_NE(message(dir / "big.pgm").find("pixel value above the maximum value"),
+            std::string::npos);
+  // A 19-byte header announcing 50 000 x 50 000 pixels is refused before a pixel is allocated:
+  // over the documented maximum, or more than the file holds.
+  std::ofstream(dir / "huge.pgm") << "P5\n50000 50000\n255\n";
+  EXPECT_NE(message(dir / "huge.pgm")
+                .find("huge.pgm: not a readable PGM image: 50000 x 50000 pixels; a map has at most "
+                      "33554432"),
+            std::string::npos)
+      << message(dir / "huge.pgm");
+  std::ofstream(dir / "liar.pgm") << "P2\n4000 4000\n255\n0 0 0\n";
+  EXPECT_NE(message(dir / "liar.pgm")
+                .find("truncated pixel data: the header announces 4000 x 4000 pixels (at least "
+                      "31999999 bytes) and 7 bytes follow it"),
+            std::string::npos)
+      << message(dir / "liar.pgm");
+  std::filesystem::create_directories(dir / "folder.pgm");
+  EXPECT_NE(message(dir / "folder.pgm").find("folder.pgm: is a directory, not a file"),
             std::string::npos);
 }
 

@@ -542,11 +542,36 @@ TEST(Experiment, MalformedFilesAreReportedWhereTheyAreWrong) {
   EXPECT_NE(error(world + "seed: [1]\nlocalizers: [{plugin: odometry}]\n")
                 .find("'seed': unknown key; did you mean 'seeds'?"),
             std::string::npos);
+  // A file the experiment names and that is not there: at the key that names it.
   EXPECT_NE(error("world: nowhere.yaml\nseeds: [1]\nlocalizers: [{plugin: odometry}]\n")
-                .find("nowhere.yaml: no such file"),
+                .find("bad.yaml:1:8: 'world': no such file '"),
+            std::string::npos);
+  EXPECT_NE(error(world + "scenario: .\nseeds: [1]\nlocalizers: [{plugin: odometry}]\n")
+                .find("bad.yaml:2:11: 'scenario': '"),
             std::string::npos);
   EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: odometry}, {plugin: odometry}]\n")
                 .find("label 'odometry' used twice"),
+            std::string::npos);
+  // Grids multiply: nine axes of ten values are 10^9 configurations, refused before any is made
+  // (before: std::bad_alloc with no file or key).
+  std::string axes;
+  for (const char axis : std::string("abcdefghi")) {
+    axes += std::string(axes.empty() ? "" : ", ") + axis + ": [0, 1, 2, 3, 4, 5, 6, 7, 8, 9]";
+  }
+  EXPECT_NE(
+      error(world + "seeds: [1]\nlocalizers:\n  - plugin: odometry\n    grid: {" + axes + "}\n")
+          .find("bad.yaml:4:5: 'localizers[0]': the grids make 1000000000 configurations; an "
+                "experiment has at most 100000"),
+      std::string::npos);
+  EXPECT_NE(
+      error(world + "seeds: {from: 1, to: 20}\nlocalizers:\n  - plugin: odometry\n    grid: "
+                    "{a: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], b: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], c: "
+                    "[0, 1, 2, 3, 4, 5, 6, 7, 8, 9], d: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], e: [0, "
+                    "1, 2, 3, 4, 5, 6, 7, 8, 9]}\n")
+          .find("100000 configurations on 20 seeds make 2000000 runs"),
+      std::string::npos);
+  EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: odometry}]\ntimeout_s: 1e300\n")
+                .find("bad.yaml:4:12: 'timeout_s': 1e+300 s is outside [0.01, 10000000] s"),
             std::string::npos);
   // Grid values the plugin might never see: run keeps one value per parameter.
   EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: ekf_landmarks, params: {gate_chi2: "

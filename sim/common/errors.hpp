@@ -26,11 +26,20 @@ struct SourceLocation {
   std::string str() const;
 };
 
+/// A value's place in an input file, so that a problem found after loading (a world that does
+/// not fit in memory, a plugin that rejects a parameter) is reported where the user can fix it.
+struct InputPlace {
+  SourceLocation where;
+  std::string key;  // e.g. "localizers[1].grid.gain[0]"
+};
+
 /// The user's input cannot be used. The message names the file, line, column and key.
 class InputError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
   InputError(const SourceLocation& where, const std::string& key, const std::string& problem);
+  InputError(const InputPlace& place, const std::string& problem)
+      : InputError(place.where, place.key, problem) {}
 };
 
 /// A localizer plugin cannot be used: not found, not a plugin, wrong ABI, unresolved symbols,
@@ -45,6 +54,24 @@ class PluginError : public std::runtime_error {
 class RenderError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// What locsim is doing, for the message of an error that cannot say what it was building
+/// (std::bad_alloc): an Activity names a stage for its scope; scopes nest. The bounds on every
+/// input are meant to make such errors unreachable; this is the message if one is not.
+class Activity {
+ public:
+  explicit Activity(std::string what);
+  ~Activity();
+  Activity(const Activity&) = delete;
+  Activity& operator=(const Activity&) = delete;
+
+  /// The stages an exception left last, innermost last ("running x.yaml: building the world"),
+  /// or "" when none.
+  static std::string failed();
+
+ private:
+  int uncaught_at_start_;
 };
 
 /// Ctrl-C reached a wait (for a plugin's process, say): the run ends as "interrupted".

@@ -6,6 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "sim/common/errors.hpp"
+
 namespace locsim {
 
 namespace fs = std::filesystem;
@@ -16,6 +18,39 @@ std::string read_text(const fs::path& file) {
   std::ostringstream content;
   content << in.rdbuf();
   return content.str();
+}
+
+std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
+  const SourceLocation where{file.string()};
+  std::error_code error;
+  const fs::file_status status = fs::status(file, error);
+  if (!fs::exists(status)) throw InputError(where, "", "no such file");
+  if (fs::is_directory(status)) throw InputError(where, "", "is a directory, not a file");
+  std::ifstream in(file, std::ios::binary);
+  if (!in)
+    throw InputError(where, "", std::string("cannot read the file: ") + std::strerror(errno));
+  const std::uintmax_t size = fs::file_size(file, error);
+  if (!error && size > max_bytes) {
+    throw InputError(where, "",
+                     "the file has " + std::to_string(size) + " bytes; at most " +
+                         std::to_string(max_bytes) + " are read (docs/worlds.md, Limits)");
+  }
+  // Read at most one byte past the limit: a file that grows (or has no size, a pipe) stops there.
+  std::string content;
+  char buffer[65536];
+  while (in && content.size() <= max_bytes) {
+    in.read(buffer, sizeof(buffer));
+    content.append(buffer, static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) {
+    throw InputError(where, "", std::string("cannot read the file: ") + std::strerror(errno));
+  }
+  if (content.size() > max_bytes) {
+    throw InputError(where, "",
+                     "more than " + std::to_string(max_bytes) +
+                         " bytes; at most that many are read (docs/worlds.md, Limits)");
+  }
+  return content;
 }
 
 void write_file(const fs::path& file, std::string_view content) {

@@ -2,6 +2,7 @@
 // naming the path and the system's reason, never a silently short file.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -11,6 +12,11 @@ namespace locsim {
 
 /// The file's bytes. Throws std::runtime_error naming the path and the reason.
 std::string read_text(const std::filesystem::path& file);
+
+/// An input file's bytes (a world, scenario, experiment or map). Throws InputError naming the
+/// file when it does not exist, is a directory, cannot be read (with the system's reason) or is
+/// larger than `max_bytes` (checked before anything is read).
+std::string read_input_file(const std::filesystem::path& file, std::uintmax_t max_bytes);
 
 /// Writes `content` to `file` (replacing it). Throws std::runtime_error naming the path and the
 /// system's reason when it cannot be written whole.

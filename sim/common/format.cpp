@@ -30,6 +30,24 @@ std::string fixed(double value, int decimals) {
   return out;
 }
 
+std::string short_number(double value) {
+  std::array<char, 64> buffer{};
+  const auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value);
+  return error == std::errc() ? std::string(buffer.data(), end) : std::string("nan");
+}
+
+std::string rounded_number(double value, int significant) {
+  std::array<char, 64> buffer{};
+  if (value == 0.0) value = 0.0;  // no "-0"
+  // Whole numbers (range limits such as 10000000 or 2^62) exactly, digit for digit.
+  if (std::abs(value) < 9.3e18 && value == std::trunc(value)) {
+    return std::to_string(static_cast<long long>(value));
+  }
+  const auto [end, error] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value,
+                                          std::chars_format::general, significant);
+  return error == std::errc() ? std::string(buffer.data(), end) : std::string("nan");
+}
+
 void append_tum(std::string& line, double t_s, double x, double y, double theta) {
   append_fixed(line, t_s, 4);
   line += ' ';

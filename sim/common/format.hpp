@@ -10,6 +10,14 @@ namespace locsim {
 void append_fixed(std::string& out, double value, int decimals);
 std::string fixed(double value, int decimals);
 
+/// A number for a message, short and exact: the shortest text that reads back as `value`
+/// ("1e+38", "0.05", "10000"), never hundreds of digits.
+std::string short_number(double value);
+
+/// A number rounded to `significant` digits for a message ("0.0174533", "5.72958e+07"); whole
+/// numbers exactly ("170", "10000000").
+std::string rounded_number(double value, int significant = 6);
+
 /// One TUM row, `t x y 0 0 0 qz qw`, for a planar pose (read unchanged by evo).
 void append_tum(std::string& line, double t_s, double x, double y, double theta);
 

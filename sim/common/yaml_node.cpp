@@ -6,12 +6,16 @@
 #include <set>
 #include <sstream>
 
+#include "sim/common/files.hpp"
+
 namespace locsim {
 
 namespace {
 std::string join_path(const std::string& parent, std::string_view key) {
   return parent.empty() ? std::string(key) : parent + "." + std::string(key);
 }
+
+RangeObserver g_range_observer = nullptr;
 
 std::string describe(const YAML::Node& node) {
   if (!node || node.IsNull()) return "nothing";
@@ -37,14 +41,15 @@ YamlNode YamlNode::load_string(const std::string& text, const std::string& file_
 }
 
 YamlNode YamlNode::load_file(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) {
-    throw InputError(SourceLocation{file.string()}, "",
-                     std::filesystem::exists(file) ? "cannot read the file" : "no such file");
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return load_string(text.str(), file.string());
+  return load_string(read_input_file(file, kMaxYamlFileBytes), file.string());
+}
+
+YamlNode& YamlNode::operator=(const YamlNode& other) {
+  node_.reset(other.node_);
+  file_ = other.file_;
+  path_ = other.path_;
+  mark_ = other.mark_;
+  return *this;
 }
 
 SourceLocation YamlNode::where() const {
@@ -131,7 +136,21 @@ std::vector<YamlNode> YamlNode::items() const {
   return out;
 }
 
-double YamlNode::as_double(Check check) const {
+RangeObserver YamlNode::observe_ranges(RangeObserver observer) {
+  const RangeObserver previous = g_range_observer;
+  g_range_observer = observer;
+  return previous;
+}
+
+void YamlNode::observe(const std::string& key_path, const Range& range, bool degrees, bool angle,
+                       bool integer, bool present) const {
+  if (g_range_observer != nullptr) {
+    g_range_observer(RangeUse{*file_, key_path, range, degrees, angle, integer, present});
+  }
+}
+
+double YamlNode::number(const Range& range, bool degrees, bool angle) const {
+  observe(path_, range, degrees, angle, false, true);
   if (!node_.IsScalar()) fail("expected a number, got " + describe(node_));
   double value = 0.0;
   try {
@@ -140,33 +159,34 @@ double YamlNode::as_double(Check check) const {
     fail("expected a number, got " + describe(node_));
   }
   if (!std::isfinite(value)) fail("expected a finite number, got " + describe(node_));
-  switch (check) {
-    case Check::kAny:
-      break;
-    case Check::kPositive:
-      if (!(value > 0.0)) fail("must be > 0, got " + node_.Scalar());
-      break;
-    case Check::kNonNegative:
-      if (value < 0.0) fail("must be >= 0, got " + node_.Scalar());
-      break;
-    case Check::kUnitInterval:
-      if (value < 0.0 || value > 1.0) fail("must be in [0, 1], got " + node_.Scalar());
-      break;
+  if (const std::string problem = out_of_range(value, range, degrees); !problem.empty()) {
+    fail(problem);
   }
   return value;
 }
 
-long long YamlNode::as_int(long long min_value, long long max_value) const {
+double YamlNode::as_double(const Range& range) const {
+  return number(range, false, false);
+}
+
+long long YamlNode::as_int(const Range& range) const {
+  observe(path_, range, false, false, true, true);
   if (!node_.IsScalar()) fail("expected an integer, got " + describe(node_));
   long long value = 0;
   try {
     value = node_.as<long long>();
   } catch (const YAML::Exception&) {
+    // A whole number too large for 64 bits is out of range, not "not an integer".
+    double number = 0.0;
+    if (YAML::convert<double>::decode(node_, number) && number == std::trunc(number) &&
+        !out_of_range(number, range).empty()) {
+      fail(out_of_range(number, range));
+    }
     fail("expected an integer, got " + describe(node_));
   }
-  if (value < min_value || value > max_value) {
-    fail("must be in [" + std::to_string(min_value) + ", " + std::to_string(max_value) + "], got " +
-         node_.Scalar());
+  if (const std::string problem = out_of_range(static_cast<double>(value), range);
+      !problem.empty()) {
+    fail(problem);
   }
   return value;
 }
@@ -185,17 +205,17 @@ std::string YamlNode::as_string() const {
   return node_.Scalar();
 }
 
-Vec2 YamlNode::as_vec2() const {
+Vec2 YamlNode::as_vec2(const Range& range) const {
   if (!node_.IsSequence() || node_.size() != 2) {
     fail("expected a point [x, y], got " + describe(node_));
   }
   const auto xy = items();
-  return {xy[0].as_double(), xy[1].as_double()};
+  return {xy[0].as_double(range), xy[1].as_double(range)};
 }
 
-std::vector<Vec2> YamlNode::as_points(std::size_t min_points) const {
+std::vector<Vec2> YamlNode::as_points(std::size_t min_points, const Range& range) const {
   std::vector<Vec2> points;
-  for (const YamlNode& item : items()) points.push_back(item.as_vec2());
+  for (const YamlNode& item : items()) points.push_back(item.as_vec2(range));
   if (points.size() < min_points) {
     fail("expected at least " + std::to_string(min_points) + " points [x, y], got " +
          std::to_string(points.size()));
@@ -203,20 +223,22 @@ std::vector<Vec2> YamlNode::as_points(std::size_t min_points) const {
   return points;
 }
 
-Pose2 YamlNode::as_pose() const {
+Pose2 YamlNode::as_pose(const Range& range) const {
   allow_keys({"x", "y", "theta", "theta_deg"});
-  return Pose2{(*this)["x"].as_double(), (*this)["y"].as_double(), get_angle("theta", 0.0)};
+  return Pose2{(*this)["x"].as_double(range), (*this)["y"].as_double(range),
+               get_heading("theta", 0.0)};
 }
 
-double YamlNode::get_double(std::string_view key, double fallback, Check check) const {
+double YamlNode::get_double(std::string_view key, double fallback, const Range& range) const {
   const auto value = find(key);
-  return value ? value->as_double(check) : fallback;
+  if (!value) observe(join_path(path_, key), range, false, false, false, false);
+  return value ? value->as_double(range) : fallback;
 }
 
-long long YamlNode::get_int(std::string_view key, long long fallback, long long min_value,
-                            long long max_value) const {
+long long YamlNode::get_int(std::string_view key, long long fallback, const Range& range) const {
   const auto value = find(key);
-  return value ? value->as_int(min_value, max_value) : fallback;
+  if (!value) observe(join_path(path_, key), range, false, false, true, false);
+  return value ? value->as_int(range) : fallback;
 }
 
 bool YamlNode::get_bool(std::string_view key, bool fallback) const {
@@ -229,15 +251,20 @@ std::string YamlNode::get_string(std::string_view key, const std::string& fallba
   return value ? value->as_string() : fallback;
 }
 
-double YamlNode::get_angle(std::string_view key, double fallback_rad) const {
+double YamlNode::get_angle(std::string_view key, double fallback_rad, const Range& range) const {
   const std::string deg_key = std::string(key) + "_deg";
   const auto rad = find(key);
   const auto deg = find(deg_key);
   if (rad && deg)
     deg->fail("give either '" + std::string(key) + "' [rad] or '" + deg_key + "' [deg], not both");
-  if (rad) return rad->as_double();
-  if (deg) return deg_to_rad(deg->as_double());
+  if (rad) return rad->number(range, false, true);
+  if (deg) return deg_to_rad(deg->number(range, true, true));
+  observe(join_path(path_, key), range, false, true, false, false);
   return fallback_rad;
+}
+
+double YamlNode::get_heading(std::string_view key, double fallback_rad) const {
+  return wrap_angle(get_angle(key, fallback_rad, kHeadingRange));
 }
 
 std::size_t edit_distance(std::string_view a, std::string_view b) {

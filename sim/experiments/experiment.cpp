@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <set>
 
+#include "sim/common/format.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/run/runner.hpp"
 
@@ -35,6 +36,7 @@ bool valid_label(const std::string& s) {
 }  // namespace
 
 ExperimentDef load_experiment(const fs::path& file) {
+  const Activity reading("reading the experiment " + file.string());
   const YamlNode root = YamlNode::load_file(file);
   root.allow_keys({"name", "world", "scenario", "duration_s", "seeds", "localizers", "convergence",
                    "timeout_s"});
@@ -42,22 +44,34 @@ ExperimentDef load_experiment(const fs::path& file) {
   e.source = file;
   const fs::path base = file.parent_path();
   e.name = root.get_string("name", file.stem().string());
-  e.world = base / root["world"].as_string();
-  if (const auto scenario = root.find("scenario")) e.scenario = base / scenario->as_string();
+  // A file that is not there is reported where the experiment names it.
+  const auto input_file = [&](const YamlNode& node) {
+    const fs::path path = base / node.as_string();
+    std::error_code error;
+    if (!fs::exists(path, error)) node.fail("no such file '" + path.string() + "'");
+    if (fs::is_directory(path, error)) node.fail("'" + path.string() + "' is a directory");
+    return path;
+  };
+  e.world = input_file(root["world"]);
+  if (const auto scenario = root.find("scenario"); scenario && !scenario->is_null()) {
+    e.scenario = input_file(*scenario);
+  }
   if (const auto duration = root.find("duration_s"))
-    e.duration_s = duration->as_double(Check::kPositive);
-  e.timeout_s = root.get_double("timeout_s", e.timeout_s, Check::kPositive);
+    e.duration_s = duration->as_double(ScenarioDef::kDurationRange);
+  e.timeout_s = root.get_double("timeout_s", e.timeout_s, ExperimentDef::kTimeoutRange);
 
   const YamlNode seeds = root["seeds"];
   if (seeds.is_sequence()) {
     for (const YamlNode& s : seeds.items())
-      e.seeds.push_back(static_cast<std::uint64_t>(s.as_int(0, 1LL << 62)));
+      e.seeds.push_back(static_cast<std::uint64_t>(s.as_int(ExperimentDef::kSeedRange)));
   } else {
     seeds.allow_keys({"from", "to"});
-    const long long from = seeds["from"].as_int(0, 1LL << 62),
-                    to = seeds["to"].as_int(0, 1LL << 62);
+    const long long from = seeds["from"].as_int(ExperimentDef::kSeedRange),
+                    to = seeds["to"].as_int(ExperimentDef::kSeedRange);
     if (to < from) seeds["to"].fail("must be >= from");
-    if (to - from >= 100000) seeds.fail("more than 100000 seeds");
+    if (static_cast<std::size_t>(to - from) >= ExperimentDef::kMaxSeedSpan) {
+      seeds.fail("more than " + std::to_string(ExperimentDef::kMaxSeedSpan) + " seeds");
+    }
     for (long long s = from; s <= to; ++s) e.seeds.push_back(static_cast<std::uint64_t>(s));
   }
   if (e.seeds.empty()) seeds.fail("give at least one seed");
@@ -99,6 +113,24 @@ ExperimentDef load_experiment(const fs::path& file) {
         axes.emplace_back(key, texts);
       }
     }
+    // Counted before the expansion is made: a few lists can multiply into billions.
+    double configurations = static_cast<double>(e.localizers.size());
+    double this_grid = 1.0;
+    for (const auto& axis : axes) this_grid *= static_cast<double>(axis.second.size());
+    configurations += this_grid;
+    if (configurations > static_cast<double>(ExperimentDef::kMaxConfigurations)) {
+      item.fail("the grids make " + rounded_number(configurations, 12) +
+                " configurations; an experiment has at most " +
+                std::to_string(ExperimentDef::kMaxConfigurations) + " (split it)");
+    }
+    if (configurations * static_cast<double>(e.seeds.size()) >
+        static_cast<double>(ExperimentDef::kMaxRuns)) {
+      item.fail(rounded_number(configurations, 12) + " configurations on " +
+                std::to_string(e.seeds.size()) + " seeds make " +
+                rounded_number(configurations * static_cast<double>(e.seeds.size()), 12) +
+                " runs; an experiment has at most " + std::to_string(ExperimentDef::kMaxRuns) +
+                " (split it, or shard it with --shard)");
+    }
     // Cartesian product, the last axis varying fastest.
     std::vector<std::size_t> digit(axes.size(), 0);
     while (true) {
@@ -122,13 +154,13 @@ ExperimentDef load_experiment(const fs::path& file) {
   if (e.localizers.empty()) localizers.fail("give at least one localizer");
 
   if (const auto convergence = root.find("convergence")) {
-    convergence->allow_keys({"position_m", "heading_deg", "hold_samples"});
-    e.convergence.position_m =
-        convergence->get_double("position_m", e.convergence.position_m, Check::kPositive);
-    e.convergence.heading_rad = deg_to_rad(convergence->get_double(
-        "heading_deg", rad_to_deg(e.convergence.heading_rad), Check::kPositive));
-    e.convergence.hold_samples = static_cast<int>(
-        convergence->get_int("hold_samples", e.convergence.hold_samples, 1, 1000000));
+    convergence->allow_keys({"position_m", "heading", "heading_deg", "hold_samples"});
+    e.convergence.position_m = convergence->get_double("position_m", e.convergence.position_m,
+                                                       ConvergenceCriterion::kPositionRange);
+    e.convergence.heading_rad = convergence->get_angle("heading", e.convergence.heading_rad,
+                                                       ConvergenceCriterion::kHeadingRange);
+    e.convergence.hold_samples = static_cast<int>(convergence->get_int(
+        "hold_samples", e.convergence.hold_samples, ConvergenceCriterion::kHoldRange));
   }
   // The world and scenario must load now, not in every run.
   e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;

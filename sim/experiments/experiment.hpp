@@ -10,16 +10,10 @@
 #include <vector>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/range.hpp"
 #include "sim/metrics/error_metrics.hpp"
 
 namespace locsim {
-
-/// A value's place in the experiment file, so that a problem found later (a plugin that cannot
-/// be loaded, a parameter it rejects) is reported where the user can fix it.
-struct InputPlace {
-  SourceLocation where;
-  std::string key;  // e.g. "localizers[1].grid.gain[0]"
-};
 
 /// One localizer configuration of the grid.
 struct LocalizerConfig {
@@ -36,11 +30,18 @@ struct ExperimentDef {
   std::filesystem::path source;
   std::filesystem::path world;  // resolved against the experiment file
   std::optional<std::filesystem::path> scenario;
-  std::optional<double> duration_s;
+  std::optional<double> duration_s;  // ScenarioDef::kDurationRange [s]
   std::vector<std::uint64_t> seeds;
+  static constexpr Range kSeedRange{0.0, 4611686018427387904.0, ""};  // 0..2^62
+  static constexpr std::size_t kMaxSeedSpan = 100000;  // seeds {from, to} lists at most this many
   std::vector<LocalizerConfig> localizers;
+  // Configurations of all the localizers' grids together, and runs (configurations x seeds):
+  // each run is a folder and a line of results, and the expansion is made before anything runs.
+  static constexpr std::size_t kMaxConfigurations = 100000;
+  static constexpr std::size_t kMaxRuns = 1000000;
   ConvergenceCriterion convergence;
   double timeout_s = 600.0;  // per run, wall clock [s]
+  static constexpr Range kTimeoutRange{0.01, kSimulatedTimeRange.max, "s"};
   /// Every file the experiment was read from: this one, then its world's and scenario's
   /// (RunInputs::files).
   std::vector<std::filesystem::path> files;

@@ -8,6 +8,9 @@
 #include <optional>
 #include <vector>
 
+#include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
+
 namespace locsim {
 
 struct ErrorSample {
@@ -18,9 +21,12 @@ struct ErrorSample {
 };
 
 struct ConvergenceCriterion {
-  double position_m = 0.1;                   // error at or below this...
-  double heading_rad = 0.17453292519943295;  // ...and this (10 deg)...
-  int hold_samples = 10;                     // ...for this many consecutive samples
+  double position_m = 0.1;  // error at or below this... [m]
+  static constexpr Range kPositionRange{1e-6, 10000.0, "m"};
+  double heading_rad = 0.17453292519943295;  // ...and this (10 deg)... [rad]
+  static constexpr Range kHeadingRange{deg_to_rad(1e-6), deg_to_rad(180.0), "rad"};
+  int hold_samples = 10;  // ...for this many consecutive samples
+  static constexpr Range kHoldRange{1.0, 1000000.0, ""};
 };
 
 struct ErrorSummary {

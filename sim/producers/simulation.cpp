@@ -26,7 +26,7 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
     RobotSlot slot;
     slot.robot = std::make_unique<DiffDriveRobot>(def, *world_, static_cast<int>(i));
     if (!world_->is_free(slot.robot->shape(), def.start, slot.robot->body())) {
-      throw InputError(def.where, "start",
+      throw InputError(def.where, def.key_path.empty() ? "start" : def.key_path + ".start",
                        "robot '" + def.name + "' starts in collision at " + format_pose(def.start) +
                            " (overlaps a wall, shape, mover or another robot)");
     }
@@ -41,6 +41,7 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
   }
   for (const EventDef& event : scenario_.events) {
     event_steps_.push_back(std::llround(event.at_s * world_def_.physics.step_hz));
+    kidnap_fallbacks_.push_back(check_kidnap(event));
   }
 
   // Sensors: the static geometry is copied once into the grid the rays traverse; everything that
@@ -155,6 +156,71 @@ std::string Simulation::body_name(const BodyTag& tag) const {
   return "?";
 }
 
+namespace {
+/// The poses a search for a free pose tries after its random draws: a kLattice x kLattice grid of
+/// positions over [lo, hi], row by row, each at kHeadings headings; `visit` returns true to stop.
+constexpr int kLattice = 128;
+constexpr int kHeadings = 8;
+template <class Visit>
+bool scan_lattice(const Vec2& lo, const Vec2& hi, Visit visit) {
+  for (int row = 0; row < kLattice; ++row) {
+    for (int col = 0; col < kLattice; ++col) {
+      const Vec2 at =
+          lo + (hi - lo).cwiseProduct(Vec2{(col + 0.5) / kLattice, (row + 0.5) / kLattice});
+      for (int k = 0; k < kHeadings; ++k) {
+        if (visit(Pose2{at.x(), at.y(), wrap_angle(2.0 * std::numbers::pi * k / kHeadings)})) {
+          return true;
+        }
+      }
+    }
+  }
+  return false;
+}
+}  // namespace
+
+std::optional<Pose2> Simulation::check_kidnap(const EventDef& event) const {
+  if (event.kind != EventDef::Kind::kKidnap) return std::nullopt;
+  const DiffDriveRobot* robot = nullptr;
+  for (const RobotSlot& slot : robots_) {
+    if (slot.robot->name() == event.robot) robot = slot.robot.get();
+  }
+  if (robot == nullptr) return std::nullopt;  // bind_scenario names every robot
+  // A put-down inside static geometry would have Box2D push the robot out to either side of a
+  // wall, outside the room as likely as in; movers and robots move, so only walls count here.
+  if (event.to) {
+    if (!world_->is_free_of_static(robot->shape(), *event.to)) {
+      throw InputError(event.where, event.key_path + ".to",
+                       "robot '" + robot->name() + "' would be put down at " +
+                           format_pose(*event.to) +
+                           " overlapping a wall, shape or map cell; choose a free pose");
+    }
+    return std::nullopt;
+  }
+  // A random target needs a free pose to exist: looked for now, by a search that is the same for
+  // every seed (draws of a stream of its own, then a lattice), not when the run is half done.
+  const Vec2 lo = event.random_min_m.value_or(world_->bounds_min());
+  const Vec2 hi = event.random_max_m.value_or(world_->bounds_max());
+  RandomStream rng = make_stream(0, "kidnap-check/" + robot->name());
+  for (int attempt = 0; attempt < 1000; ++attempt) {
+    const Pose2 pose{rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()),
+                     rng.uniform(-std::numbers::pi, std::numbers::pi)};
+    if (world_->is_free_of_static(robot->shape(), pose)) return pose;
+  }
+  std::optional<Pose2> found;
+  scan_lattice(lo, hi, [&](const Pose2& pose) {
+    if (world_->is_free_of_static(robot->shape(), pose)) found = pose;
+    return found.has_value();
+  });
+  if (!found) {
+    throw InputError(event.where, event.key_path + (event.random_min_m ? ".within" : ".to"),
+                     "robot '" + robot->name() + "' fits nowhere in x " + short_number(lo.x()) +
+                         ".." + short_number(hi.x()) + " m, y " + short_number(lo.y()) + ".." +
+                         short_number(hi.y()) +
+                         " m: every pose tried overlaps a wall, shape or map cell");
+  }
+  return found;
+}
+
 Pose2 Simulation::random_free_pose(RobotSlot& slot, const EventDef& event) {
   const Vec2 lo = event.random_min_m.value_or(world_->bounds_min());
   const Vec2 hi = event.random_max_m.value_or(world_->bounds_max());
@@ -164,8 +230,16 @@ Pose2 Simulation::random_free_pose(RobotSlot& slot, const EventDef& event) {
                      slot.kidnap_rng.uniform(-std::numbers::pi, std::numbers::pi)};
     if (world_->is_free(slot.robot->shape(), pose, slot.robot->body())) return pose;
   }
-  throw InputError(event.where, event.key_path + ".to",
-                   "found no free pose for robot '" + slot.robot->name() + "' in 10000 tries");
+  // Rare (a region nearly filled, or people and robots standing on what is free): the lattice,
+  // else the pose the load-time check found clear of walls, where contacts push the robot free.
+  std::optional<Pose2> found;
+  scan_lattice(lo, hi, [&](const Pose2& pose) {
+    if (world_->is_free(slot.robot->shape(), pose, slot.robot->body())) found = pose;
+    return found.has_value();
+  });
+  if (found) return *found;
+  const std::size_t index = static_cast<std::size_t>(&event - scenario_.events.data());
+  return kidnap_fallbacks_.at(index).value();
 }
 
 void Simulation::put_down(RobotSlot& slot) {

@@ -36,7 +36,7 @@ struct RobotStats {
 class Simulation {
  public:
   /// `world` and `scenario` must have been checked (bind_scenario). Throws InputError when a
-  /// robot starts in collision.
+  /// robot starts in collision, or a kidnap has nowhere to put its robot down.
   /// `make_imager` renders the images of PTZ cameras in mode: rendered (none: such a camera
   /// throws RenderError at construction).
   Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
@@ -100,6 +100,9 @@ class Simulation {
   void fire(const EventDef& event);
   void put_down(RobotSlot& slot);
   Pose2 random_free_pose(RobotSlot& slot, const EventDef& event);
+  /// Throws InputError when a kidnap's target overlaps static geometry, or its random region has
+  /// no pose where the robot fits; for a random one, returns a pose clear of static geometry.
+  std::optional<Pose2> check_kidnap(const EventDef& event) const;
   RobotSlot& slot_of(const std::string& robot);
   std::string body_name(const BodyTag& tag) const;
   void log(std::string kind, std::string robot, std::string details);
@@ -113,6 +116,7 @@ class Simulation {
   std::int64_t collision_quiet_steps_;
   std::size_t next_event_ = 0;
   std::vector<std::int64_t> event_steps_;
+  std::vector<std::optional<Pose2>> kidnap_fallbacks_;  // by event, see check_kidnap
   bool done_ = false;
   std::unique_ptr<PhysicsWorld> world_;
   std::vector<RobotSlot> robots_;

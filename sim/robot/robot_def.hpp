@@ -8,17 +8,25 @@
 
 #include "sim/common/errors.hpp"
 #include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
 #include "sim/sensors/sensor_defs.hpp"
 
 namespace locsim {
 
 /// The outline of a body seen from above, in the body frame (x forward, y left).
+/// A footprint's shape has a mass (robots) and takes part in contacts: below a centimetre Box2D's
+/// float maths (its 5 mm slop, its assert that a polygon's area exceeds 1.2e-7 m²) break down.
 struct FootprintDef {
   enum class Kind { kCircle, kBox, kPolygon };
   Kind kind = Kind::kCircle;
-  double radius_m = 0.2;       // kCircle [m]
-  Vec2 size_m{0.4, 0.3};       // kBox: length along x, width along y [m]
-  std::vector<Vec2> points_m;  // kPolygon: convex, counter-clockwise, <= 8 vertices [m]
+  double radius_m = 0.2;  // kCircle [m]
+  static constexpr Range kRadiusRange{0.01, 50.0, "m"};
+  Vec2 size_m{0.4, 0.3};  // kBox: length along x, width along y [m]
+  static constexpr Range kSizeRange{0.02, 100.0, "m"};
+  // kPolygon: convex, counter-clockwise, <= 8 vertices kMinPointSpacingM apart, within
+  // kBodyFrameRange, at least kMinPolygonAreaM2 [m]
+  std::vector<Vec2> points_m;
+  static constexpr double kMinPolygonAreaM2 = 1e-4;  // [m²]
 };
 
 /// Radius of the smallest circle about the body origin that holds the footprint. [m]
@@ -40,20 +48,30 @@ inline double bounding_radius(const FootprintDef& footprint) {
 struct RobotDef {
   std::string name = "robot";
   FootprintDef footprint;
-  double mass_kg = 10.0;                 // whole robot [kg]
-  double wheel_base_m = 0.35;            // distance between the wheel contact points [m]
-  double wheel_radius_m = 0.05;          // nominal radius the robot believes in (odometry) [m]
-  double wheel_radius_left_m = 0.05;     // true left radius; != nominal is a systematic error [m]
-  double wheel_radius_right_m = 0.05;    // true right radius [m]
-  double wheel_inertia_kgm2 = 0.002;     // wheel plus reflected rotor inertia, per wheel [kg m²]
-  double max_wheel_speed_radps = 20.0;   // motor speed limit [rad/s]
+  double mass_kg = 10.0;  // whole robot [kg]
+  static constexpr Range kMassRange{0.01, 1e5, "kg"};
+  double wheel_base_m = 0.35;  // distance between the wheel contact points [m]
+  static constexpr Range kWheelBaseRange{0.01, 100.0, "m"};
+  double wheel_radius_m = 0.05;        // nominal radius the robot believes in (odometry) [m]
+  double wheel_radius_left_m = 0.05;   // true left radius; != nominal is a systematic error [m]
+  double wheel_radius_right_m = 0.05;  // true right radius [m]
+  static constexpr Range kWheelRadiusRange{0.001, 10.0, "m"};
+  double wheel_inertia_kgm2 = 0.002;  // wheel plus reflected rotor inertia, per wheel [kg m²]
+  static constexpr Range kWheelInertiaRange{1e-6, 1000.0, "kg m^2"};
+  double max_wheel_speed_radps = 20.0;  // motor speed limit [rad/s]
+  static constexpr Range kWheelSpeedRange{0.01, 10000.0, "rad/s"};
   double max_wheel_accel_radps2 = 30.0;  // speed controller's ramp limit [rad/s²]
-  double max_wheel_torque_nm = 5.0;      // motor torque limit at the wheel [N m]
-  double drive_load_fraction = 0.8;      // share of the weight on the two drive wheels [-]
-  double height_m = 0.4;                 // top of the body; blocks ultrasound below it [m]
-  Pose2 start;                           // initial true pose in the world
-  SensorsDef sensors;                    // absent sensors are off
-  SourceLocation where;                  // of the robot's entry, for messages
+  static constexpr Range kWheelAccelRange{0.01, 1e6, "rad/s^2"};
+  double max_wheel_torque_nm = 5.0;  // motor torque limit at the wheel [N m]
+  static constexpr Range kWheelTorqueRange{0.001, 1e6, "N m"};
+  double drive_load_fraction = 0.8;  // share of the weight on the two drive wheels [-]
+  static constexpr Range kDriveLoadRange = kProbabilityRange;
+  double height_m = 0.4;  // top of the body; blocks ultrasound below it [m]
+  static constexpr Range kHeightRange = kBodyHeightRange;
+  Pose2 start;           // initial true pose in the world: kWorldCoordinateRange, any heading
+  SensorsDef sensors;    // absent sensors are off
+  SourceLocation where;  // of the robot's entry, for messages
+  std::string key_path;  // of the robot's entry, e.g. "robots[0]", for messages
 };
 
 }  // namespace locsim

@@ -30,6 +30,8 @@ using json = nlohmann::ordered_json;
 
 RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::path>& scenario_file,
                           std::optional<double> duration_s) {
+  const Activity reading("reading " + world_file.string() +
+                         (scenario_file ? " and " + scenario_file->string() : std::string()));
   RunInputs inputs{load_world(world_file), ScenarioDef{}, {}};
   if (scenario_file) {
     inputs.scenario = load_scenario(*scenario_file);
@@ -40,7 +42,10 @@ RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::pa
     inputs.scenario.source = world_file;  // defaults: idle robots for 60 s
   }
   if (duration_s) {
-    if (!(*duration_s > 0.0)) throw InputError("--duration: must be > 0");
+    if (const std::string problem = out_of_range(*duration_s, ScenarioDef::kDurationRange);
+        !problem.empty()) {
+      throw InputError("--duration: " + problem);
+    }
     inputs.scenario.duration_s = *duration_s;
   }
   bind_scenario(inputs.scenario, inputs.world);

@@ -24,7 +24,10 @@ class WaypointDriver final : public Driver {
     if (done_) return {t_s, 0.0, 0.0};
     const Pose2 pose = robot.pose();
     Vec2 to_target = def_.path_m[next_] - pose.position();
-    while (to_target.norm() < def_.tolerance_m) {
+    // Skips the waypoints already reached; a looping path that lies wholly within the tolerance
+    // of the robot is passed through once per step, not forever.
+    for (std::size_t skipped = 0; to_target.norm() < def_.tolerance_m; ++skipped) {
+      if (skipped == def_.path_m.size()) return {t_s, 0.0, 0.0};
       if (next_ + 1 < def_.path_m.size()) {
         ++next_;
       } else if (def_.loop) {

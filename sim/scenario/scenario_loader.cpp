@@ -4,11 +4,29 @@
 #include <array>
 #include <cmath>
 
+#include "sim/sensors/sensor_loader.hpp"
+#include "sim/world/world_budget.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
 
 namespace {
+
+/// The place of `key` below `node` (a dotted path), or of `node` with the key's path when the key
+/// is absent (its default applies).
+InputPlace place_of(const YamlNode& node, const std::string& key) {
+  std::optional<YamlNode> at = node;
+  std::size_t begin = 0;
+  while (at && at->is_map() && begin <= key.size()) {
+    const std::size_t dot = std::min(key.find('.', begin), key.size());
+    std::optional<YamlNode> next = at->find(key.substr(begin, dot - begin));
+    if (!next) break;
+    at = next;
+    begin = dot + 1;
+  }
+  if (begin > key.size()) return at->place();
+  return InputPlace{at->where(), node.path().empty() ? key : node.path() + "." + key};
+}
 
 DriveDef parse_drive(const YamlNode& node) {
   node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
@@ -17,7 +35,7 @@ DriveDef parse_drive(const YamlNode& node) {
   drive.where = node.where();
   drive.key_path = node.path();
   drive.robot = node.get_string("robot", "");
-  drive.start_after_s = node.get_double("start_after_s", 0.0, Check::kNonNegative);
+  drive.start_after_s = node.get_double("start_after_s", 0.0, kSimulatedTimeRange);
   const YamlNode mode = node["mode"];
   const std::string mode_name = mode.as_string();
   const auto only = [&](std::initializer_list<std::string_view> keys) {
@@ -28,19 +46,21 @@ DriveDef parse_drive(const YamlNode& node) {
       }
     }
   };
-  drive.speed_mps = node.get_double("speed_mps", drive.speed_mps, Check::kNonNegative);
+  drive.speed_mps = node.get_double("speed_mps", drive.speed_mps, DriveDef::kSpeedRange);
   drive.max_turn_rate_radps =
-      node.get_double("max_turn_rate_radps", drive.max_turn_rate_radps, Check::kPositive);
+      node.get_double("max_turn_rate_radps", drive.max_turn_rate_radps, DriveDef::kTurnRateRange);
   if (mode_name == "idle") {
     drive.mode = DriveDef::Mode::kIdle;
     only({});
   } else if (mode_name == "waypoints") {
     drive.mode = DriveDef::Mode::kWaypoints;
     only({"path", "loop", "speed_mps", "max_turn_rate_radps", "tolerance_m", "heading_gain"});
-    drive.path_m = node["path"].as_points(1);
+    drive.path_m = node["path"].as_points(1, kWorldCoordinateRange);
     drive.loop = node.get_bool("loop", drive.loop);
-    drive.tolerance_m = node.get_double("tolerance_m", drive.tolerance_m, Check::kPositive);
-    drive.heading_gain = node.get_double("heading_gain", drive.heading_gain, Check::kPositive);
+    drive.tolerance_m =
+        node.get_double("tolerance_m", drive.tolerance_m, DriveDef::kToleranceRange);
+    drive.heading_gain =
+        node.get_double("heading_gain", drive.heading_gain, DriveDef::kHeadingGainRange);
   } else if (mode_name == "velocity") {
     drive.mode = DriveDef::Mode::kVelocity;
     only({"commands"});
@@ -48,17 +68,18 @@ DriveDef parse_drive(const YamlNode& node) {
     for (const YamlNode& item : node["commands"].items()) {
       item.allow_keys({"t_s", "v_mps", "w_radps"});
       VelocityCommand command;
-      command.t_s = item["t_s"].as_double(Check::kNonNegative);
+      command.t_s = item["t_s"].as_double(kSimulatedTimeRange);
       if (command.t_s <= previous_t) item["t_s"].fail("command times must increase");
       previous_t = command.t_s;
-      command.v_mps = item.get_double("v_mps", 0.0);
-      command.w_radps = item.get_double("w_radps", 0.0);
+      command.v_mps = item.get_double("v_mps", 0.0, VelocityCommand::kSpeedRange);
+      command.w_radps = item.get_double("w_radps", 0.0, VelocityCommand::kTurnRateRange);
       drive.commands.push_back(command);
     }
   } else if (mode_name == "wander") {
     drive.mode = DriveDef::Mode::kWander;
     only({"speed_mps", "max_turn_rate_radps", "clearance_m"});
-    drive.clearance_m = node.get_double("clearance_m", drive.clearance_m, Check::kPositive);
+    drive.clearance_m =
+        node.get_double("clearance_m", drive.clearance_m, DriveDef::kClearanceRange);
   } else {
     mode.fail("unknown mode (known: idle, waypoints, velocity, wander)");
   }
@@ -71,7 +92,7 @@ EventDef parse_event(const YamlNode& node) {
   node.allow_keys({"at_s", "kidnap", "push", "friction", "obstacle", "sensor_fault", "end"});
   EventDef event;
   event.where = node.where();
-  event.at_s = node["at_s"].as_double(Check::kNonNegative);
+  event.at_s = node["at_s"].as_double(kSimulatedTimeRange);
   int kinds_given = 0;
   for (const std::string_view kind : kKinds) kinds_given += node.has(kind) ? 1 : 0;
   if (kinds_given != 1)
@@ -89,31 +110,33 @@ EventDef parse_event(const YamlNode& node) {
       if (to.as_string() != "random") to.fail("expected a pose {x, y, theta} or 'random'");
       if (const auto within = kidnap->find("within")) {
         within->allow_keys({"min", "max"});
-        event.random_min_m = (*within)["min"].as_vec2();
-        event.random_max_m = (*within)["max"].as_vec2();
+        event.random_min_m = (*within)["min"].as_vec2(kWorldCoordinateRange);
+        event.random_max_m = (*within)["max"].as_vec2(kWorldCoordinateRange);
         if (!(event.random_max_m->x() > event.random_min_m->x() &&
               event.random_max_m->y() > event.random_min_m->y())) {
           within->fail("'max' must exceed 'min' in x and y");
         }
       }
     } else {
-      event.to = to.as_pose();
+      event.to = to.as_pose(kWorldCoordinateRange);
       if (kidnap->has("within")) (*kidnap)["within"].fail("only with 'to: random'");
     }
-    event.carry_s = kidnap->get_double("carry_s", 0.0, Check::kNonNegative);
+    event.carry_s = kidnap->get_double("carry_s", 0.0, kSimulatedTimeRange);
   } else if (const auto push = node.find("push")) {
     event.kind = EventDef::Kind::kPush;
     event.key_path = push->path();
     push->allow_keys({"robot", "impulse_ns", "angular_impulse_nms"});
     event.robot = push->get_string("robot", "");
-    if (const auto impulse = push->find("impulse_ns")) event.impulse_ns = impulse->as_vec2();
-    event.angular_impulse_nms = push->get_double("angular_impulse_nms", 0.0);
+    if (const auto impulse = push->find("impulse_ns"))
+      event.impulse_ns = impulse->as_vec2(EventDef::kImpulseRange);
+    event.angular_impulse_nms =
+        push->get_double("angular_impulse_nms", 0.0, EventDef::kAngularImpulseRange);
   } else if (const auto friction = node.find("friction")) {
     event.kind = EventDef::Kind::kFriction;
     event.key_path = friction->path();
     friction->allow_keys({"region", "friction"});
     event.region = (*friction)["region"].as_string();
-    event.friction = (*friction)["friction"].as_double(Check::kNonNegative);
+    event.friction = (*friction)["friction"].as_double(kFrictionRange);
   } else if (const auto obstacle = node.find("obstacle")) {
     event.kind = EventDef::Kind::kObstacle;
     event.key_path = obstacle->path();
@@ -144,7 +167,7 @@ EventDef parse_event(const YamlNode& node) {
       event.fault.mode = SensorFaultDef::Mode::kStuck;
     } else if (mode_name == "bias") {
       event.fault.mode = SensorFaultDef::Mode::kBias;
-      event.fault.bias = (*fault)["bias"].as_double();
+      event.fault.bias = (*fault)["bias"].as_double(SensorFaultDef::kBiasRange);
       if (event.sensor == "encoders") mode.fail("encoders take dropout or stuck faults, not bias");
     } else {
       mode.fail("expected dropout, stuck or bias");
@@ -152,7 +175,7 @@ EventDef parse_event(const YamlNode& node) {
     if (event.fault.mode != SensorFaultDef::Mode::kBias && fault->has("bias")) {
       (*fault)["bias"].fail("only with mode: bias");
     }
-    event.fault.duration_s = fault->get_double("duration_s", 0.0, Check::kNonNegative);
+    event.fault.duration_s = fault->get_double("duration_s", 0.0, kSimulatedTimeRange);
   } else {
     event.kind = EventDef::Kind::kEnd;
     event.key_path = node.path() + ".end";
@@ -180,12 +203,12 @@ PanPolicyDef parse_pan_policy(const YamlNode& node) {
   } else {
     mode.fail("expected fixed, sweep or nearest_landmark");
   }
-  policy.pan_rad = node.get_angle("pan", policy.pan_rad);
-  policy.sweep_min_rad = node.get_angle("sweep_min", policy.sweep_min_rad);
-  policy.sweep_max_rad = node.get_angle("sweep_max", policy.sweep_max_rad);
+  policy.pan_rad = node.get_angle("pan", policy.pan_rad, PanPolicyDef::kPanRange);
+  policy.sweep_min_rad = node.get_angle("sweep_min", policy.sweep_min_rad, PanPolicyDef::kPanRange);
+  policy.sweep_max_rad = node.get_angle("sweep_max", policy.sweep_max_rad, PanPolicyDef::kPanRange);
   if (policy.sweep_min_rad > policy.sweep_max_rad) node.fail("sweep_min exceeds sweep_max");
-  policy.sweep_rate_radps = node.get_angle("sweep_rate", policy.sweep_rate_radps);
-  if (!(policy.sweep_rate_radps > 0.0)) node.fail("sweep_rate must be > 0");
+  policy.sweep_rate_radps =
+      node.get_angle("sweep_rate", policy.sweep_rate_radps, PanPolicyDef::kSweepRateRange);
   return policy;
 }
 
@@ -196,9 +219,12 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
       {"name", "duration_s", "groundtruth_hz", "drive", "ptz", "localization", "events"});
   ScenarioDef scenario;
   scenario.name = node.get_string("name", scenario.name);
-  scenario.duration_s = node.get_double("duration_s", scenario.duration_s, Check::kPositive);
-  scenario.groundtruth_hz =
-      node.get_double("groundtruth_hz", scenario.groundtruth_hz, Check::kPositive);
+  scenario.duration_s =
+      node.get_double("duration_s", scenario.duration_s, ScenarioDef::kDurationRange);
+  scenario.groundtruth_hz = node.get_double("groundtruth_hz", scenario.groundtruth_hz,
+                                            ScenarioDef::kGroundTruthRateRange);
+  scenario.groundtruth_hz_place = place_of(node, "groundtruth_hz");
+  scenario.localization.grid_resolution_place = place_of(node, "localization.grid_resolution_m");
   if (const auto drive = node.find("drive")) {
     if (drive->is_sequence()) {
       for (const YamlNode& item : drive->items()) scenario.drives.push_back(parse_drive(item));
@@ -216,11 +242,13 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
       l.initial_pose_known = value == "known";
     }
     l.landmarks_known = localization->get_bool("landmarks_known", l.landmarks_known);
-    l.sigma_xy_m = localization->get_double("sigma_xy_m", l.sigma_xy_m, Check::kNonNegative);
-    l.sigma_theta_rad = localization->get_angle("sigma_theta", l.sigma_theta_rad);
-    if (l.sigma_theta_rad < 0.0) localization->fail("sigma_theta must be >= 0");
-    l.grid_resolution_m =
-        localization->get_double("grid_resolution_m", l.grid_resolution_m, Check::kPositive);
+    l.sigma_xy_m =
+        localization->get_double("sigma_xy_m", l.sigma_xy_m, LocalizationDef::kSigmaXyRange);
+    l.sigma_theta_rad = localization->get_angle("sigma_theta", l.sigma_theta_rad,
+                                                LocalizationDef::kSigmaThetaRange);
+    l.grid_resolution_m = localization->get_double("grid_resolution_m", l.grid_resolution_m,
+                                                   LocalizationDef::kGridResolutionRange);
+    l.grid_resolution_place = place_of(*localization, "grid_resolution_m");
   }
   if (const auto ptz = node.find("ptz")) {
     if (ptz->is_sequence()) {
@@ -284,12 +312,19 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
                        "robot '" + policy.robot + "' has no ptz_camera");
     }
   }
-  const double step_hz = world.physics.step_hz;
-  const double ratio = step_hz / scenario.groundtruth_hz;
-  if (scenario.groundtruth_hz > step_hz || std::abs(ratio - std::round(ratio)) > 1e-9) {
-    throw InputError(SourceLocation{scenario.source.string()}, "groundtruth_hz",
-                     "must divide the physics rate (" + std::to_string(step_hz) + " Hz)");
+  // Checks made before a place is known (a scenario from no file) still name the scenario's file.
+  const auto at = [&](InputPlace place) {
+    if (place.where.file.empty()) place.where.file = scenario.source.string();
+    return place;
+  };
+  if (const std::string problem =
+          divides_physics_rate(scenario.groundtruth_hz, world.physics.step_hz);
+      !problem.empty()) {
+    throw InputError(at(scenario.groundtruth_hz_place), problem);
   }
+  InputPlace grid_place = at(scenario.localization.grid_resolution_place);
+  if (grid_place.key.empty()) grid_place.key = "localization.grid_resolution_m";
+  check_grid_memory(world, scenario.localization.grid_resolution_m, grid_place);
   for (EventDef& event : scenario.events) {
     switch (event.kind) {
       case EventDef::Kind::kKidnap:

@@ -169,6 +169,10 @@ void PtzCameraSensor::steer(const SensorContext& context) {
           move -= std::max(room, 0.0);
           sweep_direction_ = -sweep_direction_;
           if (hi - lo < 1e-9) break;
+          // From a limit on, whole periods of the wave change nothing: a fast sweep over a
+          // narrow range takes a few passes, not millions (fmod is exact; a move shorter than a
+          // period is kept as it is).
+          if (target >= lo && target <= hi) move = std::fmod(move, 2.0 * (hi - lo));
         }
       }
       break;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/common/errors.hpp"
 #include "sim/world/physics_world.hpp"
 
 namespace locsim {
@@ -37,9 +38,29 @@ StaticRaycaster::StaticRaycaster(std::vector<Segment> segments, std::vector<Circ
   // About one item per cell, within limits that keep the grid small and the cells useful.
   const Vec2 size = hi - lo;
   cell_m_ = std::clamp(std::sqrt(size.x() * size.y() / static_cast<double>(item_count)), 0.2, 2.0);
-  columns_ = std::max(1, static_cast<int>(std::ceil(size.x() / cell_m_)));
-  rows_ = std::max(1, static_cast<int>(std::ceil(size.y() / cell_m_)));
   origin_ = lo;
+  // A large world (kilometres of walls, long diagonal walls whose boxes cover many cells) gets
+  // coarser cells until the grid fits: it stays an acceleration, never a memory hazard. Counted
+  // in doubles before anything is allocated.
+  for (;;) {
+    const double columns = std::max(1.0, std::ceil(size.x() / cell_m_));
+    const double rows = std::max(1.0, std::ceil(size.y() / cell_m_));
+    double entries = 0.0;
+    for (std::size_t i = 0; i < item_count; ++i) {
+      Vec2 box_lo, box_hi;
+      item_box(i, box_lo, box_hi);
+      entries += (std::floor((box_hi.x() - lo.x()) / cell_m_) -
+                  std::floor((box_lo.x() - lo.x()) / cell_m_) + 1.0) *
+                 (std::floor((box_hi.y() - lo.y()) / cell_m_) -
+                  std::floor((box_lo.y() - lo.y()) / cell_m_) + 1.0);
+    }
+    if ((columns * rows <= kMaxCells && entries <= kMaxEntries) || columns * rows == 1.0) {
+      columns_ = static_cast<int>(columns);
+      rows_ = static_cast<int>(rows);
+      break;
+    }
+    cell_m_ *= 2.0;
+  }
   cells_.assign(static_cast<std::size_t>(columns_) * rows_, Cell{});
 
   // Two passes: count the items of each cell, then fill (compressed rows).
@@ -78,6 +99,7 @@ StaticRaycaster::StaticRaycaster(std::vector<Segment> segments, std::vector<Circ
 }
 
 StaticRaycaster StaticRaycaster::from_world(const PhysicsWorld& world) {
+  const Activity building("building the sensors' ray grid");
   std::vector<Segment> segments;
   std::vector<CircleObstacle> circles;
   const b2Body* body = world.static_body();

@@ -29,6 +29,11 @@ struct CircleObstacle {
 
 class StaticRaycaster {
  public:
+  // The grid's size limits: 32 MiB of cells, 64 MiB of item entries (cells get coarser until the
+  // world fits).
+  static constexpr double kMaxCells = 4194304.0;
+  static constexpr double kMaxEntries = 16777216.0;
+
   StaticRaycaster(std::vector<Segment> segments, std::vector<CircleObstacle> circles);
   /// The static fixtures of a world (edges, polygons' edges, circles).
   static StaticRaycaster from_world(const PhysicsWorld& world);
@@ -39,6 +44,8 @@ class StaticRaycaster {
   /// True when the line from (a, za) to (b, zb) passes through an obstacle below its top.
   bool blocked(const Vec2& a, double za_m, const Vec2& b, double zb_m) const;
   std::size_t segment_count() const { return segments_.size(); }
+  /// Cells of the grid: at most kMaxCells, whatever the world.
+  std::size_t cell_count() const { return cells_.size(); }
 
  private:
   struct Cell {

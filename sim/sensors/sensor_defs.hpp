@@ -1,5 +1,6 @@
 // What each synthetic sensor is: rate, mounting, and its noise model, with defaults that
-// reproduce the papers' set-ups (../shared/SPEC.md). Every field's unit is in its comment.
+// reproduce the papers' set-ups (../shared/SPEC.md). Beside every number its unit and the range
+// the loader holds it to (sim/common/range.hpp).
 // Angles in the robot frame are counter-clockwise positive (x forward, y left).
 #pragma once
 
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
 
 namespace locsim {
 
@@ -15,52 +17,76 @@ namespace locsim {
 struct SensorCommon {
   bool enabled = true;
   double rate_hz = 10.0;  // must divide the physics rate [Hz]
-  Pose2 mount;            // pose of the sensor frame in the robot frame
+  static constexpr Range kRateRange = kSampleRateRange;
+  Pose2 mount;  // pose of the sensor frame in the robot frame: kBodyFrameRange, any heading
 };
 
 /// Quadrature wheel encoders, and the odometry pose a base integrates from them.
 struct EncodersDef {
   SensorCommon common{true, 50.0, {}};
   int ticks_per_rev = 4096;  // counts per wheel revolution (after quadrature) [-]
+  static constexpr Range kTicksRange{1.0, 16777216.0, ""};
   // Paper 002's non-systematic error: after a wheel rolls d metres its count has drifted by a
   // random walk of variance K^2 |d| (UMBmark values of the paper). [m^1/2]
   double k_left = 0.0013;
   double k_right = 0.0012;
+  static constexpr Range kKRange{0.0, 1.0, "m^1/2"};
   std::optional<double> odometry_wheel_base_m;  // the base's belief; default: the true one [m]
+  static constexpr Range kWheelBaseRange{0.01, 100.0, "m"};
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.
 struct ImuDef {
   SensorCommon common{true, 100.0, {}};
-  double gyro_noise_density = 1.7e-4;    // white noise [rad/s/sqrt(Hz)]
-  double gyro_bias_sigma = 1e-3;         // spread of the initial bias [rad/s]
-  double gyro_bias_random_walk = 2e-5;   // bias drift [rad/s^2/sqrt(Hz)]
-  double gyro_range = 8.7;               // saturation, +-500 deg/s [rad/s]
-  double accel_noise_density = 2e-3;     // [m/s^2/sqrt(Hz)]
-  double accel_bias_sigma = 0.02;        // [m/s^2]
+  double gyro_noise_density = 1.7e-4;  // white noise [rad/s/sqrt(Hz)]
+  static constexpr Range kGyroNoiseRange{0.0, 10.0, "rad/s/sqrt(Hz)"};
+  double gyro_bias_sigma = 1e-3;  // spread of the initial bias [rad/s]
+  static constexpr Range kGyroBiasRange{0.0, 10.0, "rad/s"};
+  double gyro_bias_random_walk = 2e-5;  // bias drift [rad/s^2/sqrt(Hz)]
+  static constexpr Range kGyroWalkRange{0.0, 10.0, "rad/s^2/sqrt(Hz)"};
+  double gyro_range = 8.7;  // saturation, +-500 deg/s [rad/s]
+  static constexpr Range kGyroRangeRange{0.01, 1000.0, "rad/s"};
+  double accel_noise_density = 2e-3;  // [m/s^2/sqrt(Hz)]
+  static constexpr Range kAccelNoiseRange{0.0, 100.0, "m/s^2/sqrt(Hz)"};
+  double accel_bias_sigma = 0.02;  // [m/s^2]
+  static constexpr Range kAccelBiasRange{0.0, 100.0, "m/s^2"};
   double accel_bias_random_walk = 3e-4;  // [m/s^3/sqrt(Hz)]
-  double accel_range = 39.24;            // saturation, +-4 g [m/s^2]
+  static constexpr Range kAccelWalkRange{0.0, 100.0, "m/s^3/sqrt(Hz)"};
+  double accel_range = 39.24;  // saturation, +-4 g [m/s^2]
+  static constexpr Range kAccelRangeRange{0.01, 10000.0, "m/s^2"};
 };
 
 /// Pan-tilt-zoom colour camera that detects landmarks (paper 004: Sony EVI-D100P, 160 x 120).
 struct PtzCameraDef {
   SensorCommon common{true, 10.0, {}};
-  double height_m = 0.4;  // optical centre above the floor [m]
+  double height_m = 0.4;  // optical centre above the floor, kHeightRange [m]
+  // Image size; a rendered camera's image (4 bytes a pixel, several copies) counts in the world's
+  // memory budget. [px]
   int width_px = 160;
   int height_px = 120;
+  static constexpr Range kImageSizeRange{8.0, 8192.0, "px"};
   double hfov_rad = deg_to_rad(65.0);  // horizontal field of view at zoom 1 [rad]
-  double zoom_max = 10.0;              // optical zoom range 1..zoom_max [-]
-  double pan_min_rad = deg_to_rad(-100.0);
-  double pan_max_rad = deg_to_rad(100.0);
+  static constexpr Range kHfovRange{deg_to_rad(0.1), deg_to_rad(170.0), "rad"};
+  double zoom_max = 10.0;  // optical zoom range 1..zoom_max [-]
+  static constexpr Range kZoomRange{1.0, 1000.0, ""};
+  double pan_min_rad = deg_to_rad(-100.0);  // [rad]
+  double pan_max_rad = deg_to_rad(100.0);   // [rad]
+  static constexpr Range kPanRange{deg_to_rad(-360.0), deg_to_rad(360.0), "rad"};
   double max_pan_rate_radps = deg_to_rad(100.0);  // pan servo speed [rad/s]
-  double tilt_rad = 0.0;                          // up positive [rad]
-  double zoom = 1.0;                              // initial zoom [-]
-  double min_range_m = 0.3;                       // closer landmarks are not recognised [m]
-  double max_range_m = 8.0;                       // farther landmarks are not recognised [m]
-  double pixel_noise_px = 0.5;     // edge localisation noise, before rounding to pixels [px]
-  int min_blob_px = 2;             // fewer visible columns or rows: not detected [px]
-  double miss_probability = 0.02;  // a visible landmark is not reported [-]
+  static constexpr Range kPanRateRange{deg_to_rad(0.01), deg_to_rad(10000.0), "rad/s"};
+  double tilt_rad = 0.0;  // up positive [rad]
+  static constexpr Range kTiltRange{deg_to_rad(-80.0), deg_to_rad(80.0), "rad"};
+  double zoom = 1.0;         // initial zoom, 1..zoom_max [-]
+  double min_range_m = 0.3;  // closer landmarks are not recognised [m]
+  double max_range_m = 8.0;  // farther landmarks are not recognised [m]
+  static constexpr Range kRangeRange{0.0, 10000.0, "m"};
+  double pixel_noise_px = 0.5;  // edge localisation noise, before rounding to pixels [px]
+  static constexpr Range kPixelNoiseRange{0.0, 1000.0, "px"};
+  int min_blob_px = 2;  // fewer visible columns or rows: not detected [px]
+  static constexpr Range kMinBlobRange{1.0, 8192.0, "px"};
+  double miss_probability = 0.02;  // a visible landmark is not reported, kProbabilityRange [-]
   double false_detections_per_frame = 0.01;  // Poisson mean of phantom detections [-]
+  static constexpr Range kFalseDetectionsRange{0.0, 100.0, ""};
   bool report_ids = false;  // false: only colours (association is the filter's job)
   // A blob that touches the image border is cut: its centre column (bearing) or its rows
   // (distance) are wrong, so a careful detector drops it.
@@ -75,11 +101,14 @@ struct PtzCameraDef {
 struct OmniCameraDef {
   SensorCommon common{true, 10.0, {}};
   double max_range_m = 6.0;  // [m]
+  static constexpr Range kMaxRangeRange{0.01, 10000.0, "m"};
   // Gaussian in the local frame: sigma_major along the ray, sigma_minor across it (paper 002's
   // C_L); single frames are poor, up to ~0.8 m. sigma_major grows by sigma_major_per_m. [m]
   double sigma_major_m = 0.25;
   double sigma_minor_m = 0.08;
+  static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
   double sigma_major_per_m = 0.0;  // [m/m]
+  static constexpr Range kSigmaPerMRange{0.0, 10.0, "m/m"};
   bool report_ids = true;
 };
 
@@ -87,19 +116,23 @@ struct OmniCameraDef {
 struct UltrasonicDef {
   SensorCommon common{true, 20.0, {}};
   struct Receiver {
-    Vec2 position_m{0.0, 0.0};  // in the robot frame [m]
-    double height_m = 0.4;      // above the floor [m]
+    Vec2 position_m{0.0, 0.0};  // in the robot frame, kBodyFrameRange [m]
+    double height_m = 0.4;      // above the floor, kHeightRange [m]
   };
   // Two receivers (left A1, right A2) give the yaw as in the paper.
   std::vector<Receiver> receivers{{{0.0, 0.15}, 0.4}, {{0.0, -0.15}, 0.4}};
-  double sigma_m = 0.02;              // time-of-flight noise, "+-5 cm" class [m]
-  double max_range_m = 30.0;          // [m]
+  static constexpr std::size_t kMaxReceivers = 64;  // each ranges every beacon at every sample
+  double sigma_m = 0.02;                            // time-of-flight noise, "+-5 cm" class [m]
+  static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
+  double max_range_m = 30.0;  // [m]
+  static constexpr Range kMaxRangeRange{0.01, 100000.0, "m"};
   double dropout_probability = 0.01;  // a line-of-sight reading lost anyway [-]
   // When the line of sight is blocked: a non-line-of-sight reading (longer by a reflected-path
   // bias) with this probability, else no reading.
   double nlos_probability = 0.5;  // [-]
   double nlos_bias_min_m = 0.1;   // shortest extra path [m]
   double nlos_bias_mean_m = 0.6;  // mean extra path (min + exponential) [m]
+  static constexpr Range kNlosBiasRange{0.0, 10000.0, "m"};
   // Injected ranging errors (paper 003's MATLAB simulation): a line-of-sight reading lengthened
   // as a non-line-of-sight one, with this probability, whatever the geometry.
   double outlier_probability = 0.0;  // [-]
@@ -109,14 +142,19 @@ struct UltrasonicDef {
 struct LaserDef {
   SensorCommon common{true, 10.0, {}};
   double fov_rad = deg_to_rad(270.0);  // [rad], centred on the mount's x axis
+  static constexpr Range kFovRange{deg_to_rad(0.01), deg_to_rad(360.0), "rad"};
   int beams = 271;
+  static constexpr Range kBeamsRange{1.0, 100000.0, ""};
   double min_range_m = 0.05;  // [m]
   double max_range_m = 8.0;   // readings at max range mean "nothing" [m]
-  double sigma_m = 0.01;      // Gaussian on true hits [m]
+  static constexpr Range kRangeRange{0.0, 10000.0, "m"};
+  double sigma_m = 0.01;  // Gaussian on true hits [m]
+  static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
   double p_short = 0.01;      // phantom short reading, exponential with rate lambda_short [-]
   double lambda_short = 1.0;  // [1/m]
-  double p_max = 0.005;       // spurious max-range reading [-]
-  double p_random = 0.005;    // uniform in [0, max_range] [-]
+  static constexpr Range kLambdaShortRange{0.001, 1000.0, "1/m"};
+  double p_max = 0.005;     // spurious max-range reading [-]
+  double p_random = 0.005;  // uniform in [0, max_range] [-]
 };
 
 /// The sensors of one robot. Absent ones are off.

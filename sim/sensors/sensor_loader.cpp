@@ -3,15 +3,24 @@
 #include <cmath>
 #include <vector>
 
+#include "sim/common/format.hpp"
+
 namespace locsim {
+
+std::string divides_physics_rate(double rate_hz, double step_hz) {
+  const double ratio = step_hz / rate_hz;
+  if (rate_hz > step_hz || std::abs(ratio - std::round(ratio)) > 1e-9) {
+    return "rate " + short_number(rate_hz) + " Hz must divide the physics rate (" +
+           short_number(step_hz) + " Hz)";
+  }
+  return {};
+}
 
 namespace {
 
 void check_rate(const YamlNode& where, double rate_hz, double step_hz) {
-  const double ratio = step_hz / rate_hz;
-  if (rate_hz > step_hz || std::abs(ratio - std::round(ratio)) > 1e-9) {
-    where.fail("rate " + std::to_string(rate_hz) + " Hz must divide the physics rate (" +
-               std::to_string(step_hz) + " Hz)");
+  if (const std::string problem = divides_physics_rate(rate_hz, step_hz); !problem.empty()) {
+    where.fail(problem);
   }
 }
 
@@ -25,8 +34,8 @@ Def parse_section(const YamlNode& node, Def def, double step_hz,
     allowed.insert(allowed.end(), own_keys.begin(), own_keys.end());
     node.allow_keys(allowed);
     def.common.enabled = node.get_bool("enabled", def.common.enabled);
-    def.common.rate_hz = node.get_double("rate_hz", def.common.rate_hz, Check::kPositive);
-    if (const auto mount = node.find("mount")) def.common.mount = mount->as_pose();
+    def.common.rate_hz = node.get_double("rate_hz", def.common.rate_hz, SensorCommon::kRateRange);
+    if (const auto mount = node.find("mount")) def.common.mount = mount->as_pose(kBodyFrameRange);
     read_own(def);
   }
   check_rate(node.has("rate_hz") ? node["rate_hz"] : node, def.common.rate_hz, step_hz);
@@ -42,12 +51,12 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
     sensors.encoders = parse_section(
         *n, EncodersDef{}, step_hz, {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m"},
         [&](EncodersDef& d) {
-          d.ticks_per_rev =
-              static_cast<int>(n->get_int("ticks_per_rev", d.ticks_per_rev, 1, 1 << 24));
-          d.k_left = n->get_double("k_left", d.k_left, Check::kNonNegative);
-          d.k_right = n->get_double("k_right", d.k_right, Check::kNonNegative);
+          d.ticks_per_rev = static_cast<int>(
+              n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
+          d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
+          d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
           if (const auto base = n->find("odometry_wheel_base_m")) {
-            d.odometry_wheel_base_m = base->as_double(Check::kPositive);
+            d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
           }
         });
   }
@@ -58,19 +67,19 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
          "accel_noise_density", "accel_bias_sigma", "accel_bias_random_walk", "accel_range"},
         [&](ImuDef& d) {
           d.gyro_noise_density =
-              n->get_double("gyro_noise_density", d.gyro_noise_density, Check::kNonNegative);
+              n->get_double("gyro_noise_density", d.gyro_noise_density, ImuDef::kGyroNoiseRange);
           d.gyro_bias_sigma =
-              n->get_double("gyro_bias_sigma", d.gyro_bias_sigma, Check::kNonNegative);
-          d.gyro_bias_random_walk =
-              n->get_double("gyro_bias_random_walk", d.gyro_bias_random_walk, Check::kNonNegative);
-          d.gyro_range = n->get_double("gyro_range", d.gyro_range, Check::kPositive);
+              n->get_double("gyro_bias_sigma", d.gyro_bias_sigma, ImuDef::kGyroBiasRange);
+          d.gyro_bias_random_walk = n->get_double("gyro_bias_random_walk", d.gyro_bias_random_walk,
+                                                  ImuDef::kGyroWalkRange);
+          d.gyro_range = n->get_double("gyro_range", d.gyro_range, ImuDef::kGyroRangeRange);
           d.accel_noise_density =
-              n->get_double("accel_noise_density", d.accel_noise_density, Check::kNonNegative);
+              n->get_double("accel_noise_density", d.accel_noise_density, ImuDef::kAccelNoiseRange);
           d.accel_bias_sigma =
-              n->get_double("accel_bias_sigma", d.accel_bias_sigma, Check::kNonNegative);
-          d.accel_bias_random_walk = n->get_double("accel_bias_random_walk",
-                                                   d.accel_bias_random_walk, Check::kNonNegative);
-          d.accel_range = n->get_double("accel_range", d.accel_range, Check::kPositive);
+              n->get_double("accel_bias_sigma", d.accel_bias_sigma, ImuDef::kAccelBiasRange);
+          d.accel_bias_random_walk = n->get_double(
+              "accel_bias_random_walk", d.accel_bias_random_walk, ImuDef::kAccelWalkRange);
+          d.accel_range = n->get_double("accel_range", d.accel_range, ImuDef::kAccelRangeRange);
         });
   }
   if (const auto n = node.find("ptz_camera")) {
@@ -98,32 +107,36 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
          "miss_probability",
          "false_detections_per_frame",
          "report_ids",
+         "reject_border_blobs",
          "mode"},
         [&](PtzCameraDef& d) {
-          d.height_m = n->get_double("height_m", d.height_m, Check::kNonNegative);
-          d.width_px = static_cast<int>(n->get_int("width_px", d.width_px, 8, 100000));
-          d.height_px = static_cast<int>(n->get_int("height_px", d.height_px, 8, 100000));
-          d.hfov_rad = n->get_angle("hfov", d.hfov_rad);
-          if (!(d.hfov_rad > 0.0 && d.hfov_rad < deg_to_rad(170.0))) {
-            n->fail("hfov must be in (0, 170) degrees");
-          }
-          d.zoom_max = n->get_double("zoom_max", d.zoom_max, Check::kPositive);
-          d.pan_min_rad = n->get_angle("pan_min", d.pan_min_rad);
-          d.pan_max_rad = n->get_angle("pan_max", d.pan_max_rad);
+          d.height_m = n->get_double("height_m", d.height_m, kHeightRange);
+          d.width_px =
+              static_cast<int>(n->get_int("width_px", d.width_px, PtzCameraDef::kImageSizeRange));
+          d.height_px =
+              static_cast<int>(n->get_int("height_px", d.height_px, PtzCameraDef::kImageSizeRange));
+          d.hfov_rad = n->get_angle("hfov", d.hfov_rad, PtzCameraDef::kHfovRange);
+          d.zoom_max = n->get_double("zoom_max", d.zoom_max, PtzCameraDef::kZoomRange);
+          d.pan_min_rad = n->get_angle("pan_min", d.pan_min_rad, PtzCameraDef::kPanRange);
+          d.pan_max_rad = n->get_angle("pan_max", d.pan_max_rad, PtzCameraDef::kPanRange);
           if (d.pan_min_rad > d.pan_max_rad) n->fail("pan_min exceeds pan_max");
-          d.max_pan_rate_radps = n->get_angle("max_pan_rate", d.max_pan_rate_radps);
-          if (!(d.max_pan_rate_radps > 0.0)) n->fail("max_pan_rate must be > 0");
-          d.tilt_rad = n->get_angle("tilt", d.tilt_rad);
-          d.zoom = n->get_double("zoom", d.zoom, Check::kPositive);
-          if (d.zoom < 1.0 || d.zoom > d.zoom_max) n->fail("zoom must be in [1, zoom_max]");
-          d.min_range_m = n->get_double("min_range_m", d.min_range_m, Check::kNonNegative);
-          d.max_range_m = n->get_double("max_range_m", d.max_range_m, Check::kPositive);
-          d.pixel_noise_px = n->get_double("pixel_noise_px", d.pixel_noise_px, Check::kNonNegative);
-          d.min_blob_px = static_cast<int>(n->get_int("min_blob_px", d.min_blob_px, 1, 10000));
+          d.max_pan_rate_radps =
+              n->get_angle("max_pan_rate", d.max_pan_rate_radps, PtzCameraDef::kPanRateRange);
+          d.tilt_rad = n->get_angle("tilt", d.tilt_rad, PtzCameraDef::kTiltRange);
+          d.zoom = n->get_double("zoom", d.zoom, PtzCameraDef::kZoomRange);
+          if (d.zoom > d.zoom_max) n->fail("zoom must be in [1, zoom_max]");
+          d.min_range_m = n->get_double("min_range_m", d.min_range_m, PtzCameraDef::kRangeRange);
+          d.max_range_m = n->get_double("max_range_m", d.max_range_m, PtzCameraDef::kRangeRange);
+          if (d.min_range_m >= d.max_range_m) n->fail("min_range_m must be below max_range_m");
+          d.pixel_noise_px =
+              n->get_double("pixel_noise_px", d.pixel_noise_px, PtzCameraDef::kPixelNoiseRange);
+          d.min_blob_px = static_cast<int>(
+              n->get_int("min_blob_px", d.min_blob_px, PtzCameraDef::kMinBlobRange));
           d.miss_probability =
-              n->get_double("miss_probability", d.miss_probability, Check::kUnitInterval);
-          d.false_detections_per_frame = n->get_double(
-              "false_detections_per_frame", d.false_detections_per_frame, Check::kNonNegative);
+              n->get_double("miss_probability", d.miss_probability, kProbabilityRange);
+          d.false_detections_per_frame =
+              n->get_double("false_detections_per_frame", d.false_detections_per_frame,
+                            PtzCameraDef::kFalseDetectionsRange);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
           d.reject_border_blobs = n->get_bool("reject_border_blobs", d.reject_border_blobs);
           const std::string mode = n->get_string("mode", "analytic");
@@ -139,11 +152,14 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
         *n, OmniCameraDef{}, step_hz,
         {"max_range_m", "sigma_major_m", "sigma_minor_m", "sigma_major_per_m", "report_ids"},
         [&](OmniCameraDef& d) {
-          d.max_range_m = n->get_double("max_range_m", d.max_range_m, Check::kPositive);
-          d.sigma_major_m = n->get_double("sigma_major_m", d.sigma_major_m, Check::kNonNegative);
-          d.sigma_minor_m = n->get_double("sigma_minor_m", d.sigma_minor_m, Check::kNonNegative);
-          d.sigma_major_per_m =
-              n->get_double("sigma_major_per_m", d.sigma_major_per_m, Check::kNonNegative);
+          d.max_range_m =
+              n->get_double("max_range_m", d.max_range_m, OmniCameraDef::kMaxRangeRange);
+          d.sigma_major_m =
+              n->get_double("sigma_major_m", d.sigma_major_m, OmniCameraDef::kSigmaRange);
+          d.sigma_minor_m =
+              n->get_double("sigma_minor_m", d.sigma_minor_m, OmniCameraDef::kSigmaRange);
+          d.sigma_major_per_m = n->get_double("sigma_major_per_m", d.sigma_major_per_m,
+                                              OmniCameraDef::kSigmaPerMRange);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
         });
   }
@@ -157,23 +173,28 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
             d.receivers.clear();
             for (const YamlNode& item : receivers->items()) {
               item.allow_keys({"position", "height_m"});
-              d.receivers.push_back({item["position"].as_vec2(),
-                                     item.get_double("height_m", 0.4, Check::kNonNegative)});
+              if (d.receivers.size() == UltrasonicDef::kMaxReceivers) {
+                item.fail("at most " + std::to_string(UltrasonicDef::kMaxReceivers) +
+                          " receivers (each ranges every beacon at every sample)");
+              }
+              d.receivers.push_back({item["position"].as_vec2(kBodyFrameRange),
+                                     item.get_double("height_m", 0.4, kHeightRange)});
             }
             if (d.receivers.empty()) receivers->fail("give at least one receiver");
           }
-          d.sigma_m = n->get_double("sigma_m", d.sigma_m, Check::kNonNegative);
-          d.max_range_m = n->get_double("max_range_m", d.max_range_m, Check::kPositive);
+          d.sigma_m = n->get_double("sigma_m", d.sigma_m, UltrasonicDef::kSigmaRange);
+          d.max_range_m =
+              n->get_double("max_range_m", d.max_range_m, UltrasonicDef::kMaxRangeRange);
           d.dropout_probability =
-              n->get_double("dropout_probability", d.dropout_probability, Check::kUnitInterval);
+              n->get_double("dropout_probability", d.dropout_probability, kProbabilityRange);
           d.nlos_probability =
-              n->get_double("nlos_probability", d.nlos_probability, Check::kUnitInterval);
+              n->get_double("nlos_probability", d.nlos_probability, kProbabilityRange);
           d.nlos_bias_min_m =
-              n->get_double("nlos_bias_min_m", d.nlos_bias_min_m, Check::kNonNegative);
+              n->get_double("nlos_bias_min_m", d.nlos_bias_min_m, UltrasonicDef::kNlosBiasRange);
           d.nlos_bias_mean_m =
-              n->get_double("nlos_bias_mean_m", d.nlos_bias_mean_m, Check::kNonNegative);
+              n->get_double("nlos_bias_mean_m", d.nlos_bias_mean_m, UltrasonicDef::kNlosBiasRange);
           d.outlier_probability =
-              n->get_double("outlier_probability", d.outlier_probability, Check::kUnitInterval);
+              n->get_double("outlier_probability", d.outlier_probability, kProbabilityRange);
           if (d.nlos_bias_mean_m < d.nlos_bias_min_m) {
             (*n)["nlos_bias_mean_m"].fail("must be >= nlos_bias_min_m");
           }
@@ -185,19 +206,17 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
         {"fov", "fov_deg", "beams", "min_range_m", "max_range_m", "sigma_m", "p_short",
          "lambda_short", "p_max", "p_random"},
         [&](LaserDef& d) {
-          d.fov_rad = n->get_angle("fov", d.fov_rad);
-          if (!(d.fov_rad > 0.0 && d.fov_rad <= 2.0 * std::numbers::pi)) {
-            n->fail("fov must be in (0, 360] degrees");
-          }
-          d.beams = static_cast<int>(n->get_int("beams", d.beams, 1, 100000));
-          d.min_range_m = n->get_double("min_range_m", d.min_range_m, Check::kNonNegative);
-          d.max_range_m = n->get_double("max_range_m", d.max_range_m, Check::kPositive);
+          d.fov_rad = n->get_angle("fov", d.fov_rad, LaserDef::kFovRange);
+          d.beams = static_cast<int>(n->get_int("beams", d.beams, LaserDef::kBeamsRange));
+          d.min_range_m = n->get_double("min_range_m", d.min_range_m, LaserDef::kRangeRange);
+          d.max_range_m = n->get_double("max_range_m", d.max_range_m, LaserDef::kRangeRange);
           if (d.min_range_m >= d.max_range_m) n->fail("min_range_m must be below max_range_m");
-          d.sigma_m = n->get_double("sigma_m", d.sigma_m, Check::kNonNegative);
-          d.p_short = n->get_double("p_short", d.p_short, Check::kUnitInterval);
-          d.lambda_short = n->get_double("lambda_short", d.lambda_short, Check::kPositive);
-          d.p_max = n->get_double("p_max", d.p_max, Check::kUnitInterval);
-          d.p_random = n->get_double("p_random", d.p_random, Check::kUnitInterval);
+          d.sigma_m = n->get_double("sigma_m", d.sigma_m, LaserDef::kSigmaRange);
+          d.p_short = n->get_double("p_short", d.p_short, kProbabilityRange);
+          d.lambda_short =
+              n->get_double("lambda_short", d.lambda_short, LaserDef::kLambdaShortRange);
+          d.p_max = n->get_double("p_max", d.p_max, kProbabilityRange);
+          d.p_random = n->get_double("p_random", d.p_random, kProbabilityRange);
           if (d.p_short + d.p_max + d.p_random > 1.0)
             n->fail("p_short + p_max + p_random exceeds 1");
         });

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/common/errors.hpp"
 #include "sim/world/physics_world.hpp"
 
 namespace locsim {
 
 OccupancyGrid rasterize_static_world(const PhysicsWorld& world, double resolution_m) {
+  const Activity building("building the localizers' occupancy grid");
   OccupancyGrid grid;
   grid.resolution_m = resolution_m;
   const Vec2 margin = Vec2::Constant(2.0 * resolution_m);

@@ -1,11 +1,10 @@
 #include "sim/world/pgm.hpp"
 
 #include <cctype>
-#include <fstream>
-#include <iterator>
 #include <string>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 
 namespace locsim {
 
@@ -46,6 +45,8 @@ class Reader {
     return value;
   }
 
+  std::size_t remaining() const { return data_.size() - pos_; }
+
   std::string_view take(std::size_t n) {
     if (data_.size() - pos_ < n) fail("truncated pixel data");
     const std::string_view out(data_.data() + pos_, n);
@@ -71,12 +72,8 @@ class Reader {
 }  // namespace
 
 GrayImage read_pgm(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) {
-    throw InputError(SourceLocation{file.string()}, "",
-                     std::filesystem::exists(file) ? "cannot read the file" : "no such file");
-  }
-  Reader reader(std::string(std::istreambuf_iterator<char>(in), {}), file);
+  const Activity reading("reading the map image " + file.string());
+  Reader reader(read_input_file(file, kMaxPgmFileBytes), file);
   if (reader.data().size() < 2 || reader.data()[0] != 'P' ||
       (reader.data()[1] != '5' && reader.data()[1] != '2')) {
     reader.fail("expected the magic number P5 or P2 (map images must be PGM, as map_saver writes)");
@@ -88,17 +85,30 @@ GrayImage read_pgm(const std::filesystem::path& file) {
   image.height = static_cast<int>(reader.number("height"));
   const long max_value = reader.number("maximum value");
   if (image.width <= 0 || image.height <= 0) reader.fail("width and height must be > 0");
-  if (image.width > 100'000 || image.height > 100'000) reader.fail("larger than 100000 px");
   if (max_value <= 0 || max_value > 65535) reader.fail("maximum value must be in 1..65535");
+  // The header is checked against the documented maximum and against the file's own size before
+  // any pixel is allocated: 19 bytes must not make us reserve gigabytes.
   const std::size_t count = static_cast<std::size_t>(image.width) * image.height;
+  const std::string size = std::to_string(image.width) + " x " + std::to_string(image.height);
+  if (count > kMaxMapPixels) {
+    reader.fail(size + " pixels; a map has at most " + std::to_string(kMaxMapPixels) +
+                " (docs/worlds.md, Limits)");
+  }
+  const std::size_t bytes_per_pixel = max_value < 256 ? 1 : 2;
+  if (binary) reader.skip_one_space();
+  // Text pixels take at least a digit and a separator each.
+  const std::size_t least_bytes = binary ? count * bytes_per_pixel : 2 * count - 1;
+  if (reader.remaining() < least_bytes) {
+    reader.fail("truncated pixel data: the header announces " + size + " pixels (at least " +
+                std::to_string(least_bytes) + " bytes) and " + std::to_string(reader.remaining()) +
+                " bytes follow it");
+  }
   image.pixels.resize(count);
   const auto scale = [&](long value) {
     if (value > max_value) reader.fail("pixel value above the maximum value");
     return static_cast<unsigned char>((value * 255 + max_value / 2) / max_value);
   };
   if (binary) {
-    reader.skip_one_space();
-    const std::size_t bytes_per_pixel = max_value < 256 ? 1 : 2;
     const std::string_view raw = reader.take(count * bytes_per_pixel);
     for (std::size_t i = 0; i < count; ++i) {
       const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(raw[k]); };

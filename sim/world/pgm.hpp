@@ -4,6 +4,8 @@
 // which sweeps of thousands of short runs pay each time.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <vector>
 
@@ -14,6 +16,12 @@ struct GrayImage {
   int height = 0;
   std::vector<unsigned char> pixels;  // row-major from the top row, scaled to 0..255
 };
+
+/// The most pixels a map image may have (e.g. 5792 x 5792, 290 m square at 5 cm), and the
+/// largest file read (a text P2 image of that many pixels). The header is checked against both,
+/// and against the file's size, before any pixel is allocated.
+inline constexpr std::size_t kMaxMapPixels = std::size_t{1} << 25;
+inline constexpr std::uintmax_t kMaxPgmFileBytes = std::uintmax_t{256} << 20;
 
 /// Throws InputError naming the file and the problem (not PGM, truncated, bad header).
 GrayImage read_pgm(const std::filesystem::path& file);

@@ -107,6 +107,7 @@ PhysicsWorld::PhysicsWorld(const WorldDef& world)
       world_(std::make_unique<b2World>(b2Vec2(0.0f, 0.0f))),
       contacts_(std::make_unique<ContactRecorder>()),
       floor_(world.floor) {
+  const Activity building("building the world's Box2D bodies");
   world_->SetContactListener(contacts_.get());
   b2BodyDef static_def;
   static_def.type = b2_staticBody;
@@ -197,48 +198,22 @@ void PhysicsWorld::add_static_geometry(const WorldDef& world) {
 }
 
 void PhysicsWorld::add_map(const OccupancyMapDef& map) {
-  // Occupied cells are merged greedily into rectangles (runs along a row, grown down while the
-  // rows below repeat the run) so that a map becomes a few hundred boxes, not one per cell.
-  const int width = map.width_px, height = map.height_px;
-  std::vector<unsigned char> covered(map.occupied.size(), 0);
-  const auto occupied_free = [&](int row, int col) {
-    const std::size_t i = static_cast<std::size_t>(row) * width + col;
-    return map.occupied[i] != 0 && covered[i] == 0;
-  };
   b2FixtureDef fixture;
   fixture.friction = 0.3f;
   const double res = map.resolution_m;
-  for (int row = 0; row < height; ++row) {
-    for (int col = 0; col < width;) {
-      if (!occupied_free(row, col)) {
-        ++col;
-        continue;
-      }
-      int end_col = col;
-      while (end_col < width && occupied_free(row, end_col)) ++end_col;
-      int end_row = row + 1;
-      while (end_row < height) {
-        bool full = true;
-        for (int c = col; c < end_col && full; ++c) full = occupied_free(end_row, c);
-        if (!full) break;
-        ++end_row;
-      }
-      for (int r = row; r < end_row; ++r) {
-        for (int c = col; c < end_col; ++c) covered[static_cast<std::size_t>(r) * width + c] = 1;
-      }
-      // Map frame: x right, y up, origin at the lower-left corner of the bottom-left pixel.
-      const Vec2 lo{col * res, (height - end_row) * res};
-      const Vec2 hi{end_col * res, (height - row) * res};
-      const Vec2 center = map.origin.transform(0.5 * (lo + hi));
-      const Vec2 half = 0.5 * (hi - lo);
-      b2PolygonShape shape;
-      shape.SetAsBox(static_cast<float>(half.x()), static_cast<float>(half.y()), to_b2(center),
-                     static_cast<float>(map.origin.theta));
-      for (int i = 0; i < shape.m_count; ++i) extend_bounds(from_b2(shape.m_vertices[i]));
-      fixture.shape = &shape;
-      static_body_->CreateFixture(&fixture);
-      col = end_col;
-    }
+  const int height = map.height_px;
+  for (const OccupancyMapDef::Rect& rect : map.rects) {
+    // Map frame: x right, y up, origin at the lower-left corner of the bottom-left pixel.
+    const Vec2 lo{rect.col * res, (height - rect.end_row) * res};
+    const Vec2 hi{rect.end_col * res, (height - rect.row) * res};
+    const Vec2 center = map.origin.transform(0.5 * (lo + hi));
+    const Vec2 half = 0.5 * (hi - lo);
+    b2PolygonShape shape;
+    shape.SetAsBox(static_cast<float>(half.x()), static_cast<float>(half.y()), to_b2(center),
+                   static_cast<float>(map.origin.theta));
+    for (int i = 0; i < shape.m_count; ++i) extend_bounds(from_b2(shape.m_vertices[i]));
+    fixture.shape = &shape;
+    static_body_->CreateFixture(&fixture);
   }
 }
 
@@ -312,6 +287,15 @@ std::vector<ContactChange> PhysicsWorld::take_contact_changes() {
 }
 
 bool PhysicsWorld::is_free(const b2Shape& shape, const Pose2& pose, const b2Body* ignore) const {
+  return overlaps_none(shape, pose, ignore, nullptr);
+}
+
+bool PhysicsWorld::is_free_of_static(const b2Shape& shape, const Pose2& pose) const {
+  return overlaps_none(shape, pose, nullptr, static_body_);
+}
+
+bool PhysicsWorld::overlaps_none(const b2Shape& shape, const Pose2& pose, const b2Body* ignore,
+                                 const b2Body* only) const {
   b2Transform transform;
   transform.Set(to_b2(pose.position()), static_cast<float>(pose.theta));
   b2AABB box;
@@ -320,9 +304,11 @@ bool PhysicsWorld::is_free(const b2Shape& shape, const Pose2& pose, const b2Body
     const b2Shape* shape;
     b2Transform transform;
     const b2Body* ignore;
+    const b2Body* only;
     bool hit = false;
     bool ReportFixture(b2Fixture* fixture) override {
       if (fixture->GetBody() == ignore) return true;
+      if (only != nullptr && fixture->GetBody() != only) return true;
       const b2Transform& other = fixture->GetBody()->GetTransform();
       if (b2TestOverlap(shape, 0, fixture->GetShape(), 0, transform, other)) {
         hit = true;
@@ -334,6 +320,7 @@ bool PhysicsWorld::is_free(const b2Shape& shape, const Pose2& pose, const b2Body
   query.shape = &shape;
   query.transform = transform;
   query.ignore = ignore;
+  query.only = only;
   world_->QueryAABB(&query, box);
   return !query.hit;
 }
@@ -350,8 +337,13 @@ std::optional<double> PhysicsWorld::ray_cast(const Vec2& from, const Vec2& to,
     }
   } closest;
   closest.ignore = ignore;
-  if ((to - from).squaredNorm() < 1e-12) return std::nullopt;
-  world_->RayCast(&closest, to_b2(from), to_b2(to));
+  // Box2D asserts on a ray of zero length in float: far from the origin (a robot driven out of
+  // its world) a short ray is one.
+  const b2Vec2 from_f = to_b2(from), to_f = to_b2(to);
+  if ((to - from).squaredNorm() < 1e-12 || !((to_f - from_f).LengthSquared() > 0.0f)) {
+    return std::nullopt;
+  }
+  world_->RayCast(&closest, from_f, to_f);
   if (closest.fraction > 1.0f) return std::nullopt;
   return closest.fraction * (to - from).norm();
 }

@@ -85,6 +85,8 @@ class PhysicsWorld {
 
   /// True when `shape` at `pose` overlaps no enabled body other than `ignore`.
   bool is_free(const b2Shape& shape, const Pose2& pose, const b2Body* ignore) const;
+  /// True when `shape` at `pose` overlaps no static geometry (walls, shapes, map cells).
+  bool is_free_of_static(const b2Shape& shape, const Pose2& pose) const;
   /// Distance to the first fixture hit from `from` towards `to` (not `ignore`), or nullopt.
   std::optional<double> ray_cast(const Vec2& from, const Vec2& to, const b2Body* ignore) const;
 
@@ -104,6 +106,8 @@ class PhysicsWorld {
   void add_map(const OccupancyMapDef& map);
   void extend_bounds(const Vec2& point);
   void add_static(const b2FixtureDef& fixture, double height_m);
+  bool overlaps_none(const b2Shape& shape, const Pose2& pose, const b2Body* ignore,
+                     const b2Body* only) const;
 
   PhysicsDef physics_;
   std::unique_ptr<b2World> world_;

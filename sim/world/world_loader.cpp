@@ -1,11 +1,15 @@
 #include "sim/world/world_loader.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
 
+#include "sim/common/format.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/sensors/sensor_loader.hpp"
 #include "sim/world/pgm.hpp"
+#include "sim/world/world_budget.hpp"
 
 namespace locsim {
 
@@ -30,17 +34,38 @@ double signed_area(const std::vector<Vec2>& points) {
   return 0.5 * area;
 }
 
-/// Box2D polygons: convex, 3..8 vertices. Accepts either winding and stores counter-clockwise.
-std::vector<Vec2> convex_polygon(const YamlNode& node) {
-  std::vector<Vec2> points = node.as_points(3);
+/// Fails unless consecutive points (and the last and the first, when `closed`) are at least
+/// kMinPointSpacingM apart.
+void check_spacing(const YamlNode& node, const std::vector<Vec2>& points, bool closed) {
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i + 1 < n + (closed ? 1 : 0); ++i) {
+    if ((points[(i + 1) % n] - points[i]).norm() < kMinPointSpacingM) {
+      node.fail("points " + std::to_string(i) + " and " + std::to_string((i + 1) % n) +
+                " are closer than " + rounded_number(kMinPointSpacingM * 100.0) + " cm");
+    }
+  }
+}
+
+/// Box2D polygons: convex, 3..8 vertices, edges of at least kMinPointSpacingM, an area of at least
+/// `min_area_m2`. Accepts either winding and stores counter-clockwise.
+std::vector<Vec2> convex_polygon(const YamlNode& node, const Range& range, double min_area_m2) {
+  std::vector<Vec2> points = node.as_points(3, range);
   if (points.size() > 8)
     node.fail(
         "a polygon has at most 8 vertices (Box2D's limit); split it "
         "or use walls");
   if (signed_area(points) < 0.0) std::reverse(points.begin(), points.end());
   if (!is_convex_ccw(points)) node.fail("polygon must be convex with no repeated points");
+  check_spacing(node, points, true);
+  if (signed_area(points) < min_area_m2) {
+    node.fail("polygon's area " + short_number(signed_area(points)) + " m² is below " +
+              rounded_number(min_area_m2) + " m²");
+  }
   return points;
 }
+
+/// Static shapes have no mass: Box2D only needs their area above its epsilon (1.2e-7 m²).
+constexpr double kMinStaticPolygonAreaM2 = 1e-6;
 
 Rgb parse_color(const YamlNode& node, std::string& name_out) {
   static const std::map<std::string, Rgb> kNamed = {
@@ -64,29 +89,27 @@ Rgb parse_color(const YamlNode& node, std::string& name_out) {
   name_out.clear();
   Rgb rgb{};
   for (std::size_t i = 0; i < 3; ++i)
-    rgb[i] = static_cast<unsigned char>(channels[i].as_int(0, 255));
+    rgb[i] = static_cast<unsigned char>(channels[i].as_int(kColorChannelRange));
   return rgb;
 }
 
 PhysicsDef parse_physics(const YamlNode& node) {
   node.allow_keys({"step_hz", "velocity_iterations", "position_iterations", "gravity_mps2"});
   PhysicsDef physics;
-  physics.step_hz = node.get_double("step_hz", physics.step_hz, Check::kPositive);
-  if (physics.step_hz < 10.0 || physics.step_hz > 10000.0) {
-    node["step_hz"].fail("must be in [10, 10000] Hz");
-  }
-  physics.velocity_iterations =
-      static_cast<int>(node.get_int("velocity_iterations", physics.velocity_iterations, 1, 100));
-  physics.position_iterations =
-      static_cast<int>(node.get_int("position_iterations", physics.position_iterations, 1, 100));
-  physics.gravity_mps2 = node.get_double("gravity_mps2", physics.gravity_mps2, Check::kPositive);
+  physics.step_hz = node.get_double("step_hz", physics.step_hz, PhysicsDef::kStepRange);
+  physics.velocity_iterations = static_cast<int>(node.get_int(
+      "velocity_iterations", physics.velocity_iterations, PhysicsDef::kIterationsRange));
+  physics.position_iterations = static_cast<int>(node.get_int(
+      "position_iterations", physics.position_iterations, PhysicsDef::kIterationsRange));
+  physics.gravity_mps2 =
+      node.get_double("gravity_mps2", physics.gravity_mps2, PhysicsDef::kGravityRange);
   return physics;
 }
 
 FloorDef parse_floor(const YamlNode& node) {
   node.allow_keys({"friction", "regions"});
   FloorDef floor;
-  floor.friction = node.get_double("friction", floor.friction, Check::kNonNegative);
+  floor.friction = node.get_double("friction", floor.friction, kFrictionRange);
   std::set<std::string> names;
   if (const auto regions = node.find("regions")) {
     for (const YamlNode& item : regions->items()) {
@@ -95,17 +118,23 @@ FloorDef parse_floor(const YamlNode& node) {
       region.name = item["name"].as_string();
       if (region.name == "floor") item["name"].fail("'floor' is reserved for the default floor");
       if (!names.insert(region.name).second) item["name"].fail("region name used twice");
-      region.friction = item["friction"].as_double(Check::kNonNegative);
+      region.friction = item["friction"].as_double(kFrictionRange);
       const auto polygon = item.find("polygon");
       const auto box = item.find("box");
       if (polygon.has_value() == box.has_value())
         item.fail("give exactly one of 'polygon' or 'box'");
       if (polygon) {
-        region.polygon_m = polygon->as_points(3);
+        region.polygon_m = polygon->as_points(3, kWorldCoordinateRange);
+        // Every wheel tests its point against the polygon at every step.
+        if (region.polygon_m.size() > FloorRegionDef::kMaxVertices) {
+          polygon->fail("a region has at most " + std::to_string(FloorRegionDef::kMaxVertices) +
+                        " vertices");
+        }
         if (std::abs(signed_area(region.polygon_m)) < 1e-9) polygon->fail("polygon has no area");
       } else {
         box->allow_keys({"min", "max"});
-        const Vec2 lo = (*box)["min"].as_vec2(), hi = (*box)["max"].as_vec2();
+        const Vec2 lo = (*box)["min"].as_vec2(kWorldCoordinateRange),
+                   hi = (*box)["max"].as_vec2(kWorldCoordinateRange);
         if (!(hi.x() > lo.x() && hi.y() > lo.y())) box->fail("'max' must exceed 'min' in x and y");
         region.polygon_m = {lo, {hi.x(), lo.y()}, hi, {lo.x(), hi.y()}};
       }
@@ -128,17 +157,55 @@ FootprintDef parse_footprint(const YamlNode& node) {
   }
   if (radius) {
     footprint.kind = FootprintDef::Kind::kCircle;
-    footprint.radius_m = radius->as_double(Check::kPositive);
+    footprint.radius_m = radius->as_double(FootprintDef::kRadiusRange);
   } else if (box) {
     footprint.kind = FootprintDef::Kind::kBox;
-    footprint.size_m = box->as_vec2();
-    if (!(footprint.size_m.x() > 0.0 && footprint.size_m.y() > 0.0)) box->fail("sizes must be > 0");
+    footprint.size_m = box->as_vec2(FootprintDef::kSizeRange);
   } else {
     footprint.kind = FootprintDef::Kind::kPolygon;
-    footprint.points_m = convex_polygon(*polygon);
+    footprint.points_m = convex_polygon(*polygon, kBodyFrameRange, FootprintDef::kMinPolygonAreaM2);
   }
   return footprint;
 }
+
+namespace {
+
+/// Occupied pixels merged greedily into rectangles: runs along a row, grown down while the rows
+/// below repeat the run, so that a map becomes a few hundred boxes, not one per pixel.
+std::vector<OccupancyMapDef::Rect> merge_occupied(const OccupancyMapDef& map) {
+  const int width = map.width_px, height = map.height_px;
+  std::vector<unsigned char> covered(map.occupied.size(), 0);
+  const auto occupied_free = [&](int row, int col) {
+    const std::size_t i = static_cast<std::size_t>(row) * width + col;
+    return map.occupied[i] != 0 && covered[i] == 0;
+  };
+  std::vector<OccupancyMapDef::Rect> rects;
+  for (int row = 0; row < height; ++row) {
+    for (int col = 0; col < width;) {
+      if (!occupied_free(row, col)) {
+        ++col;
+        continue;
+      }
+      int end_col = col;
+      while (end_col < width && occupied_free(row, end_col)) ++end_col;
+      int end_row = row + 1;
+      while (end_row < height) {
+        bool full = true;
+        for (int c = col; c < end_col && full; ++c) full = occupied_free(end_row, c);
+        if (!full) break;
+        ++end_row;
+      }
+      for (int r = row; r < end_row; ++r) {
+        for (int c = col; c < end_col; ++c) covered[static_cast<std::size_t>(r) * width + c] = 1;
+      }
+      rects.push_back({col, row, end_col, end_row});
+      col = end_col;
+    }
+  }
+  return rects;
+}
+
+}  // namespace
 
 OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
   const YamlNode root = YamlNode::load_file(map_yaml);
@@ -147,17 +214,19 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
   OccupancyMapDef map;
   map.yaml_file = map_yaml;
   map.image_file = map_yaml.parent_path() / root["image"].as_string();
-  map.resolution_m = root["resolution"].as_double(Check::kPositive);
+  map.resolution_m = root["resolution"].as_double(OccupancyMapDef::kResolutionRange);
   const auto origin = root["origin"].items();
   if (origin.size() != 3) root["origin"].fail("expected [x, y, yaw]");
-  map.origin = Pose2{origin[0].as_double(), origin[1].as_double(), origin[2].as_double()};
-  map.occupied_thresh =
-      root.get_double("occupied_thresh", map.occupied_thresh, Check::kUnitInterval);
-  map.free_thresh = root.get_double("free_thresh", map.free_thresh, Check::kUnitInterval);
+  map.origin =
+      Pose2{origin[0].as_double(kWorldCoordinateRange), origin[1].as_double(kWorldCoordinateRange),
+            wrap_angle(origin[2].as_double(kHeadingRange))};
+  map.occupied_thresh = root.get_double("occupied_thresh", map.occupied_thresh, kProbabilityRange);
+  map.free_thresh = root.get_double("free_thresh", map.free_thresh, kProbabilityRange);
   if (map.free_thresh > map.occupied_thresh) {
     root["free_thresh"].fail("must not exceed occupied_thresh");
   }
-  if (const auto negate = root.find("negate")) map.negate = negate->as_int(0, 1) != 0;
+  if (const auto negate = root.find("negate"))
+    map.negate = negate->as_int(OccupancyMapDef::kNegateRange) != 0;
   if (const auto mode = root.find("mode")) {
     const std::string m = mode->as_string();
     if (m != "trinary" && m != "scale") mode->fail("only 'trinary' and 'scale' maps are supported");
@@ -165,9 +234,24 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
   if (!std::filesystem::exists(map.image_file)) {
     root["image"].fail("no such map image '" + map.image_file.string() + "'");
   }
-  const GrayImage image = read_pgm(map.image_file);
+  // A bad image is reported at the key that names it, after the image's own message.
+  GrayImage image;
+  try {
+    image = read_pgm(map.image_file);
+  } catch (const InputError& e) {
+    root["image"].fail(e.what());
+  }
   map.width_px = image.width;
   map.height_px = image.height;
+  // The map's extent must lie within the world's coordinates, as everything else does.
+  const double extent_m = std::max(image.width, image.height) * map.resolution_m * std::sqrt(2.0);
+  if (std::abs(map.origin.x) + extent_m > kWorldCoordinateRange.max ||
+      std::abs(map.origin.y) + extent_m > kWorldCoordinateRange.max) {
+    root["resolution"].fail(std::to_string(image.width) + " x " + std::to_string(image.height) +
+                            " px of " + short_number(map.resolution_m) +
+                            " m from the origin reach beyond the world's coordinates " +
+                            describe(kWorldCoordinateRange));
+  }
   map.occupied.resize(image.pixels.size());
   for (std::size_t i = 0; i < image.pixels.size(); ++i) {
     const double value = image.pixels[i] / 255.0;
@@ -175,6 +259,7 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
     const double occupancy = map.negate ? value : 1.0 - value;
     map.occupied[i] = occupancy > map.occupied_thresh ? 1 : 0;
   }
+  map.rects = merge_occupied(map);
   return map;
 }
 
@@ -185,59 +270,72 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   world.name = root.get_string("name", world.name);
   if (const auto physics = root.find("physics")) world.physics = parse_physics(*physics);
   if (const auto floor = root.find("floor")) world.floor = parse_floor(*floor);
+  WorldMemory memory;
 
   if (const auto walls = root.find("walls")) {
+    std::size_t segments = 0;
     for (const YamlNode& item : walls->items()) {
       item.allow_keys({"points", "closed", "thickness_m", "height_m"});
       WallDef wall;
-      wall.points_m = item["points"].as_points(2);
+      wall.points_m = item["points"].as_points(2, kWorldCoordinateRange);
       wall.closed = item.get_bool("closed", false);
       if (wall.closed && wall.points_m.size() < 3)
         item["closed"].fail("a closed wall needs 3 points");
-      wall.thickness_m = item.get_double("thickness_m", wall.thickness_m, Check::kPositive);
-      wall.height_m = item.get_double("height_m", wall.height_m, Check::kPositive);
-      for (std::size_t i = 0; i + 1 < wall.points_m.size(); ++i) {
-        if ((wall.points_m[i + 1] - wall.points_m[i]).norm() < 0.01) {
-          item["points"].fail("consecutive points closer than 1 cm (point " +
-                              std::to_string(i + 1) + ")");
-        }
+      wall.thickness_m = item.get_double("thickness_m", wall.thickness_m, WallDef::kThicknessRange);
+      wall.height_m = item.get_double("height_m", wall.height_m, WallDef::kHeightRange);
+      check_spacing(item["points"], wall.points_m, wall.closed);
+      segments += wall.points_m.size() - (wall.closed ? 0 : 1);
+      // Checked as the walls come: YAML aliases can repeat one long wall many times over.
+      if (segments * kStaticShapeBytes > kWorldMemoryBudgetBytes) {
+        item.fail("the walls so far have " + std::to_string(segments) +
+                  " segments, more than fit in a world's memory budget of " +
+                  format_bytes(static_cast<double>(kWorldMemoryBudgetBytes)) +
+                  " (docs/worlds.md, Limits)");
       }
       world.walls.push_back(std::move(wall));
     }
+    memory.add(walls->place(), "walls' segments", segments * kStaticShapeBytes);
   }
   if (const auto boxes = root.find("boxes")) {
     for (const YamlNode& item : boxes->items()) {
       item.allow_keys({"center", "size", "angle", "angle_deg", "height_m"});
       BoxDef box;
-      box.center_m = item["center"].as_vec2();
-      box.size_m = item["size"].as_vec2();
-      if (!(box.size_m.x() > 0.0 && box.size_m.y() > 0.0)) item["size"].fail("sizes must be > 0");
-      box.angle_rad = item.get_angle("angle", 0.0);
-      box.height_m = item.get_double("height_m", box.height_m, Check::kPositive);
+      box.center_m = item["center"].as_vec2(kWorldCoordinateRange);
+      box.size_m = item["size"].as_vec2(BoxDef::kSizeRange);
+      box.angle_rad = item.get_heading("angle", 0.0);
+      box.height_m = item.get_double("height_m", box.height_m, kBodyHeightRange);
       world.boxes.push_back(box);
     }
+    memory.add(boxes->place(), "boxes", world.boxes.size() * kStaticShapeBytes);
   }
   if (const auto circles = root.find("circles")) {
     for (const YamlNode& item : circles->items()) {
       item.allow_keys({"center", "radius_m", "height_m"});
       world.circles.push_back(
-          CircleDef{item["center"].as_vec2(), item["radius_m"].as_double(Check::kPositive),
-                    item.get_double("height_m", kFullHeight, Check::kPositive)});
+          CircleDef{item["center"].as_vec2(kWorldCoordinateRange),
+                    item["radius_m"].as_double(CircleDef::kRadiusRange),
+                    item.get_double("height_m", kFullHeight, kBodyHeightRange)});
     }
+    memory.add(circles->place(), "circles", world.circles.size() * kStaticShapeBytes);
   }
   if (const auto polygons = root.find("polygons")) {
     for (const YamlNode& item : polygons->items()) {
       item.allow_keys({"points", "height_m"});
       world.polygons.push_back(
-          PolygonDef{convex_polygon(item["points"]),
-                     item.get_double("height_m", kFullHeight, Check::kPositive)});
+          PolygonDef{convex_polygon(item["points"], kWorldCoordinateRange, kMinStaticPolygonAreaM2),
+                     item.get_double("height_m", kFullHeight, kBodyHeightRange)});
     }
+    memory.add(polygons->place(), "polygons", world.polygons.size() * kStaticShapeBytes);
   }
   if (const auto map = root.find("map")) {
     const std::filesystem::path map_file = base_dir / map->as_string();
     if (!std::filesystem::exists(map_file))
       map->fail("no such map file '" + map_file.string() + "'");
     world.map = load_occupancy_map(map_file);
+    memory.add(
+        map->place(),
+        "the map's " + std::to_string(world.map->rects.size()) + " boxes of occupied pixels",
+        world.map->rects.size() * kStaticShapeBytes + world.map->occupied.size() * kMapPixelBytes);
   }
 
   if (const auto landmarks = root.find("landmarks")) {
@@ -245,13 +343,13 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     for (const YamlNode& item : landmarks->items()) {
       item.allow_keys({"id", "position", "color", "radius_m", "height_m"});
       LandmarkDef landmark;
-      landmark.id = static_cast<int>(item["id"].as_int(0, 1'000'000));
+      landmark.id = static_cast<int>(item["id"].as_int(kIdRange));
       if (!ids.insert(landmark.id).second) item["id"].fail("landmark id used twice");
-      landmark.position_m = item["position"].as_vec2();
+      landmark.position_m = item["position"].as_vec2(kWorldCoordinateRange);
       if (const auto color = item.find("color"))
         landmark.color = parse_color(*color, landmark.color_name);
-      landmark.radius_m = item.get_double("radius_m", landmark.radius_m, Check::kPositive);
-      landmark.height_m = item.get_double("height_m", landmark.height_m, Check::kPositive);
+      landmark.radius_m = item.get_double("radius_m", landmark.radius_m, LandmarkDef::kRadiusRange);
+      landmark.height_m = item.get_double("height_m", landmark.height_m, kBodyHeightRange);
       world.landmarks.push_back(landmark);
     }
   }
@@ -260,10 +358,10 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     for (const YamlNode& item : beacons->items()) {
       item.allow_keys({"id", "position", "height_m"});
       BeaconDef beacon;
-      beacon.id = static_cast<int>(item["id"].as_int(0, 1'000'000));
+      beacon.id = static_cast<int>(item["id"].as_int(kIdRange));
       if (!ids.insert(beacon.id).second) item["id"].fail("beacon id used twice");
-      beacon.position_m = item["position"].as_vec2();
-      beacon.height_m = item.get_double("height_m", beacon.height_m, Check::kNonNegative);
+      beacon.position_m = item["position"].as_vec2(kWorldCoordinateRange);
+      beacon.height_m = item.get_double("height_m", beacon.height_m, kHeightRange);
       world.beacons.push_back(beacon);
     }
   }
@@ -288,11 +386,13 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
       }
       if (const auto footprint = item.find("footprint"))
         mover.footprint = parse_footprint(*footprint);
-      mover.path_m = item["path"].as_points(1);
-      mover.speed_mps = item.get_double("speed_mps", mover.speed_mps, Check::kNonNegative);
+      mover.path_m = item["path"].as_points(1, kWorldCoordinateRange);
+      // A path whose points coincide would have a mover walk it forever within one step.
+      check_spacing(item["path"], mover.path_m, false);
+      mover.speed_mps = item.get_double("speed_mps", mover.speed_mps, MoverDef::kSpeedRange);
       mover.loop = item.get_bool("loop", mover.loop);
       mover.moving = item.get_bool("moving", mover.moving);
-      mover.height_m = item.get_double("height_m", mover.height_m, Check::kPositive);
+      mover.height_m = item.get_double("height_m", mover.height_m, kBodyHeightRange);
       world.movers.push_back(std::move(mover));
     }
   }
@@ -305,6 +405,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
                      "drive_load_fraction", "height_m", "start", "sensors"});
     RobotDef robot;
     robot.where = item.where();
+    robot.key_path = item.path();
     robot.name = item.get_string("name", "robot" + std::to_string(world.robots.size()));
     if (robot.name.empty() || robot.name.find_first_of("/\\ .") != std::string::npos) {
       item["name"].fail("a robot name names its output folder: no spaces, dots or slashes");
@@ -312,32 +413,43 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     if (!body_names.insert(robot.name).second) item.fail("name '" + robot.name + "' used twice");
     if (const auto footprint = item.find("footprint"))
       robot.footprint = parse_footprint(*footprint);
-    robot.mass_kg = item.get_double("mass_kg", robot.mass_kg, Check::kPositive);
-    robot.wheel_base_m = item.get_double("wheel_base_m", robot.wheel_base_m, Check::kPositive);
+    robot.mass_kg = item.get_double("mass_kg", robot.mass_kg, RobotDef::kMassRange);
+    robot.wheel_base_m =
+        item.get_double("wheel_base_m", robot.wheel_base_m, RobotDef::kWheelBaseRange);
     robot.wheel_radius_m =
-        item.get_double("wheel_radius_m", robot.wheel_radius_m, Check::kPositive);
+        item.get_double("wheel_radius_m", robot.wheel_radius_m, RobotDef::kWheelRadiusRange);
     robot.wheel_radius_left_m =
-        item.get_double("wheel_radius_left_m", robot.wheel_radius_m, Check::kPositive);
+        item.get_double("wheel_radius_left_m", robot.wheel_radius_m, RobotDef::kWheelRadiusRange);
     robot.wheel_radius_right_m =
-        item.get_double("wheel_radius_right_m", robot.wheel_radius_m, Check::kPositive);
-    robot.wheel_inertia_kgm2 =
-        item.get_double("wheel_inertia_kgm2", robot.wheel_inertia_kgm2, Check::kPositive);
-    robot.max_wheel_speed_radps =
-        item.get_double("max_wheel_speed_radps", robot.max_wheel_speed_radps, Check::kPositive);
-    robot.max_wheel_accel_radps2 =
-        item.get_double("max_wheel_accel_radps2", robot.max_wheel_accel_radps2, Check::kPositive);
-    robot.max_wheel_torque_nm =
-        item.get_double("max_wheel_torque_nm", robot.max_wheel_torque_nm, Check::kPositive);
-    robot.drive_load_fraction =
-        item.get_double("drive_load_fraction", robot.drive_load_fraction, Check::kUnitInterval);
-    robot.height_m = item.get_double("height_m", robot.height_m, Check::kPositive);
-    robot.start = item["start"].as_pose();
+        item.get_double("wheel_radius_right_m", robot.wheel_radius_m, RobotDef::kWheelRadiusRange);
+    robot.wheel_inertia_kgm2 = item.get_double("wheel_inertia_kgm2", robot.wheel_inertia_kgm2,
+                                               RobotDef::kWheelInertiaRange);
+    robot.max_wheel_speed_radps = item.get_double(
+        "max_wheel_speed_radps", robot.max_wheel_speed_radps, RobotDef::kWheelSpeedRange);
+    robot.max_wheel_accel_radps2 = item.get_double(
+        "max_wheel_accel_radps2", robot.max_wheel_accel_radps2, RobotDef::kWheelAccelRange);
+    robot.max_wheel_torque_nm = item.get_double("max_wheel_torque_nm", robot.max_wheel_torque_nm,
+                                                RobotDef::kWheelTorqueRange);
+    robot.drive_load_fraction = item.get_double("drive_load_fraction", robot.drive_load_fraction,
+                                                RobotDef::kDriveLoadRange);
+    robot.height_m = item.get_double("height_m", robot.height_m, RobotDef::kHeightRange);
+    robot.start = item["start"].as_pose(kWorldCoordinateRange);
     if (const auto sensors = item.find("sensors")) {
       robot.sensors = parse_sensors(*sensors, world.physics.step_hz);
+      if (const auto& ptz = robot.sensors.ptz_camera;
+          ptz && ptz->mode == PtzCameraDef::Mode::kRendered) {
+        memory.add(
+            (*sensors)["ptz_camera"].place(),
+            "a rendered " + std::to_string(ptz->width_px) + " x " + std::to_string(ptz->height_px) +
+                " px camera",
+            static_cast<std::uint64_t>(ptz->width_px) * ptz->height_px * kRenderedPixelBytes);
+      }
     }
     world.robots.push_back(std::move(robot));
   }
   if (world.robots.empty()) robots.fail("a world needs at least one robot");
+  memory.check();
+  world.memory_bytes = memory.total_bytes();
 
   if (const auto scenario = root.find("scenario"))
     world.scenario = parse_scenario(*scenario, base_dir);

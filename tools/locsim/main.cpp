@@ -326,8 +326,10 @@ int main(int argc, char** argv) {
   run->add_option("--seed", options.seed, "Run seed; every random stream derives from it")
       ->transform(whole_number_in(0, std::numeric_limits<std::uint64_t>::max()))
       ->capture_default_str();
+  // The scenario's own range for duration_s (one place for it: scenario_def.hpp).
   run->add_option("--duration", options.duration_s, "Simulated seconds (overrides the scenario)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_in(locsim::ScenarioDef::kDurationRange.min,
+                        locsim::ScenarioDef::kDurationRange.max));
   run->add_option("--out", out_dir, "Output folder (default: a new folder under runs/)");
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
@@ -585,6 +587,12 @@ int main(int argc, char** argv) {
   } catch (const locsim::InputError& e) {
     std::fprintf(stderr, "locsim: error: %s\n", e.what());
     return locsim::kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    // The inputs' bounds are meant to make this unreachable; if not, say what was being built.
+    const std::string stage = locsim::Activity::failed();
+    std::fprintf(stderr, "locsim: failure: out of memory%s\n",
+                 stage.empty() ? "" : (" while " + stage).c_str());
+    return locsim::kExitFailure;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "locsim: failure: %s\n", e.what());
     return locsim::kExitFailure;
