@@ -235,7 +235,7 @@ TEST(Replay, RecordsTheWorldCannotHaveProducedAreRefused) {
   Record encoders;
   encoders.type = Record::Type::kReading;
   encoders.reading.kind = SensorKind::kEncoders;
-  encoders.reading.data = EncoderReading{};
+  encoders.reading.data = OdometryReading{};
   Record laser = encoders;
   laser.reading.kind = SensorKind::kLaser;
   laser.reading.data = LaserScan{std::vector<float>(5, 1.0f)};

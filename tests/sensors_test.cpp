@@ -63,9 +63,9 @@ robots:
     sensors:
       encoders: {k_left: 0, k_right: 0, ticks_per_rev: 4096}
 )");
-  const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 6.0, 0.4, 0.3);
+  const auto readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 6.0, 0.4, 0.3);
   ASSERT_EQ(readings.size(), 6u * 50u + 1u);  // 50 Hz including t = 0
-  const EncoderReading& last = readings.back().data;
+  const OdometryReading& last = readings.back().data;
   const double ticks_per_rad = 4096 / (2 * std::numbers::pi);
   EXPECT_NEAR(static_cast<double>(last.left_ticks), sim.robot(0).left().angle_rad * ticks_per_rad,
               1.0);
@@ -90,7 +90,7 @@ robots:
       encoders: {k_left: 0.004, k_right: 0.004, ticks_per_rev: 1000000}
 )",
                               seed);
-    const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 3.0, 0.4, 0.0);
+    const auto readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 3.0, 0.4, 0.0);
     const double radians_per_tick = 2 * std::numbers::pi / 1000000;
     const double counted =
         static_cast<double>(readings.back().data.left_ticks) * radians_per_tick * 0.05;
@@ -110,7 +110,7 @@ robots:
   - start: {x: 0, y: 0}
     sensors: {encoders: {k_left: 0, k_right: 0}}
 )");
-  const auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 2.0, 1.0, 0.0);
+  const auto readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 2.0, 1.0, 0.0);
   const double odometry_distance = readings.back().data.odometry.x;
   const double ground_distance = sim.robot(0).pose().x;
   EXPECT_GT(odometry_distance, 1.5 * ground_distance);
@@ -127,13 +127,13 @@ scenario:
   events:
     - {at_s: 5, kidnap: {to: {x: 4, y: 4, theta: 2}}}
 )");
-  auto readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 4.99, 0.3, 0.0);
-  const EncoderReading before = readings.back().data;
+  auto readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 4.99, 0.3, 0.0);
+  const OdometryReading before = readings.back().data;
   EXPECT_NEAR(before.odometry.theta, 0.0, 1e-3);  // the base believes it drove straight
   EXPECT_LT(sim.robot(0).pose().theta, -0.03);    // it veered right
-  readings = collect<EncoderReading>(sim, SensorKind::kEncoders, 0.02, 0.0, 0.0);
+  readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 0.02, 0.0, 0.0);
   ASSERT_FALSE(readings.empty());
-  const EncoderReading after = readings.back().data;
+  const OdometryReading after = readings.back().data;
   EXPECT_NEAR(sim.robot(0).pose().x, 4.0, 1e-3);
   // 10 ms of driving before the carry (~80 ticks), nothing of the 5.7 m jump.
   EXPECT_LE(std::abs(after.left_ticks - before.left_ticks), 100);

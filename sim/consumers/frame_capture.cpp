@@ -24,7 +24,7 @@ void FrameCapture::consume(const Record& record) {
   std::visit(
       [&](const auto& data) {
         using T = std::decay_t<decltype(data)>;
-        if constexpr (std::is_same_v<T, EncoderReading>) latest.odometry = data.odometry;
+        if constexpr (std::is_same_v<T, OdometryReading>) latest.odometry = data.odometry;
         if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
         if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
         if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;

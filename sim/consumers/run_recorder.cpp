@@ -151,7 +151,7 @@ void RunRecorder::write_reading(const Reading& reading) {
   std::visit(
       [&](const auto& data) {
         using T = std::decay_t<decltype(data)>;
-        if constexpr (std::is_same_v<T, EncoderReading>) {
+        if constexpr (std::is_same_v<T, OdometryReading>) {
           start_row();
           line_ += ',' + std::to_string(data.left_ticks) + ',' + std::to_string(data.right_ticks);
           number(data.odometry.x, 6);

@@ -221,12 +221,13 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
   std::visit(
       [&](const auto& data) {
         using T = std::decay_t<decltype(data)>;
-        if constexpr (std::is_same_v<T, EncoderReading>) {
+        if constexpr (std::is_same_v<T, OdometryReading>) {
           out_.kind = LOCSIM_READING_ODOMETRY;
-          out_.data.odometry = {data.left_ticks,
-                                data.right_ticks,
-                                meters_per_tick_,
-                                {data.odometry.x, data.odometry.y, data.odometry.theta}};
+          out_.data.odometry = {
+              data.left_ticks,  data.right_ticks,
+              meters_per_tick_, {data.odometry.x, data.odometry.y, data.odometry.theta},
+              data.fields,      data.v_mps,
+              data.omega_radps};
         } else if constexpr (std::is_same_v<T, ImuReading>) {
           out_.kind = LOCSIM_READING_IMU;
           out_.data.imu = {data.yaw_rate_radps, data.accel_mps2.x(), data.accel_mps2.y(),
@@ -234,7 +235,8 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
         } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
           detections_.clear();
           for (const Detection& d : data.detections) {
-            detections_.push_back({d.color.c_str(), d.id, d.range_m, d.bearing_rad});
+            detections_.push_back({d.color.c_str(), d.id, d.range_m, d.bearing_rad,
+                                   static_cast<std::int32_t>(d.target)});
           }
           out_.kind = LOCSIM_READING_LANDMARKS;
           out_.data.landmarks = {

@@ -104,6 +104,9 @@ void LogSource::check(const Record& record) const {
                              robot.name + "'s laser has " + std::to_string(sensors.laser->beams));
           }
           break;
+        case SensorKind::kRangeBearing:
+          known = has(sensors.range_bearing);
+          break;
       }
       if (!known) {
         reader_.reject(std::string("a reading of the ") + sensor_name(reading.kind) +

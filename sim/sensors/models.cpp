@@ -68,7 +68,7 @@ std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) 
   odometry_.x += distance * std::cos(mid_heading);
   odometry_.y += distance * std::sin(mid_heading);
   odometry_.theta = wrap_angle(odometry_.theta + turn);
-  return EncoderReading{ticks_[0], ticks_[1], odometry_};
+  return OdometryReading{ticks_[0], ticks_[1], odometry_};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -11,13 +11,41 @@
 
 namespace locsim {
 
-enum class SensorKind { kEncoders, kImu, kPtzCamera, kOmniCamera, kUltrasonic, kLaser };
+// The values are those of the log format (docs/log_format.md): append, never renumber.
+enum class SensorKind {
+  kEncoders,
+  kImu,
+  kPtzCamera,
+  kOmniCamera,
+  kUltrasonic,
+  kLaser,
+  kRangeBearing
+};
 const char* sensor_name(SensorKind kind);  // "encoders", "imu", "ptz_camera", ...
 
-struct EncoderReading {
+/// What an odometry reading carries: a simulated base reports its wheel ticks and the pose it
+/// dead-reckons from them; a real dataset reports what its robot logged (MRCLAM: commanded
+/// forward and angular velocity only; others an odometry pose). Bit values of the log format and
+/// of the plugin ABI's LOCSIM_ODOMETRY_* (plugins/sdk/include/locsim/localizer.h).
+enum OdometryField : std::uint8_t {
+  kOdometryTicks = 1u << 0,
+  kOdometryPose = 1u << 1,
+  kOdometryVelocity = 1u << 2,
+};
+inline constexpr std::uint8_t kOdometryAllFields =
+    kOdometryTicks | kOdometryPose | kOdometryVelocity;
+
+/// The `encoders` sensor's reading: the fields `fields` names hold values, the others zeros.
+struct OdometryReading {
   std::int64_t left_ticks = 0;  // cumulative counts since the start
   std::int64_t right_ticks = 0;
-  Pose2 odometry;  // the base's dead-reckoned pose from the counts (odom frame = world at t = 0)
+  Pose2 odometry;  // the base's dead-reckoned pose (odom frame = world at t = 0)
+  // The base's velocity from this reading's time on (a commanded velocity holds until the next
+  // reading; a measured one is the latest measurement) [m/s, rad/s].
+  double v_mps = 0.0;
+  double omega_radps = 0.0;
+  std::uint8_t fields = kOdometryTicks | kOdometryPose;
+  bool has(OdometryField field) const { return (fields & field) != 0; }
 };
 
 struct ImuReading {
@@ -25,13 +53,17 @@ struct ImuReading {
   Vec2 accel_mps2{0.0, 0.0};  // specific force in the IMU frame (x forward, y left)
 };
 
-/// A landmark seen by a camera, relative to the robot frame.
+/// What a detection is of. Values of the log format and of the ABI's LOCSIM_TARGET_*.
+enum class DetectionTarget : std::uint8_t { kLandmark = 0, kRobot = 1 };
+
+/// A landmark (or another robot) seen by a camera, relative to the robot frame.
 struct Detection {
   std::string color;  // colour name, or "#rrggbb"
-  int id = -1;        // landmark id when the camera reports ids, else -1
+  int id = -1;        // landmark id (a robot: its index in the world) when reported, else -1
   double range_m = 0.0;
   double bearing_rad = 0.0;  // counter-clockwise from the robot's x axis
-  int truth_id = -1;         // the landmark it really is; -1 for a false detection
+  int truth_id = -1;         // the landmark (robot) it really is; -1 for a false detection
+  DetectionTarget target = DetectionTarget::kLandmark;
 };
 
 struct PtzReading {
@@ -42,6 +74,11 @@ struct PtzReading {
 };
 
 struct OmniReading {
+  std::vector<Detection> detections;
+};
+
+/// A range-bearing landmark sensor (a camera reading barcodes, as MRCLAM's robots carry).
+struct RangeBearingReading {
   std::vector<Detection> detections;
 };
 
@@ -63,8 +100,8 @@ struct LaserScan {
   std::vector<float> ranges_m;  // beam i at laser_beam_angle(i, beams, fov) in the mount frame
 };
 
-using ReadingData =
-    std::variant<EncoderReading, ImuReading, PtzReading, OmniReading, UltrasonicReading, LaserScan>;
+using ReadingData = std::variant<OdometryReading, ImuReading, PtzReading, OmniReading,
+                                 UltrasonicReading, LaserScan, RangeBearingReading>;
 
 struct Reading {
   double t_s = 0.0;

@@ -20,6 +20,8 @@ const char* sensor_name(SensorKind kind) {
       return "ultrasonic";
     case SensorKind::kLaser:
       return "laser";
+    case SensorKind::kRangeBearing:
+      return "range_bearing";
   }
   return "?";
 }

@@ -10,6 +10,7 @@
 
 #include "sim/common/math.hpp"
 #include "sim/common/range.hpp"
+#include "sim/sensors/readings.hpp"
 
 namespace locsim {
 
@@ -33,6 +34,9 @@ struct EncodersDef {
   static constexpr Range kKRange{0.0, 1.0, "m^1/2"};
   std::optional<double> odometry_wheel_base_m;  // the base's belief; default: the true one [m]
   static constexpr Range kWheelBaseRange{0.01, 100.0, "m"};
+  // What each reading carries (OdometryField bits; YAML: a list of ticks, pose, velocity). A
+  // simulated base reports its wheels' mean velocity over the last sample period as measured.
+  std::uint8_t reports = kOdometryTicks | kOdometryPose;
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.
@@ -112,6 +116,38 @@ struct OmniCameraDef {
   bool report_ids = true;
 };
 
+/// A range-bearing landmark sensor with a limited field of view: a camera reading barcodes (the
+/// MRCLAM robots'), or any detector that gives a range and a bearing per landmark. Gaussian noise
+/// in range and bearing (spread growing with range, and a bias, as `locsim calibrate` fits them),
+/// missed and false detections. Optionally sees the other robots too.
+struct RangeBearingDef {
+  SensorCommon common{true, 10.0, {}};
+  double fov_rad = deg_to_rad(60.0);  // centred on the mount's x axis [rad]
+  static constexpr Range kFovRange{deg_to_rad(0.01), deg_to_rad(360.0), "rad"};
+  double min_range_m = 0.1;  // closer targets are not reported [m]
+  double max_range_m = 6.0;  // farther targets are not reported [m]
+  static constexpr Range kRangeRange{0.0, 10000.0, "m"};
+  double sigma_range_m = 0.05;     // range spread at zero range [m]
+  double sigma_range_per_m = 0.0;  // added per metre of range [m/m]
+  double range_bias_m = 0.0;       // added to every range [m]
+  double range_bias_per_m = 0.0;   // added per metre of range (a scale error) [m/m]
+  static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
+  static constexpr Range kBiasRange{-1000.0, 1000.0, "m"};
+  static constexpr Range kSigmaPerMRange{0.0, 10.0, "m/m"};
+  static constexpr Range kBiasPerMRange{-10.0, 10.0, "m/m"};
+  double sigma_bearing_rad = deg_to_rad(1.0);  // [rad]
+  double bearing_bias_rad = 0.0;               // [rad]
+  static constexpr Range kSigmaBearingRange{0.0, 3.2, "rad"};
+  static constexpr Range kBearingBiasRange{-3.2, 3.2, "rad"};
+  double miss_probability = 0.0;  // a visible target is not reported [-]
+  // False detections per reading (Poisson mean), uniform over the field of view and range, with
+  // an id drawn from the map's (or -1 without ids). [-]
+  double false_detections = 0.0;
+  static constexpr Range kFalseDetectionsRange{0.0, 100.0, ""};
+  bool report_ids = true;
+  bool sees_robots = false;  // other robots are detected too (target robot, id = index)
+};
+
 /// Receivers on the robot ranging to the world's fixed ultrasonic beacons (paper 003).
 struct UltrasonicDef {
   SensorCommon common{true, 20.0, {}};
@@ -165,6 +201,7 @@ struct SensorsDef {
   std::optional<OmniCameraDef> omni_camera;
   std::optional<UltrasonicDef> ultrasonic;
   std::optional<LaserDef> laser;
+  std::optional<RangeBearingDef> range_bearing;
 };
 
 }  // namespace locsim

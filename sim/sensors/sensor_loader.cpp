@@ -45,20 +45,37 @@ Def parse_section(const YamlNode& node, Def def, double step_hz,
 }  // namespace
 
 SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
-  node.allow_keys({"encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser"});
+  node.allow_keys(
+      {"encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser", "range_bearing"});
   SensorsDef sensors;
   if (const auto n = node.find("encoders")) {
-    sensors.encoders = parse_section(
-        *n, EncodersDef{}, step_hz, {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m"},
-        [&](EncodersDef& d) {
-          d.ticks_per_rev = static_cast<int>(
-              n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
-          d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
-          d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
-          if (const auto base = n->find("odometry_wheel_base_m")) {
-            d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
-          }
-        });
+    sensors.encoders =
+        parse_section(*n, EncodersDef{}, step_hz,
+                      {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports"},
+                      [&](EncodersDef& d) {
+                        if (const auto reports = n->find("reports")) {
+                          d.reports = 0;
+                          for (const YamlNode& item : reports->items()) {
+                            const std::string field = item.as_string();
+                            const std::uint8_t bit = field == "ticks"      ? kOdometryTicks
+                                                     : field == "pose"     ? kOdometryPose
+                                                     : field == "velocity" ? kOdometryVelocity
+                                                                           : 0;
+                            if (bit == 0)
+                              item.fail("must be ticks, pose or velocity, not '" + field + "'");
+                            d.reports |= bit;
+                          }
+                          if (d.reports == 0)
+                            reports->fail("give at least one of ticks, pose, velocity");
+                        }
+                        d.ticks_per_rev = static_cast<int>(
+                            n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
+                        d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
+                        d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
+                        if (const auto base = n->find("odometry_wheel_base_m")) {
+                          d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
+                        }
+                      });
   }
   if (const auto n = node.find("imu")) {
     sensors.imu = parse_section(
@@ -219,6 +236,36 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
           d.p_random = n->get_double("p_random", d.p_random, kProbabilityRange);
           if (d.p_short + d.p_max + d.p_random > 1.0)
             n->fail("p_short + p_max + p_random exceeds 1");
+        });
+  }
+  if (const auto n = node.find("range_bearing")) {
+    sensors.range_bearing = parse_section(
+        *n, RangeBearingDef{}, step_hz,
+        {"fov", "fov_deg", "min_range_m", "max_range_m", "sigma_range_m", "sigma_range_per_m",
+         "range_bias_m", "range_bias_per_m", "sigma_bearing", "sigma_bearing_deg", "bearing_bias",
+         "bearing_bias_deg", "miss_probability", "false_detections", "report_ids", "sees_robots"},
+        [&](RangeBearingDef& d) {
+          using D = RangeBearingDef;
+          d.fov_rad = n->get_angle("fov", d.fov_rad, D::kFovRange);
+          d.min_range_m = n->get_double("min_range_m", d.min_range_m, D::kRangeRange);
+          d.max_range_m = n->get_double("max_range_m", d.max_range_m, D::kRangeRange);
+          if (d.min_range_m >= d.max_range_m) n->fail("min_range_m must be below max_range_m");
+          d.sigma_range_m = n->get_double("sigma_range_m", d.sigma_range_m, D::kSigmaRange);
+          d.sigma_range_per_m =
+              n->get_double("sigma_range_per_m", d.sigma_range_per_m, D::kSigmaPerMRange);
+          d.range_bias_m = n->get_double("range_bias_m", d.range_bias_m, D::kBiasRange);
+          d.range_bias_per_m =
+              n->get_double("range_bias_per_m", d.range_bias_per_m, D::kBiasPerMRange);
+          d.sigma_bearing_rad =
+              n->get_angle("sigma_bearing", d.sigma_bearing_rad, D::kSigmaBearingRange);
+          d.bearing_bias_rad =
+              n->get_angle("bearing_bias", d.bearing_bias_rad, D::kBearingBiasRange);
+          d.miss_probability =
+              n->get_double("miss_probability", d.miss_probability, kProbabilityRange);
+          d.false_detections =
+              n->get_double("false_detections", d.false_detections, D::kFalseDetectionsRange);
+          d.report_ids = n->get_bool("report_ids", d.report_ids);
+          d.sees_robots = n->get_bool("sees_robots", d.sees_robots);
         });
   }
   return sensors;

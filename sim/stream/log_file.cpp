@@ -87,10 +87,11 @@ LogReader::LogReader(const std::filesystem::path& file) : file_(file), in_(file,
   std::uint32_t version = 0, length = 0, checksum = 0;
   in_.read(reinterpret_cast<char*>(&version), 4);
   if (!in_) fail("truncated in the header");
-  if (version != kLogFormatVersion) {
-    fail("log format version " + std::to_string(version) + "; this locsim reads version " +
-         std::to_string(kLogFormatVersion));
+  if (version < kOldestLogFormatVersion || version > kLogFormatVersion) {
+    fail("log format version " + std::to_string(version) + "; this locsim reads versions " +
+         std::to_string(kOldestLogFormatVersion) + " to " + std::to_string(kLogFormatVersion));
   }
+  version_ = version;
   in_.read(reinterpret_cast<char*>(&length), 4);
   if (!in_ || length > (1u << 30)) fail("truncated or corrupt header");
   std::string text;
@@ -185,7 +186,7 @@ bool LogReader::next(Record& record) {
     return false;
   }
   try {
-    decode_record(static_cast<Record::Type>(type), payload_, record);
+    decode_record(static_cast<Record::Type>(type), payload_, record, version_);
   } catch (const DecodeError& e) {
     const std::string what = e.what();
     fail((what == "payload too short" ? std::string("record shorter than its contents") : what) +

@@ -3,7 +3,7 @@
 // (`locsim run --log`, `locsim replay`). The writer is a consumer of the stream; the reader
 // feeds a producer (producers/log_source).
 //
-// Format (little-endian), version 1:
+// Format (little-endian), version 2 (version 1 logs are still read):
 //   "LOCSIMLG", u32 version, u32 header length, header (JSON text), u32 CRC-32 of a zero byte
 //   followed by the header;
 //   then records: u8 type, u32 payload length, payload, u32 CRC-32 of type and payload;
@@ -18,10 +18,12 @@
 #include <string>
 
 #include "sim/stream/record.hpp"
+#include "sim/stream/record_codec.hpp"
 
 namespace locsim {
 
-inline constexpr std::uint32_t kLogFormatVersion = 1;
+inline constexpr std::uint32_t kLogFormatVersion = kRecordFormatVersion;
+inline constexpr std::uint32_t kOldestLogFormatVersion = 1;
 
 class LogWriter final : public RecordConsumer {
  public:
@@ -49,6 +51,8 @@ class LogReader {
   explicit LogReader(const std::filesystem::path& file);
   const nlohmann::ordered_json& header() const { return header_; }
   const std::filesystem::path& file() const { return file_; }
+  /// The format version the file was written in.
+  std::uint32_t version() const { return version_; }
   /// The next record; false after the end record. Throws InputError on a corrupt or truncated log.
   bool next(Record& record);
   /// Checks, by reading the file's last bytes only, that it ends with an end record: a log whose
@@ -67,6 +71,7 @@ class LogReader {
   std::ifstream in_;
   nlohmann::ordered_json header_;
   std::uint64_t records_ = 0;
+  std::uint32_t version_ = 0;
   std::uint64_t offset_ = 0;       // of the next record [byte]
   std::uint64_t last_offset_ = 0;  // of the record last read [byte]
   std::string payload_;

@@ -34,12 +34,13 @@ void put_detections(std::string& out, const std::vector<Detection>& detections) 
     put(out, d.range_m);
     put(out, d.bearing_rad);
     put<std::int32_t>(out, d.truth_id);
+    put<std::uint8_t>(out, static_cast<std::uint8_t>(d.target));
   }
 }
 
-std::vector<Detection> get_detections(ByteReader& in) {
+std::vector<Detection> get_detections(ByteReader& in, std::uint32_t version) {
   const auto count = in.get<std::uint32_t>();
-  in.expect(count, 4 + 4 + 8 + 8 + 4);
+  in.expect(count, 4 + 4 + 8 + 8 + 4 + (version >= 2 ? 1 : 0));
   std::vector<Detection> out(count);
   for (Detection& d : out) {
     d.color = in.get_string();
@@ -47,6 +48,12 @@ std::vector<Detection> get_detections(ByteReader& in) {
     d.range_m = in.get<double>();
     d.bearing_rad = in.get<double>();
     d.truth_id = in.get<std::int32_t>();
+    if (version >= 2) {
+      const auto target = in.get<std::uint8_t>();
+      if (target > static_cast<std::uint8_t>(DetectionTarget::kRobot))
+        throw DecodeError("unknown detection target " + std::to_string(target));
+      d.target = static_cast<DetectionTarget>(target);
+    }
   }
   return out;
 }
@@ -58,15 +65,18 @@ void encode_reading(const Reading& r, std::string& out) {
   std::visit(
       [&](const auto& d) {
         using T = std::decay_t<decltype(d)>;
-        if constexpr (std::is_same_v<T, EncoderReading>) {
+        if constexpr (std::is_same_v<T, OdometryReading>) {
+          put<std::uint8_t>(out, d.fields);
           put(out, d.left_ticks), put(out, d.right_ticks);
           put(out, d.odometry.x), put(out, d.odometry.y), put(out, d.odometry.theta);
+          put(out, d.v_mps), put(out, d.omega_radps);
         } else if constexpr (std::is_same_v<T, ImuReading>) {
           put(out, d.yaw_rate_radps), put(out, d.accel_mps2.x()), put(out, d.accel_mps2.y());
         } else if constexpr (std::is_same_v<T, PtzReading>) {
           put(out, d.pan_rad), put(out, d.tilt_rad), put(out, d.zoom);
           put_detections(out, d.detections);
-        } else if constexpr (std::is_same_v<T, OmniReading>) {
+        } else if constexpr (std::is_same_v<T, OmniReading> ||
+                             std::is_same_v<T, RangeBearingReading>) {
           put_detections(out, d.detections);
         } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
           put<std::uint32_t>(out, static_cast<std::uint32_t>(d.ranges.size()));
@@ -83,17 +93,24 @@ void encode_reading(const Reading& r, std::string& out) {
       r.data);
 }
 
-void decode_reading(ByteReader& in, Reading& r) {
+void decode_reading(ByteReader& in, Reading& r, std::uint32_t version) {
   r.t_s = in.get<double>();
   r.robot = in.get<std::uint16_t>();
   const auto kind = in.get<std::uint8_t>();
   r.kind = static_cast<SensorKind>(kind);
   switch (r.kind) {
     case SensorKind::kEncoders: {
-      EncoderReading d;
+      OdometryReading d;
+      if (version >= 2) {
+        d.fields = in.get<std::uint8_t>();
+        if (d.fields == 0 || (d.fields & ~kOdometryAllFields) != 0)
+          throw DecodeError("odometry fields " + std::to_string(d.fields) +
+                            " are not a subset of " + std::to_string(kOdometryAllFields));
+      }
       d.left_ticks = in.get<std::int64_t>(), d.right_ticks = in.get<std::int64_t>();
       d.odometry.x = in.get<double>(), d.odometry.y = in.get<double>(),
       d.odometry.theta = in.get<double>();
+      if (version >= 2) d.v_mps = in.get<double>(), d.omega_radps = in.get<double>();
       r.data = d;
       break;
     }
@@ -107,12 +124,16 @@ void decode_reading(ByteReader& in, Reading& r) {
     case SensorKind::kPtzCamera: {
       PtzReading d;
       d.pan_rad = in.get<double>(), d.tilt_rad = in.get<double>(), d.zoom = in.get<double>();
-      d.detections = get_detections(in);
+      d.detections = get_detections(in, version);
       r.data = std::move(d);
       break;
     }
     case SensorKind::kOmniCamera:
-      r.data = OmniReading{get_detections(in)};
+      r.data = OmniReading{get_detections(in, version)};
+      break;
+    case SensorKind::kRangeBearing:
+      if (version < 2) throw DecodeError("unknown sensor kind " + std::to_string(kind));
+      r.data = RangeBearingReading{get_detections(in, version)};
       break;
     case SensorKind::kUltrasonic: {
       UltrasonicReading d;
@@ -166,12 +187,13 @@ void encode_record(const Record& record, std::string& payload) {
   }
 }
 
-void decode_record(Record::Type type, std::string_view payload, Record& record) {
+void decode_record(Record::Type type, std::string_view payload, Record& record,
+                   std::uint32_t version) {
   ByteReader in(payload);
   record.type = type;
   switch (type) {
     case Record::Type::kReading:
-      decode_reading(in, record.reading);
+      decode_reading(in, record.reading, version);
       record.robot = record.reading.robot;
       break;
     case Record::Type::kGroundTruth:

@@ -51,10 +51,15 @@ class ByteReader {
   std::size_t pos_ = 0;
 };
 
+/// The version of the encoding (the log format's version): 2 added odometry fields (velocity,
+/// no ticks), detections' targets and the range_bearing sensor. Version 1 payloads still decode.
+inline constexpr std::uint32_t kRecordFormatVersion = 2;
+
 /// Appends the payload of a reading, ground-truth or event record to `payload` (the end record
-/// is the log's own business).
+/// is the log's own business), in the current version.
 void encode_record(const Record& record, std::string& payload);
-/// Fills `record` from a payload of type `type`. Throws DecodeError.
-void decode_record(Record::Type type, std::string_view payload, Record& record);
+/// Fills `record` from a payload of type `type` written in `version`. Throws DecodeError.
+void decode_record(Record::Type type, std::string_view payload, Record& record,
+                   std::uint32_t version = kRecordFormatVersion);
 
 }  // namespace locsim

@@ -46,7 +46,8 @@ void BM_FastSlamUpdate(benchmark::State& state) {
     for (std::size_t k = 0; k < landmarks.size(); ++k) {
       const double dx = landmarks[k][0] - x, dy = landmarks[k][1] - y;
       detections[k] = {"red", -1, std::hypot(dx, dy),
-                       std::remainder(std::atan2(dy, dx) - theta, 2 * M_PI)};
+                       std::remainder(std::atan2(dy, dx) - theta, 2 * M_PI),
+                       LOCSIM_TARGET_LANDMARK};
     }
   };
   const auto update = [&] { return f.update(odometry) && f.update(frame); };

@@ -57,7 +57,8 @@ void BM_LandmarkPluginUpdate(benchmark::State& state, const char* plugin) {
     odometry.data.odometry.odom_pose = {x, y, theta};
     for (int i = 0; i < 6; ++i) {
       const double dx = field.posts[i][0] - x, dy = field.posts[i][1] - y;
-      detections[i] = {field.colors[i], -1, std::hypot(dx, dy), std::atan2(dy, dx) - theta};
+      detections[i] = {field.colors[i], -1, std::hypot(dx, dy), std::atan2(dy, dx) - theta,
+                       LOCSIM_TARGET_LANDMARK};
     }
     return f.update(odometry) && f.update(frame);
   };

@@ -39,6 +39,9 @@ void BM_SensorAlone(benchmark::State& state, SensorKind kind) {
     case SensorKind::kLaser:
       only.laser = all.laser;
       break;
+    case SensorKind::kRangeBearing:
+      only.range_bearing = all.range_bearing;
+      break;
   }
   all = only;
   ScenarioDef scenario = *world.scenario;
@@ -128,7 +131,7 @@ void BM_StreamToNoopPlugin(benchmark::State& state, SensorKind kind, bool isolat
     reading.data =
         PtzReading{0.1, 0.0, 1.0, {{"red", -1, 3.0, 0.2, 1}, {"green", -1, 4.0, -0.3, 2}}};
   } else {
-    reading.data = EncoderReading{100, 120, {1, 2, 0.3}};
+    reading.data = OdometryReading{100, 120, {1, 2, 0.3}};
   }
   Record truth;
   truth.type = Record::Type::kGroundTruth;

@@ -19,8 +19,14 @@
 extern "C" {
 #endif
 
-/* Bumped on any incompatible change of the structs below. */
-#define LOCSIM_LOCALIZER_ABI_VERSION 1u
+/* Bumped on any incompatible change of the structs below.
+ * 2: odometry says which fields its source measured (ticks, pose, velocity) and carries the
+ *    velocity; detections say what they are of (a landmark or another robot); a third camera
+ *    kind, the range-bearing sensor. The host still serves plugins built for version 1
+ *    (docs/plugins.md, "ABI versions"). */
+#define LOCSIM_LOCALIZER_ABI_VERSION 2u
+/* The oldest version a host serves. */
+#define LOCSIM_LOCALIZER_ABI_VERSION_OLDEST 1u
 
 #if defined(_WIN32)
 #define LOCSIM_EXPORT __declspec(dllexport)
@@ -42,13 +48,13 @@ typedef enum locsim_param_type {
 
 /* A parameter the plugin declares; the host validates users' values against it. */
 typedef struct locsim_param_decl {
-  const char* name;            /* required, [a-z0-9_]+ */
-  int type;                    /* locsim_param_type */
-  double default_number;       /* DOUBLE, INT, BOOL (0 or 1) */
-  double min_number;           /* DOUBLE, INT: inclusive range */
+  const char* name;      /* required, [a-z0-9_]+ */
+  int type;              /* locsim_param_type */
+  double default_number; /* DOUBLE, INT, BOOL (0 or 1) */
+  double min_number;     /* DOUBLE, INT: inclusive range */
   double max_number;
-  const char* default_string;  /* STRING */
-  const char* doc;             /* one line, with the unit */
+  const char* default_string; /* STRING */
+  const char* doc;            /* one line, with the unit */
 } locsim_param_decl;
 
 /* A validated value: every declared parameter, defaults filled in, in declaration order. */
@@ -62,7 +68,7 @@ typedef struct locsim_param_value {
 /* ---- what the plugin may know ------------------------------------------------------------- */
 typedef struct locsim_landmark {
   int id;
-  double x, y;       /* [m] */
+  double x, y; /* [m] */
   double radius_m, height_m;
   const char* color; /* name, or "#rrggbb" */
 } locsim_landmark;
@@ -97,15 +103,15 @@ typedef struct locsim_robot_info {
 } locsim_robot_info;
 
 typedef struct locsim_init {
-  uint32_t struct_size;              /* sizeof(locsim_init) as the host built it */
+  uint32_t struct_size; /* sizeof(locsim_init) as the host built it */
   const locsim_param_value* params;
   size_t param_count;
   const locsim_map* map;
   const locsim_robot_info* robot;
-  int32_t initial_pose_known;        /* 0: unknown, localize globally */
-  locsim_pose2 initial_pose;         /* when known: the guess, drawn around the truth */
-  double initial_covariance[9];      /* of the guess */
-  uint64_t seed;                     /* for the plugin's own random numbers */
+  int32_t initial_pose_known;   /* 0: unknown, localize globally */
+  locsim_pose2 initial_pose;    /* when known: the guess, drawn around the truth */
+  double initial_covariance[9]; /* of the guess */
+  uint64_t seed;                /* for the plugin's own random numbers */
 } locsim_init;
 
 /* ---- readings (truth never included) ------------------------------------------------------ */
@@ -117,11 +123,26 @@ typedef enum locsim_reading_kind {
   LOCSIM_READING_LASER = 5
 } locsim_reading_kind;
 
-/* Wheel encoders and the pose the base dead-reckons from them (odom frame = world at t = 0). */
+/* What an odometry reading's source measured (bits of locsim_odometry.fields). */
+typedef enum locsim_odometry_field {
+  LOCSIM_ODOMETRY_TICKS = 1,   /* left_ticks, right_ticks, meters_per_tick */
+  LOCSIM_ODOMETRY_POSE = 2,    /* odom_pose as the base reported it */
+  LOCSIM_ODOMETRY_VELOCITY = 4 /* v_mps, omega_radps */
+} locsim_odometry_field;
+
+/* The robot's odometry (odom frame = world at t = 0). A simulated base reports its wheel ticks
+ * and the pose it dead-reckons from them; a recorded dataset what its robot logged (MRCLAM:
+ * velocities only). odom_pose is always valid: without LOCSIM_ODOMETRY_POSE the host integrated
+ * it from the velocities (each held from its reading until the next, along an arc: SDK
+ * locsim/models.hpp, OdometryTracker). Fields the source lacks are zero. */
 typedef struct locsim_odometry {
   int64_t left_ticks, right_ticks; /* cumulative */
   double meters_per_tick;          /* nominal wheel circumference / ticks per revolution */
   locsim_pose2 odom_pose;
+  /* ABI 2: */
+  uint32_t fields;    /* locsim_odometry_field bits: what the source measured */
+  double v_mps;       /* forward velocity from t_s on [m/s] */
+  double omega_radps; /* angular velocity from t_s on [rad/s] */
 } locsim_odometry;
 
 typedef struct locsim_imu {
@@ -130,18 +151,27 @@ typedef struct locsim_imu {
   double mount_theta;                /* of the IMU frame in the robot frame [rad] */
 } locsim_imu;
 
-typedef enum locsim_camera_kind { LOCSIM_CAMERA_PTZ = 0, LOCSIM_CAMERA_OMNI = 1 } locsim_camera_kind;
+typedef enum locsim_camera_kind {
+  LOCSIM_CAMERA_PTZ = 0,
+  LOCSIM_CAMERA_OMNI = 1,
+  LOCSIM_CAMERA_RANGE_BEARING = 2 /* ABI 2: a range-bearing sensor with a field of view */
+} locsim_camera_kind;
+
+/* What a detection is of (ABI 2). */
+typedef enum locsim_target { LOCSIM_TARGET_LANDMARK = 0, LOCSIM_TARGET_ROBOT = 1 } locsim_target;
 
 typedef struct locsim_detection {
   const char* color;
-  int32_t id;          /* -1 when the camera does not report ids */
-  double range_m;      /* from the robot frame's origin */
-  double bearing_rad;  /* robot frame */
+  int32_t id;         /* landmark id; a robot's index in the world; -1 when not reported */
+  double range_m;     /* from the robot frame's origin */
+  double bearing_rad; /* robot frame */
+  /* ABI 2: */
+  int32_t target; /* locsim_target */
 } locsim_detection;
 
 typedef struct locsim_landmarks {
-  int32_t camera;      /* locsim_camera_kind */
-  double pan_rad;      /* PTZ only */
+  int32_t camera; /* locsim_camera_kind */
+  double pan_rad; /* PTZ only */
   const locsim_detection* detections;
   size_t count;
 } locsim_landmarks;
@@ -159,10 +189,10 @@ typedef struct locsim_beacon_ranges {
 } locsim_beacon_ranges;
 
 typedef struct locsim_laser_scan {
-  const float* ranges;  /* [m], count of them; range_max means no return */
-  const float* angles;  /* beam angles in the sensor frame [rad] */
+  const float* ranges; /* [m], count of them; range_max means no return */
+  const float* angles; /* beam angles in the sensor frame [rad] */
   size_t count;
-  locsim_pose2 mount;   /* sensor pose in the robot frame */
+  locsim_pose2 mount; /* sensor pose in the robot frame */
   double range_min, range_max;
 } locsim_laser_scan;
 
@@ -212,10 +242,10 @@ typedef struct locsim_diagnostic {
 /* Every call returning int returns 0 on success, else non-zero with a message written to
  * `error` (at most error_size bytes, NUL-terminated). */
 typedef struct locsim_localizer {
-  uint32_t abi_version; /* LOCSIM_LOCALIZER_ABI_VERSION the plugin was built with */
-  uint32_t struct_size; /* sizeof(locsim_localizer) as the plugin was built */
-  const char* name;        /* required: [a-z0-9_]+, as used on the command line */
-  const char* description; /* required: one line */
+  uint32_t abi_version;            /* LOCSIM_LOCALIZER_ABI_VERSION the plugin was built with */
+  uint32_t struct_size;            /* sizeof(locsim_localizer) as the plugin was built */
+  const char* name;                /* required: [a-z0-9_]+, as used on the command line */
+  const char* description;         /* required: one line */
   const locsim_param_decl* params; /* may be NULL with param_count 0 */
   size_t param_count;
 
