@@ -170,6 +170,24 @@ TEST(RunAndReplay, ReportReadsAReplayFolder) {
             json::parse(testing::read_file(dir / "run/run.json"))["config"]["world"]["name"]);
 }
 
+TEST(RunAndReplay, ReportOfSeveralRobotsTablesEachRobotAndAllTogether) {
+  // Each robot's metrics are in its own folder; the report once said "no localizers ran".
+  const fs::path dir = testing::temp_dir("bugs");
+  const std::string world = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/four_robots.yaml";
+  ASSERT_EQ(locsim("run " + world + " --duration 2 -q --localizer odometry --out " +
+                   (dir / "run").string())
+                .exit_code,
+            0);
+  const Outcome report = locsim("report " + (dir / "run").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const std::string text = testing::read_file(dir / "run/report.md");
+  EXPECT_NE(text.find("4 robots. Over all robots"), std::string::npos) << text;
+  EXPECT_NE(text.find("| odometry | 4 of 4 |"), std::string::npos) << text;
+  for (const char* robot : {"| r1 | odometry |", "| r4 | odometry |"})
+    EXPECT_NE(text.find(robot), std::string::npos) << robot << "\n" << text;
+  EXPECT_EQ(text.find("No localizers ran"), std::string::npos) << text;
+}
+
 TEST(RunAndReplay, AnOutputThatIsAFileIsRefusedClearlyByBoth) {
   const fs::path dir = testing::temp_dir("bugs");
   ASSERT_EQ(locsim("run " + kDemo + " --duration 1 -q --out " + (dir / "run").string() + " --log " +

@@ -5,7 +5,8 @@
 
 Sweep folder: the summary table, error vs time per configuration (mean over seeds with its 95 %
 band, kidnaps marked), each grid parameter's effect on the position error, and the CDFs of the
-convergence and recovery steps. Run folder: its localizers' metrics and error vs time.
+convergence and recovery steps. Run folder (of `run` or `replay`): its localizers' metrics and
+error vs time; with several robots, each robot's and the localizers' error over all robots.
 Uses Debian's python3-matplotlib; writes DIR/report.md and DIR/report/*.png.
 """
 import argparse
@@ -222,51 +223,121 @@ def sweep_report(root, out_dir):
     return lines
 
 
+def localizer_rows(metrics):
+    """Table rows of a metrics.json's localizers (one robot's)."""
+    rows = []
+    for l in metrics["localizers"]:
+        segments = "; ".join(f"{s['from_s']:.0f}-{s['to_s']:.0f} s: {s['position_error_m']['rms']:.3f}, "
+                             f"{'never' if s['recovery_s'] is None else format(s['recovery_s'], '.1f')}"
+                             for s in l["segments"])
+        rows.append(f"{l['label']} | {l['status']} | {l['position_error_m']['rms']:.3f} | "
+                    f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | {segments} |")
+    return rows
+
+
+def landmark_map_lines(metrics, robot=None):
+    mapping = [l for l in metrics["localizers"] if "landmark_map" in l]
+    if not mapping:
+        return []
+    lines = ["", "Landmark maps (SLAM filters; matched to the true landmarks within "
+             f"{mapping[0]['landmark_map']['gate_m']:g} m)" + (f", robot {robot}" if robot else "") + ":", "",
+             "| localizer | mapped | matched | error RMS [m] | max [m] | spurious | missed of observed |",
+             "|---|---|---|---|---|---|---|"]
+    for l in mapping:
+        m = l["landmark_map"]
+        rms, top = m["error_m"]["rms"], m["error_m"]["max"]
+        lines.append(f"| {l['label']} | {m['mapped']} | {m['matched']} | "
+                     f"{'—' if rms is None else format(rms, '.3f')} | "
+                     f"{'—' if top is None else format(top, '.3f')} | {m['spurious']} | "
+                     f"{m['missed']} of {m['observed']} |")
+    return lines
+
+
+def plot_errors(ax, run_dir, metrics):
+    for i, l in enumerate(metrics["localizers"]):
+        times, errors = error_series(run_dir, l["label"])
+        ax.plot(times, errors, color=COLORS[i % len(COLORS)], label=l["label"])
+    ax.set_yscale("log")
+    ax.set_ylabel("position error [m]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+def pooled_rms(parts):
+    """RMS over every sample of several robots from (samples, rms) pairs; None without samples."""
+    n = sum(samples for samples, _ in parts)
+    return math.sqrt(sum(samples * rms * rms for samples, rms in parts) / n) if n else None
+
+
 def run_report(root, out_dir):
     with open(os.path.join(root, "run.json")) as f:
         run = json.load(f)
     lines = [f"# Run report: {run['config']['world']['name']} / {run['config']['scenario']['name']}, "
              f"seed {run['seed']}", ""]
-    metrics_path = os.path.join(root, "metrics.json")
-    if not os.path.exists(metrics_path):
+    if run.get("source") == "replay":
+        lines += [f"Replay of `{run.get('log_file', '')}`.", ""]
+    header = "| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | per segment (RMS m, recovery s) |"
+    # A run of several robots keeps each robot's files in its own folder (run.json's robots).
+    folders = [(r["name"], os.path.join(root, r["folder"])) for r in run.get("robots", []) if r.get("folder")]
+    if not folders:
+        metrics_path = os.path.join(root, "metrics.json")
+        if not os.path.exists(metrics_path):
+            return lines + ["No localizers ran (run with --localizer)."]
+        with open(metrics_path) as f:
+            metrics = json.load(f)
+        lines += [header, "|---|---|---|---|---|---|"]
+        lines += ["| " + row for row in localizer_rows(metrics)]
+        lines += landmark_map_lines(metrics)
+        fig, ax = plt.subplots(figsize=(10, 4.5))
+        plot_errors(ax, root, metrics)
+        mark_kidnaps(ax, kidnap_times(root))
+        ax.set_xlabel("time [s]")
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, "error_vs_time.png"), dpi=100)
+        plt.close(fig)
+        return lines + ["", "![position error over time](report/error_vs_time.png)", ""]
+
+    robots = []
+    for name, folder in folders:
+        path = os.path.join(folder, "metrics.json")
+        if os.path.exists(path):
+            with open(path) as f:
+                robots.append((name, folder, json.load(f)))
+    if not robots:
         return lines + ["No localizers ran (run with --localizer)."]
-    with open(metrics_path) as f:
-        metrics = json.load(f)
-    lines += ["| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | per segment (RMS m, recovery s) |",
+    # Over all robots: every true-pose sample of every robot counts once (a robot that was
+    # tracked longer weighs more), as a filter's error on the whole dataset.
+    by_label = defaultdict(list)
+    for _name, _folder, metrics in robots:
+        for l in metrics["localizers"]:
+            by_label[l["label"]].append(l)
+    lines += [f"{len(robots)} robots. Over all robots (RMS over every robot's samples; max of the robots' maxima):", "",
+              "| localizer | robots ok | samples | position RMS [m] | max [m] | heading RMS [deg] |",
               "|---|---|---|---|---|---|"]
-    for l in metrics["localizers"]:
-        segments = "; ".join(f"{s['from_s']:.0f}-{s['to_s']:.0f} s: {s['position_error_m']['rms']:.3f}, "
-                             f"{'never' if s['recovery_s'] is None else format(s['recovery_s'], '.1f')}"
-                             for s in l["segments"])
-        lines.append(f"| {l['label']} | {l['status']} | {l['position_error_m']['rms']:.3f} | "
-                     f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | {segments} |")
-    mapping = [l for l in metrics["localizers"] if "landmark_map" in l]
-    if mapping:
-        lines += ["", "Landmark maps (SLAM filters; matched to the true landmarks within "
-                  f"{mapping[0]['landmark_map']['gate_m']:g} m):", "",
-                  "| localizer | mapped | matched | error RMS [m] | max [m] | spurious | missed of observed |",
-                  "|---|---|---|---|---|---|---|"]
-        for l in mapping:
-            m = l["landmark_map"]
-            rms, top = m["error_m"]["rms"], m["error_m"]["max"]
-            lines.append(f"| {l['label']} | {m['mapped']} | {m['matched']} | "
-                         f"{'—' if rms is None else format(rms, '.3f')} | "
-                         f"{'—' if top is None else format(top, '.3f')} | {m['spurious']} | "
-                         f"{m['missed']} of {m['observed']} |")
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    for i, l in enumerate(metrics["localizers"]):
-        times, errors = error_series(root, l["label"])
-        ax.plot(times, errors, color=COLORS[i % len(COLORS)], label=l["label"])
-    mark_kidnaps(ax, kidnap_times(root))
-    ax.set_yscale("log")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("position error [m]")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    for label, ls in by_label.items():
+        ok = [l for l in ls if l["status"] == "ok"]
+        position = pooled_rms([(l["samples"], l["position_error_m"]["rms"]) for l in ls])
+        heading = pooled_rms([(l["samples"], l["heading_error_deg"]["rms"]) for l in ls])
+        lines.append(f"| {label} | {len(ok)} of {len(ls)} | {sum(l['samples'] for l in ls)} | "
+                     f"{'—' if position is None else format(position, '.3f')} | "
+                     f"{max(l['position_error_m']['max'] for l in ls):.3f} | "
+                     f"{'—' if heading is None else format(heading, '.2f')} |")
+    lines += ["", "Per robot:", "", "| robot " + header, "|---|---|---|---|---|---|---|"]
+    for name, _folder, metrics in robots:
+        lines += [f"| {name} | " + row for row in localizer_rows(metrics)]
+    for name, _folder, metrics in robots:
+        lines += landmark_map_lines(metrics, name)
+    fig, axes = plt.subplots(len(robots), 1, figsize=(10, 2.6 * len(robots)), sharex=True, squeeze=False)
+    kidnaps = kidnap_times(root)
+    for ax, (name, folder, metrics) in zip(axes[:, 0], robots):
+        plot_errors(ax, folder, metrics)
+        mark_kidnaps(ax, kidnaps)
+        ax.set_title(name, fontsize=9)
+    axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()
     fig.savefig(os.path.join(out_dir, "error_vs_time.png"), dpi=100)
     plt.close(fig)
-    return lines + ["", "![position error over time](report/error_vs_time.png)", ""]
+    return lines + ["", "![position error over time, per robot](report/error_vs_time.png)", ""]
 
 
 def main():
