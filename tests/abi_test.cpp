@@ -279,8 +279,10 @@ TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
 
 // ---- the landmark filters on the range-bearing sensor -----------------------------------------
 /// One filter of `spec` on the demo robot: an odometry reading at the start, then (unless
-/// nullopt) a range-bearing reading with `detections`, then its estimate.
-Pose estimate_after(const std::string& spec, const std::optional<std::vector<Detection>>& seen) {
+/// nullopt) a range-bearing reading with `detections`; its estimate and how many landmarks it
+/// mapped (SLAM: a first detection moves no estimate, it maps the landmark).
+using Outcome = std::pair<Pose, std::size_t>;
+Outcome estimate_after(const std::string& spec, const std::optional<std::vector<Detection>>& seen) {
   WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
   world.robots.resize(1);
   HostOptions options;
@@ -301,15 +303,17 @@ Pose estimate_after(const std::string& spec, const std::optional<std::vector<Det
   }
   Record truth;
   truth.type = Record::Type::kGroundTruth;
+  truth.robot = 0;
   truth.t_s = 0.2;
   host.consume(truth);
-  host.finish(0.2);
+  const std::vector<LocalizerFinal> finals = host.finish(0.2);
   EXPECT_TRUE(out.failures.empty()) << spec << ": " << out.failures[0].message;
   if (out.samples.size() != 1) {
     ADD_FAILURE() << spec << ": " << out.samples.size() << " samples";
-    return Pose::Zero();
+    return {};
   }
-  return {out.samples[0].pose.x, out.samples[0].pose.y, out.samples[0].pose.theta};
+  return {Pose(out.samples[0].pose.x, out.samples[0].pose.y, out.samples[0].pose.theta),
+          finals.at(0).landmark_map.size()};
 }
 
 TEST(LandmarkFilters, TakeRangeBearingDetectionsAndSkipOtherRobots) {
@@ -317,15 +321,17 @@ TEST(LandmarkFilters, TakeRangeBearingDetectionsAndSkipOtherRobots) {
   // farther and to the left of where it should be, so that a filter using it moves.
   const Detection landmark{"red", 1, 1.75, -2.33, 1, DetectionTarget::kLandmark};
   const Detection robot{"", 1, 1.75, -2.33, 1, DetectionTarget::kRobot};
-  for (const std::string plugin :
-       {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl", "fastslam"}) {
-    const Pose used = estimate_after(plugin, std::vector{landmark});
-    const Pose empty = estimate_after(plugin, std::vector<Detection>{});
+  // FastSLAM maps a landmark at its first detection (that moves no estimate) when told to.
+  for (const std::string plugin : {"ekf_landmarks:", "mcl:", "srl:", "asrl:", "augmented_mcl:",
+                                   "fastslam:map_min_observations=1,"}) {
+    const Outcome used = estimate_after(plugin + "use_range_bearing=true", std::vector{landmark});
+    const Outcome empty =
+        estimate_after(plugin + "use_range_bearing=true", std::vector<Detection>{});
     EXPECT_NE(used, empty) << plugin << " did not use the range-bearing detection";
-    EXPECT_EQ(estimate_after(plugin, std::vector{robot}), empty)
+    EXPECT_EQ(estimate_after(plugin + "use_range_bearing=true", std::vector{robot}), empty)
         << plugin << " used a detection of another robot";
-    EXPECT_EQ(estimate_after(plugin + ":use_range_bearing=false", std::vector{landmark}),
-              estimate_after(plugin, std::nullopt))
+    EXPECT_EQ(estimate_after(plugin + "use_range_bearing=false", std::vector{landmark}),
+              estimate_after(plugin + "use_range_bearing=true", std::nullopt))
         << plugin << " used the range-bearing sensor with use_range_bearing off";
   }
 }

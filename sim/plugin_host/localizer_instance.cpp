@@ -228,12 +228,18 @@ locsim_pose2 ReadingTranslator::odometry_pose(double t_s, const OdometryReading&
     return {pose(0), pose(1), pose(2)};
   }
   if (odometry.has(kOdometryTicks)) {
+    // Ticks come from the encoders (meters_per_tick_ is theirs); the wheel base the base
+    // believes in, as its own dead reckoning (sensors/models.cpp).
+    const double wheel_base_m =
+        robot_->sensors.encoders
+            ? robot_->sensors.encoders->odometry_wheel_base_m.value_or(robot_->wheel_base_m)
+            : robot_->wheel_base_m;
     if (last_ticks_) {
       tick_odometry_ = sdk::diff_drive_motion(
           tick_odometry_,
           static_cast<double>(odometry.left_ticks - last_ticks_->first) * meters_per_tick_,
           static_cast<double>(odometry.right_ticks - last_ticks_->second) * meters_per_tick_,
-          robot_->wheel_base_m);
+          wheel_base_m);
     }
     last_ticks_ = {odometry.left_ticks, odometry.right_ticks};
   }
