@@ -209,6 +209,25 @@ class Collect final : public EstimateConsumer {
   std::vector<LocalizerFailure> failures;
 };
 
+/// Robot 0's range-bearing reading at t_s.
+Record range_bearing_at(double t_s, std::vector<Detection> detections) {
+  Record record;
+  record.type = Record::Type::kReading;
+  record.reading.t_s = t_s;
+  record.reading.kind = SensorKind::kRangeBearing;
+  record.reading.data = RangeBearingReading{std::move(detections)};
+  return record;
+}
+
+/// Robot 0's true pose at t_s: the instant each filter gives an estimate sample.
+Record truth_at(double t_s) {
+  Record truth;
+  truth.type = Record::Type::kGroundTruth;
+  truth.robot = 0;
+  truth.t_s = t_s;
+  return truth;
+}
+
 std::map<std::string, double> named(const EstimateSample& sample) {
   return {sample.diagnostics.begin(), sample.diagnostics.end()};
 }
@@ -240,19 +259,10 @@ TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
     record.reading = odometry_reading(c.t_s, velocity_only(c.v_mps, c.omega_radps));
     host.consume(record);
   }
-  record.reading.t_s = 1.7;
-  record.reading.kind = SensorKind::kRangeBearing;
-  RangeBearingReading rb;
-  rb.detections.push_back({"", 1, 2.5, 0.25, 1, DetectionTarget::kLandmark});
-  rb.detections.push_back({"", 0, 1.5, -0.5, 0, DetectionTarget::kRobot});  // withheld
-  rb.detections.push_back({"", 2, 4.0, 1.0, 2, DetectionTarget::kLandmark});
-  record.reading.data = rb;
-  host.consume(record);
-  Record truth;
-  truth.type = Record::Type::kGroundTruth;
-  truth.robot = 0;
-  truth.t_s = 1.7;
-  host.consume(truth);
+  host.consume(range_bearing_at(1.7, {{"", 1, 2.5, 0.25, 1, DetectionTarget::kLandmark},
+                                      {"", 0, 1.5, -0.5, 0, DetectionTarget::kRobot},  // withheld
+                                      {"", 2, 4.0, 1.0, 2, DetectionTarget::kLandmark}}));
+  host.consume(truth_at(1.7));
   host.finish(1.7);
 
   ASSERT_TRUE(out.failures.empty()) << out.failures[0].message;
@@ -295,17 +305,8 @@ Outcome estimate_after(const std::string& spec, const std::optional<std::vector<
   record.type = Record::Type::kReading;
   record.reading = odometry_reading(0.0, OdometryReading{0, 0, world.robots[0].start});
   host.consume(record);
-  if (seen) {
-    record.reading.t_s = 0.1;
-    record.reading.kind = SensorKind::kRangeBearing;
-    record.reading.data = RangeBearingReading{*seen};
-    host.consume(record);
-  }
-  Record truth;
-  truth.type = Record::Type::kGroundTruth;
-  truth.robot = 0;
-  truth.t_s = 0.2;
-  host.consume(truth);
+  if (seen) host.consume(range_bearing_at(0.1, *seen));
+  host.consume(truth_at(0.2));
   const std::vector<LocalizerFinal> finals = host.finish(0.2);
   EXPECT_TRUE(out.failures.empty()) << spec << ": " << out.failures[0].message;
   if (out.samples.size() != 1) {
