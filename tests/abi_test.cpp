@@ -232,7 +232,8 @@ std::map<std::string, double> named(const EstimateSample& sample) {
   return {sample.diagnostics.begin(), sample.diagnostics.end()};
 }
 
-TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
+/// What test_abi1 receives, in this process or in a worker process.
+void check_abi1_plugin(bool isolate) {
   const std::string plugin = std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_abi1.so";
   EXPECT_EQ(PluginLibrary(plugin).abi_version(), 1u);
 
@@ -242,7 +243,7 @@ TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
   LocalizationDef localization;
   localization.sigma_xy_m = localization.sigma_theta_rad = 0.0;  // the guess is the start
   HostOptions options;
-  options.isolate = false;
+  options.isolate = isolate;
   LocalizerHost host({parse_localizer_spec(plugin)}, world, localization, OccupancyGrid{}, 1,
                      options);
   Collect out;
@@ -285,6 +286,14 @@ TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
   EXPECT_NEAR(sample.pose.y, expected(1), 1e-3);
   EXPECT_NEAR(sdk::wrap(sample.pose.theta - expected(2)), 0.0, 2e-3);
   EXPECT_NE(d["left_ticks"], d["right_ticks"]);  // it turned
+}
+
+TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
+  check_abi1_plugin(false);
+}
+
+TEST(AbiVersion1, SoInAWorkerProcessToo) {
+  check_abi1_plugin(true);
 }
 
 // ---- the landmark filters on the range-bearing sensor -----------------------------------------
