@@ -43,7 +43,7 @@ TEST(PluginLoading, EachFailureHasItsOwnMessage) {
   expect_contains(load_error(test_plugin("no_entry")),
                   "is not a locsim plugin: it exports no locsim_localizer_entry");
   expect_contains(load_error(test_plugin("bad_abi")),
-                  "was built for localizer ABI version 99; this locsim speaks version 1");
+                  "was built for localizer ABI version 99; this locsim speaks versions 1 to 2");
   expect_contains(load_error(test_plugin("bad_size")), "has a localizer table of 24 bytes");
   const std::string unresolved = load_error(test_plugin("unresolved"));
   expect_contains(unresolved, "cannot load plugin");

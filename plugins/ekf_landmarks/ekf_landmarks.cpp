@@ -16,7 +16,7 @@ using locsim::sdk::Pose;
 
 class EkfLandmarks final : public locsim::sdk::Localizer {
  public:
-  explicit EkfLandmarks(const locsim_init& init) {
+  explicit EkfLandmarks(const locsim_init& init) : odometry_(init.robot->wheel_base_m) {
     const locsim::sdk::Params params(init);
     k_left_ = params.number("k_left");
     k_right_ = params.number("k_right");
@@ -27,6 +27,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     gate_ = params.number("gate_chi2");
     use_ptz_ = params.flag("use_ptz");
     use_omni_ = params.flag("use_omni");
+    use_range_bearing_ = params.flag("use_range_bearing");
     wheel_base_m_ = init.robot->wheel_base_m;
     for (size_t i = 0; i < init.map->landmark_count; ++i) {
       const locsim_landmark& l = init.map->landmarks[i];
@@ -40,19 +41,27 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     P_ = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(init.initial_covariance);
   }
 
-  void on_odometry(double, const locsim_odometry& odometry) override {
-    if (const auto travel = wheels_.update(odometry)) {
-      locsim::sdk::predict_by_wheels(x_, P_, travel->first, travel->second, wheel_base_m_, k_left_,
-                                     k_right_);
+  void on_odometry(double t_s, const locsim_odometry& odometry) override {
+    // The ticks' travel, or (a source without ticks) the travel that makes the odometry pose's
+    // increment with the nominal wheel base.
+    if (const auto step = odometry_.update(t_s, odometry)) {
+      locsim::sdk::predict_by_wheels(x_, P_, step->d_left_m, step->d_right_m, wheel_base_m_,
+                                     k_left_, k_right_);
     }
   }
 
   void on_landmarks(double, const locsim_landmarks& reading) override {
     if ((reading.camera == LOCSIM_CAMERA_PTZ && !use_ptz_) ||
-        (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_)) {
+        (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_) ||
+        (reading.camera == LOCSIM_CAMERA_RANGE_BEARING && !use_range_bearing_)) {
       return;
     }
-    for (size_t i = 0; i < reading.count; ++i) correct(reading.detections[i]);
+    for (size_t i = 0; i < reading.count; ++i) {
+      // Another robot seen is not a landmark of the map; using it (cooperative localization)
+      // would need that robot's estimate, which this filter does not have.
+      if (reading.detections[i].target != LOCSIM_TARGET_LANDMARK) continue;
+      correct(reading.detections[i]);
+    }
   }
 
   locsim::sdk::Estimate estimate() const override { return {{x_(0), x_(1), x_(2)}, P_}; }
@@ -108,11 +117,11 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 
   double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_,
       sigma_bearing_rad_, gate_, wheel_base_m_;
-  bool use_ptz_, use_omni_;
+  bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
   Pose x_;
   Eigen::Matrix3d P_;
-  locsim::sdk::WheelTravel wheels_;
+  locsim::sdk::OdometryTracker odometry_;
   double accepted_ = 0, rejected_ = 0;
 };
 
@@ -130,6 +139,8 @@ constexpr locsim_param_decl kParams[] = {
     {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},
     {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,
      "use the omnidirectional camera's detections"},
+    {"use_range_bearing", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,
+     "use the range-bearing sensor's detections"},
 };
 
 }  // namespace

@@ -61,7 +61,10 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
   {"diversity_cell_deg", LOCSIM_PARAM_DOUBLE, 0.1, 1e-6, 180, nullptr,                             \
    "cell of the particle-diversity measure in heading [deg]"},                                     \
   {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the omnidirectional camera's detections"}, \
-  {"use_ptz", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the PTZ camera's detections"}
+  {"use_ptz", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the PTZ camera's detections"},             \
+  {"use_range_bearing", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                      \
+   "use the range-bearing sensor's detections (no negative evidence: its field of view is "       \
+   "limited)"}
 
 #define LOCSIM_AFSA_PARAMS                                                                         \
   {"visual_m", LOCSIM_PARAM_DOUBLE, 0.05, 1e-6, 100, nullptr, "Visual: how far a fish sees [m]"},   \
@@ -120,6 +123,8 @@ class FastSlam : public sdk::Localizer {
   };
 
   Eigen::Matrix2d noise(double range) const;
+  /// `reading` without its detections of other robots (itself when it has none).
+  const locsim_landmarks& landmarks_only(const locsim_landmarks& reading);
   void associate(const SlamParticle& particle, const locsim_landmarks& reading,
                  std::vector<Match>& matches) const;
   double fitness(const SlamParticle& particle, const std::vector<Match>& matches,
@@ -133,7 +138,9 @@ class FastSlam : public sdk::Localizer {
   std::vector<double> weights_;
   sdk::OdometryNoise motion_;
   double sigma_range_, sigma_bearing_, sigma_cross_, new_landmark_chi2_, resample_threshold_;
-  bool use_ids_, use_omni_, use_ptz_;
+  bool use_ids_, use_omni_, use_ptz_, use_range_bearing_;
+  std::vector<locsim_detection> landmark_detections_;  // landmarks_only's storage
+  locsim_landmarks landmarks_view_{};
   int map_min_observations_, prune_after_misses_;
   double max_range_m_;
   double diversity_cell_m_, diversity_cell_rad_;

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numbers>
 #include <stdexcept>
 
@@ -29,6 +30,7 @@ FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random
   use_ids_ = params.flag("use_ids");
   use_omni_ = params.flag("use_omni");
   use_ptz_ = params.flag("use_ptz");
+  use_range_bearing_ = params.flag("use_range_bearing");
   map_min_observations_ = static_cast<int>(params.integer("map_min_observations"));
   prune_after_misses_ = static_cast<int>(params.integer("prune_after_misses"));
   max_range_m_ = params.number("max_range_m");
@@ -90,6 +92,21 @@ Eigen::Matrix2d FastSlam::noise(double range) const {
   return r;
 }
 
+const locsim_landmarks& FastSlam::landmarks_only(const locsim_landmarks& reading) {
+  const auto of_robot = [](const locsim_detection& d) {
+    return d.target != LOCSIM_TARGET_LANDMARK;
+  };
+  if (std::none_of(reading.detections, reading.detections + reading.count, of_robot))
+    return reading;
+  landmark_detections_.clear();
+  std::remove_copy_if(reading.detections, reading.detections + reading.count,
+                      std::back_inserter(landmark_detections_), of_robot);
+  landmarks_view_ = reading;
+  landmarks_view_.detections = landmark_detections_.data();
+  landmarks_view_.count = landmark_detections_.size();
+  return landmarks_view_;
+}
+
 void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& reading,
                          std::vector<Match>& matches) const {
   matches.clear();
@@ -139,10 +156,16 @@ double FastSlam::fitness(const SlamParticle& particle, const std::vector<Match>&
   return f;
 }
 
-void FastSlam::on_landmarks(double, const locsim_landmarks& reading) {
-  const bool wanted = (reading.camera == LOCSIM_CAMERA_OMNI && use_omni_) ||
-                      (reading.camera == LOCSIM_CAMERA_PTZ && use_ptz_);
+void FastSlam::on_landmarks(double, const locsim_landmarks& given) {
+  const bool wanted = (given.camera == LOCSIM_CAMERA_OMNI && use_omni_) ||
+                      (given.camera == LOCSIM_CAMERA_PTZ && use_ptz_) ||
+                      (given.camera == LOCSIM_CAMERA_RANGE_BEARING && use_range_bearing_);
   if (!wanted) return;
+  // Other robots seen are left out: they move, so they are not landmarks to map, and using them
+  // (cooperative localization) would need their estimates, which this filter does not have.
+  // Negative evidence (prune) stays with the omnidirectional camera: the range-bearing sensor's
+  // field of view is limited, and the SDK does not say what it is.
+  const locsim_landmarks& reading = landmarks_only(given);
   const std::size_t n = particles_.size();
   std::vector<std::vector<Match>> matches(n);
   for (std::size_t i = 0; i < n; ++i) associate(particles_[i], reading, matches[i]);

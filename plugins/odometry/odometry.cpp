@@ -14,7 +14,8 @@ class Odometry final : public locsim::sdk::Localizer {
   explicit Odometry(const locsim_init& init)
       : k_left_(locsim::sdk::Params(init).number("k_left")),
         k_right_(locsim::sdk::Params(init).number("k_right")),
-        wheel_base_m_(init.robot->wheel_base_m) {
+        wheel_base_m_(init.robot->wheel_base_m),
+        odometry_(init.robot->wheel_base_m) {
     if (init.initial_pose_known) {
       pose_ = {init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta};
       covariance_ =
@@ -25,9 +26,11 @@ class Odometry final : public locsim::sdk::Localizer {
     }
   }
 
-  void on_odometry(double, const locsim_odometry& odometry) override {
-    if (const auto travel = wheels_.update(odometry)) {
-      locsim::sdk::predict_by_wheels(pose_, covariance_, travel->first, travel->second,
+  void on_odometry(double t_s, const locsim_odometry& odometry) override {
+    // The ticks' travel, or (a source without ticks) the travel that makes the odometry pose's
+    // increment: the same noise model either way.
+    if (const auto step = odometry_.update(t_s, odometry)) {
+      locsim::sdk::predict_by_wheels(pose_, covariance_, step->d_left_m, step->d_right_m,
                                      wheel_base_m_, k_left_, k_right_);
     }
   }
@@ -40,7 +43,7 @@ class Odometry final : public locsim::sdk::Localizer {
   double k_left_, k_right_, wheel_base_m_;
   Pose pose_ = Pose::Zero();
   Eigen::Matrix3d covariance_;
-  locsim::sdk::WheelTravel wheels_;
+  locsim::sdk::OdometryTracker odometry_;
 };
 
 constexpr locsim_param_decl kParams[] = {

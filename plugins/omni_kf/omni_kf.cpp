@@ -72,6 +72,9 @@ class OmniKf final : public sdk::Localizer {
     Frame frame{*odom_, {}};
     for (std::size_t i = 0; i < reading.count; ++i) {
       const locsim_detection& d = reading.detections[i];
+      // Another robot seen is not on the map; using it (cooperative localization) would need
+      // that robot's estimate, which this filter does not have.
+      if (d.target != LOCSIM_TARGET_LANDMARK) continue;
       for (int k = 0; k < 2; ++k) {
         const bool match = d.id >= 0 ? d.id == landmarks_[k].id
                                      : (d.color != nullptr && landmarks_[k].color == d.color);

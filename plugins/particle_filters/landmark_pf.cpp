@@ -26,7 +26,9 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
   low_variance_ = resampler == "low_variance";
   use_ptz_ = params.flag("use_ptz");
   use_omni_ = params.flag("use_omni");
-  if (!use_ptz_ && !use_omni_) throw std::invalid_argument("use_ptz and use_omni are both off");
+  use_range_bearing_ = params.flag("use_range_bearing");
+  if (!use_ptz_ && !use_omni_ && !use_range_bearing_)
+    throw std::invalid_argument("use_ptz, use_omni and use_range_bearing are all off");
   switch (recovery_) {
     case Recovery::kNone:
       break;
@@ -89,6 +91,9 @@ void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
   step_count_ = 0;
   for (std::size_t k = 0; k < reading.count; ++k) {
     const locsim_detection& d = reading.detections[k];
+    // Another robot seen is not on the map; using it (cooperative localization) would need that
+    // robot's estimate, which this filter does not have.
+    if (d.target != LOCSIM_TARGET_LANDMARK) continue;
     StepDetection& s = step_[step_count_];
     s.candidates.clear();
     for (std::size_t j = 0; j < landmarks_.size(); ++j) {
@@ -228,7 +233,10 @@ void LandmarkParticleFilter::apply_pending_motion() {
 }
 
 void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
-  if (reading.camera == LOCSIM_CAMERA_OMNI ? !use_omni_ : !use_ptz_) return;
+  const bool wanted = (reading.camera == LOCSIM_CAMERA_PTZ && use_ptz_) ||
+                      (reading.camera == LOCSIM_CAMERA_OMNI && use_omni_) ||
+                      (reading.camera == LOCSIM_CAMERA_RANGE_BEARING && use_range_bearing_);
+  if (!wanted) return;
   prepare_step(reading);
   if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;

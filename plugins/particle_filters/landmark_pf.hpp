@@ -45,6 +45,8 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "roulette (as in the paper) or low_variance"},                                                  \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
   {"use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the omnidirectional camera's detections"}, \
+  {"use_range_bearing", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                      \
+   "use the range-bearing sensor's detections"},                                                   \
   {"reject_inconsistent", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                     \
    "in a frame with several detections, drop one that the particles explain on average below "    \
    "consistency_level while another is above it (a false detection, not a kidnapping)"},          \
@@ -93,7 +95,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::ParticleSet particles_, scratch_;
   sdk::OdometryNoise noise_;
   double sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_, sigma_bearing_rad_;
-  bool low_variance_, use_ptz_, use_omni_, reject_inconsistent_;
+  bool low_variance_, use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   long reset_after_steps_ = 1, low_steps_ = 0;
   // Recovery parameters.

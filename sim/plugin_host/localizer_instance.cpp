@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <sstream>
 
@@ -201,7 +202,10 @@ LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
 }
 
 // ---------------------------------------------------------------------------------------------
-ReadingTranslator::ReadingTranslator(const RobotDef& robot) : robot_(&robot) {
+ReadingTranslator::ReadingTranslator(const RobotDef& robot)
+    : robot_(&robot),
+      velocity_odometry_(sdk::Pose(robot.start.x, robot.start.y, robot.start.theta)),
+      tick_odometry_(robot.start.x, robot.start.y, robot.start.theta) {
   if (robot.sensors.encoders) {
     meters_per_tick_ =
         2.0 * std::numbers::pi * robot.wheel_radius_m / robot.sensors.encoders->ticks_per_rev;
@@ -215,6 +219,33 @@ ReadingTranslator::ReadingTranslator(const RobotDef& robot) : robot_(&robot) {
   out_.struct_size = sizeof(locsim_reading);
 }
 
+locsim_pose2 ReadingTranslator::odometry_pose(double t_s, const OdometryReading& odometry) {
+  if (odometry.has(kOdometryPose))
+    return {odometry.odometry.x, odometry.odometry.y, odometry.odometry.theta};
+  // odom frame = world at t = 0: dead reckoning starts at the robot's start pose.
+  if (odometry.has(kOdometryVelocity)) {
+    const sdk::Pose& pose = velocity_odometry_.update(t_s, odometry.v_mps, odometry.omega_radps);
+    return {pose(0), pose(1), pose(2)};
+  }
+  if (odometry.has(kOdometryTicks)) {
+    // Ticks come from the encoders (meters_per_tick_ is theirs); the wheel base the base
+    // believes in, as its own dead reckoning (sensors/models.cpp).
+    const double wheel_base_m =
+        robot_->sensors.encoders
+            ? robot_->sensors.encoders->odometry_wheel_base_m.value_or(robot_->wheel_base_m)
+            : robot_->wheel_base_m;
+    if (last_ticks_) {
+      tick_odometry_ = sdk::diff_drive_motion(
+          tick_odometry_,
+          static_cast<double>(odometry.left_ticks - last_ticks_->first) * meters_per_tick_,
+          static_cast<double>(odometry.right_ticks - last_ticks_->second) * meters_per_tick_,
+          wheel_base_m);
+    }
+    last_ticks_ = {odometry.left_ticks, odometry.right_ticks};
+  }
+  return {tick_odometry_(0), tick_odometry_(1), tick_odometry_(2)};
+}
+
 const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
   out_.t_s = reading.t_s;
   const SensorsDef& sensors = robot_->sensors;
@@ -223,25 +254,31 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
         using T = std::decay_t<decltype(data)>;
         if constexpr (std::is_same_v<T, OdometryReading>) {
           out_.kind = LOCSIM_READING_ODOMETRY;
-          out_.data.odometry = {
-              data.left_ticks,  data.right_ticks,
-              meters_per_tick_, {data.odometry.x, data.odometry.y, data.odometry.theta},
-              data.fields,      data.v_mps,
-              data.omega_radps};
+          const bool ticks = data.has(kOdometryTicks);
+          out_.data.odometry = {ticks ? data.left_ticks : 0,
+                                ticks ? data.right_ticks : 0,
+                                ticks ? meters_per_tick_ : 0.0,
+                                odometry_pose(reading.t_s, data),
+                                data.fields,
+                                data.has(kOdometryVelocity) ? data.v_mps : 0.0,
+                                data.has(kOdometryVelocity) ? data.omega_radps : 0.0};
         } else if constexpr (std::is_same_v<T, ImuReading>) {
           out_.kind = LOCSIM_READING_IMU;
           out_.data.imu = {data.yaw_rate_radps, data.accel_mps2.x(), data.accel_mps2.y(),
                            sensors.imu->common.mount.theta};
-        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
+        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading> ||
+                             std::is_same_v<T, RangeBearingReading>) {
           detections_.clear();
           for (const Detection& d : data.detections) {
             detections_.push_back({d.color.c_str(), d.id, d.range_m, d.bearing_rad,
                                    static_cast<std::int32_t>(d.target)});
           }
           out_.kind = LOCSIM_READING_LANDMARKS;
-          out_.data.landmarks = {
-              std::is_same_v<T, PtzReading> ? LOCSIM_CAMERA_PTZ : LOCSIM_CAMERA_OMNI, 0.0,
-              detections_.data(), detections_.size()};
+          const locsim_camera_kind camera = std::is_same_v<T, PtzReading> ? LOCSIM_CAMERA_PTZ
+                                            : std::is_same_v<T, OmniReading>
+                                                ? LOCSIM_CAMERA_OMNI
+                                                : LOCSIM_CAMERA_RANGE_BEARING;
+          out_.data.landmarks = {camera, 0.0, detections_.data(), detections_.size()};
           if constexpr (std::is_same_v<T, PtzReading>) out_.data.landmarks.pan_rad = data.pan_rad;
         } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
           ranges_.clear();
@@ -267,6 +304,121 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
       reading.data);
   return out_;
 }
+
+// ---------------------------------------------------------------------------------------------
+namespace {
+// ABI version 1's structs where version 2 changed them (plugins/sdk/include/locsim/localizer.h
+// before version 2): the odometry without its fields and velocity, the detection without its
+// target. The others are unchanged.
+struct OdometryV1 {
+  std::int64_t left_ticks, right_ticks;
+  double meters_per_tick;
+  locsim_pose2 odom_pose;
+};
+struct DetectionV1 {
+  const char* color;
+  std::int32_t id;
+  double range_m;
+  double bearing_rad;
+};
+struct LandmarksV1 {
+  std::int32_t camera;
+  double pan_rad;
+  const DetectionV1* detections;
+  std::size_t count;
+};
+struct ReadingV1 {
+  std::uint32_t struct_size;
+  std::int32_t kind;
+  double t_s;
+  union {
+    OdometryV1 odometry;
+    locsim_imu imu;
+    LandmarksV1 landmarks;
+    locsim_beacon_ranges beacon_ranges;
+    locsim_laser_scan laser;
+  } data;
+};
+// What a version-1 plugin was compiled with (x86-64 and AArch64 LP64 layouts).
+static_assert(sizeof(DetectionV1) == 32 && sizeof(OdometryV1) == 48 && sizeof(ReadingV1) == 80);
+static_assert(sizeof(ReadingV1) <= sizeof(locsim_reading));
+
+// The tick a version-1 plugin is given when the source has no ticks: small enough that rounding
+// to whole ticks loses nothing a filter would notice (0.05 mm at most, as the ticks are rounded
+// from the cumulative travel).
+constexpr double kAbi1SyntheticTickM = 1e-4;
+}  // namespace
+
+/// Version 2's reading as version 1's: detections of other robots withheld (a version-1 plugin
+/// would take them for landmarks), odometry without ticks given ticks of kAbi1SyntheticTickM
+/// that drive the odometry pose's increments with the nominal wheel base (the inverse of the
+/// differential-drive arc, SDK wheel_travel_from_increment), so that a tick-based filter moves.
+class LocalizerInstance::Abi1Adapter {
+ public:
+  explicit Abi1Adapter(double wheel_base_m) : wheel_base_m_(wheel_base_m) {}
+
+  const locsim_reading& adapt(const locsim_reading& reading) {
+    out_ = {};
+    out_.struct_size = sizeof(ReadingV1);
+    out_.kind = reading.kind;
+    out_.t_s = reading.t_s;
+    switch (reading.kind) {
+      case LOCSIM_READING_ODOMETRY:
+        out_.data.odometry = odometry(reading.data.odometry);
+        break;
+      case LOCSIM_READING_LANDMARKS: {
+        const locsim_landmarks& in = reading.data.landmarks;
+        detections_.clear();
+        for (std::size_t i = 0; i < in.count; ++i) {
+          const locsim_detection& d = in.detections[i];
+          if (d.target != LOCSIM_TARGET_LANDMARK) continue;
+          detections_.push_back({d.color, d.id, d.range_m, d.bearing_rad});
+        }
+        out_.data.landmarks = {in.camera, in.pan_rad, detections_.data(), detections_.size()};
+        break;
+      }
+      case LOCSIM_READING_IMU:
+        out_.data.imu = reading.data.imu;
+        break;
+      case LOCSIM_READING_BEACON_RANGES:
+        out_.data.beacon_ranges = reading.data.beacon_ranges;
+        break;
+      case LOCSIM_READING_LASER:
+        out_.data.laser = reading.data.laser;
+        break;
+      default:
+        break;
+    }
+    // The plugin reads these bytes with version 1's layout, which ReadingV1 reproduces; copied
+    // into the type the table's update() takes (no aliasing of unrelated types).
+    std::memcpy(&view_, &out_, sizeof(out_));
+    return view_;
+  }
+
+ private:
+  OdometryV1 odometry(const locsim_odometry& in) {
+    if ((in.fields & LOCSIM_ODOMETRY_TICKS) != 0)
+      return {in.left_ticks, in.right_ticks, in.meters_per_tick, in.odom_pose};
+    const sdk::Pose pose(in.odom_pose.x, in.odom_pose.y, in.odom_pose.theta);
+    if (last_pose_) {
+      const auto [left_m, right_m] =
+          sdk::wheel_travel_from_increment(sdk::between(*last_pose_, pose), wheel_base_m_);
+      left_m_ += left_m;
+      right_m_ += right_m;
+    }
+    last_pose_ = pose;
+    // Rounded from the cumulative travel, so that rounding errors do not add up.
+    return {std::llround(left_m_ / kAbi1SyntheticTickM),
+            std::llround(right_m_ / kAbi1SyntheticTickM), kAbi1SyntheticTickM, in.odom_pose};
+  }
+
+  double wheel_base_m_;
+  std::optional<sdk::Pose> last_pose_;
+  double left_m_ = 0.0, right_m_ = 0.0;  // synthesised cumulative wheel travel
+  std::vector<DetectionV1> detections_;
+  ReadingV1 out_{};
+  locsim_reading view_{};  // out_'s bytes
+};
 
 // ---------------------------------------------------------------------------------------------
 const char* plugin_call_name(PluginCall call) {
@@ -320,6 +472,7 @@ LocalizerInstance::LocalizerInstance(std::shared_ptr<const PluginLibrary> librar
       params_(std::move(params)),
       calls_(calls),
       index_(index) {
+  if (library_->abi_version() == 1) abi1_ = std::make_unique<Abi1Adapter>(world.robot.wheel_base_m);
   locsim_init init{};
   init.struct_size = sizeof(locsim_init);
   init.params = params_.values().data();
@@ -362,8 +515,9 @@ void LocalizerInstance::deliver(const locsim_reading& reading) {
   }
   ++updates_;
   error_[0] = '\0';
+  const locsim_reading& given = abi1_ ? abi1_->adapt(reading) : reading;
   const auto start = begin(PluginCall::kUpdate, reading.t_s);
-  const int status = table().update(instance_, &reading, error_, sizeof(error_));
+  const int status = table().update(instance_, &given, error_, sizeof(error_));
   cost_.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   end();
   if (status != 0)

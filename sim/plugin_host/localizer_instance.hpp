@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "locsim/localizer.h"
+#include "locsim/models.hpp"
 #include "sim/common/random.hpp"
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
@@ -63,15 +64,23 @@ struct LocalizerWorld {
 };
 
 /// Converts the simulator's readings of one robot to the ABI's structs (no truth_* fields).
+/// Odometry's odom_pose is always valid: the source's pose when it has one, else dead-reckoned
+/// from the start pose with its velocities (each held until the next reading, SDK
+/// VelocityOdometry) or, failing those, its ticks. Fields the source lacks are zero.
 class ReadingTranslator {
  public:
   explicit ReadingTranslator(const RobotDef& robot);
-  /// The C view of `reading`; valid until the next call.
+  /// The C view of `reading`; valid until the next call. Readings come in time order.
   const locsim_reading& translate(const Reading& reading);
 
  private:
+  locsim_pose2 odometry_pose(double t_s, const OdometryReading& odometry);
+
   const RobotDef* robot_;
   double meters_per_tick_ = 0.0;
+  sdk::VelocityOdometry velocity_odometry_;
+  sdk::Pose tick_odometry_;  // dead-reckoned from ticks alone
+  std::optional<std::pair<std::int64_t, std::int64_t>> last_ticks_;
   std::vector<float> laser_angles_;
   std::vector<locsim_detection> detections_;
   std::vector<locsim_beacon_range> ranges_;
@@ -149,6 +158,11 @@ class LocalizerInstance {
   /// Marks the start of a call in `calls_` (when shared); returns the clock reading.
   std::chrono::steady_clock::time_point begin(PluginCall call, double t_s);
   void end();
+
+  /// For a plugin built for ABI version 1: the reading in version 1's structs (docs/plugins.md,
+  /// "ABI versions"). Null for current plugins.
+  class Abi1Adapter;
+  std::unique_ptr<Abi1Adapter> abi1_;
 
   std::shared_ptr<const PluginLibrary> library_;
   std::string label_;

@@ -42,16 +42,18 @@ PluginLibrary::PluginLibrary(const fs::path& file) : path_(file) {
     fail("plugin '" + file.string() + "' refused host ABI version " +
          std::to_string(LOCSIM_LOCALIZER_ABI_VERSION));
   }
-  if (table_->abi_version != LOCSIM_LOCALIZER_ABI_VERSION) {
+  abi_version_ = table_->abi_version;
+  if (abi_version_ < LOCSIM_LOCALIZER_ABI_VERSION_OLDEST ||
+      abi_version_ > LOCSIM_LOCALIZER_ABI_VERSION) {
     fail("plugin '" + file.string() + "' was built for localizer ABI version " +
-         std::to_string(table_->abi_version) + "; this locsim speaks version " +
+         std::to_string(abi_version_) + "; this locsim speaks versions " +
+         std::to_string(LOCSIM_LOCALIZER_ABI_VERSION_OLDEST) + " to " +
          std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + ": rebuild it against this SDK");
   }
   if (table_->struct_size != sizeof(locsim_localizer)) {
     fail("plugin '" + file.string() + "' has a localizer table of " +
          std::to_string(table_->struct_size) + " bytes; ABI version " +
-         std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + " has " +
-         std::to_string(sizeof(locsim_localizer)));
+         std::to_string(abi_version_) + " has " + std::to_string(sizeof(locsim_localizer)));
   }
   const std::pair<const void*, const char*> required[] = {
       {table_->name, "name"},

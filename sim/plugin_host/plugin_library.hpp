@@ -2,6 +2,7 @@
 // checks of its table (ABI version, struct size, required functions). Handles close by RAII.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -21,11 +22,15 @@ class PluginLibrary {
 
   const locsim_localizer& table() const { return *table_; }
   const std::filesystem::path& path() const { return path_; }
+  /// The ABI version the plugin was built for, LOCSIM_LOCALIZER_ABI_VERSION_OLDEST to
+  /// LOCSIM_LOCALIZER_ABI_VERSION: the host gives it the structs of that version.
+  std::uint32_t abi_version() const { return abi_version_; }
 
  private:
   std::filesystem::path path_;
   void* handle_ = nullptr;
   const locsim_localizer* table_ = nullptr;
+  std::uint32_t abi_version_ = 0;
 };
 
 /// Where plugins are looked for, in order: each folder of LOCSIM_PLUGIN_PATH (colon-separated),

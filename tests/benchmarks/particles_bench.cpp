@@ -6,6 +6,7 @@
 
 #include <algorithm>
 
+#include "locsim/models.hpp"
 #include "locsim/particles.hpp"
 
 namespace {
@@ -75,5 +76,26 @@ void BM_RouletteResample(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 BENCHMARK(BM_RouletteResample)->Arg(10000);
+
+// The SDK's OdometryTracker on a velocity-only source (the host integrated odom_pose): pose
+// increment, and the wheel travel that makes it (the arc inverted), per reading.
+void BM_OdometryTrackerVelocityOnly(benchmark::State& state) {
+  locsim::sdk::OdometryTracker tracker(0.35);
+  locsim::sdk::VelocityOdometry odometry;
+  locsim_odometry reading{};
+  reading.fields = LOCSIM_ODOMETRY_POSE | LOCSIM_ODOMETRY_VELOCITY;
+  reading.v_mps = 0.3;
+  reading.omega_radps = 0.2;
+  double t_s = 0.0, travel_m = 0.0;
+  for (auto _ : state) {
+    t_s += 0.05;
+    const locsim::sdk::Pose& pose = odometry.update(t_s, reading.v_mps, reading.omega_radps);
+    reading.odom_pose = {pose(0), pose(1), pose(2)};
+    if (const auto step = tracker.update(t_s, reading)) travel_m += step->d_left_m;
+    benchmark::DoNotOptimize(travel_m);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OdometryTrackerVelocityOnly);
 
 }  // namespace

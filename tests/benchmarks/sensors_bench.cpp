@@ -110,7 +110,10 @@ namespace {
 /// runs beside the simulation, so this is the cost per reading the simulation's core sees, with
 /// the child keeping up). A true pose every 20 readings asks for an estimate, as a run's 50 Hz
 /// ground truth does against about 1000 readings per second. Target: < 1 us.
-void BM_StreamToNoopPlugin(benchmark::State& state, SensorKind kind, bool isolate) {
+// `velocity_only`: encoder readings with a velocity and no ticks or pose, which the host
+// integrates into odom_pose (real data: MRCLAM).
+void BM_StreamToNoopPlugin(benchmark::State& state, SensorKind kind, bool isolate,
+                           bool velocity_only = false) {
   WorldDef world = load_world(kDemo);
   world.robots.resize(1);
   const RobotDef& robot = world.robots[0];
@@ -130,6 +133,12 @@ void BM_StreamToNoopPlugin(benchmark::State& state, SensorKind kind, bool isolat
   } else if (kind == SensorKind::kPtzCamera) {
     reading.data =
         PtzReading{0.1, 0.0, 1.0, {{"red", -1, 3.0, 0.2, 1}, {"green", -1, 4.0, -0.3, 2}}};
+  } else if (velocity_only) {
+    OdometryReading odometry;
+    odometry.fields = kOdometryVelocity;
+    odometry.v_mps = 0.3;
+    odometry.omega_radps = 0.2;
+    reading.data = odometry;
   } else {
     reading.data = OdometryReading{100, 120, {1, 2, 0.3}};
   }
@@ -149,6 +158,8 @@ void BM_StreamToNoopPlugin(benchmark::State& state, SensorKind kind, bool isolat
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK_CAPTURE(BM_StreamToNoopPlugin, in_process_encoders, SensorKind::kEncoders, false);
+BENCHMARK_CAPTURE(BM_StreamToNoopPlugin, in_process_velocity_odometry, SensorKind::kEncoders, false,
+                  true);
 BENCHMARK_CAPTURE(BM_StreamToNoopPlugin, in_process_ptz_camera, SensorKind::kPtzCamera, false);
 BENCHMARK_CAPTURE(BM_StreamToNoopPlugin, in_process_laser_271_beams, SensorKind::kLaser, false);
 BENCHMARK_CAPTURE(BM_StreamToNoopPlugin, worker_encoders, SensorKind::kEncoders, true)

@@ -1,7 +1,7 @@
 // Plugins that misbehave on purpose, one per failure the host must survive or report, plus a
-// no-op (host overhead), a hashing one (every filter sees the same readings) and a fake SLAM
-// filter with a known landmark map. Each is built from this file with LOCSIM_TEST_PLUGIN set to
-// its kind.
+// no-op (host overhead), a hashing one (every filter sees the same readings), a fake SLAM filter
+// with a known landmark map and one built for ABI version 1. Each is built from this file with
+// LOCSIM_TEST_PLUGIN set to its kind.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 #include <locsim/localizer.hpp>
+#include <locsim/models.hpp>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -179,6 +180,96 @@ class Plugin final : public Probe {
  private:
   bool flooded_ = false;
 };
+#elif defined(LOCSIM_TEST_ABI1)
+// A plugin built for ABI version 1: it reads the readings through version 1's structs, written
+// out here as that SDK declared them (no odometry fields or velocity, no detection target), and
+// dead-reckons from the ticks as a version-1 filter did. Its estimate is that dead reckoning;
+// its diagnostics say what it was given last.
+struct OdometryV1 {
+  std::int64_t left_ticks, right_ticks;
+  double meters_per_tick;
+  locsim_pose2 odom_pose;
+};
+struct DetectionV1 {
+  const char* color;
+  std::int32_t id;
+  double range_m;
+  double bearing_rad;
+};
+struct LandmarksV1 {
+  std::int32_t camera;
+  double pan_rad;
+  const DetectionV1* detections;
+  size_t count;
+};
+struct ReadingV1 {
+  std::uint32_t struct_size;
+  std::int32_t kind;
+  double t_s;
+  union {
+    OdometryV1 odometry;
+    LandmarksV1 landmarks;
+  } data;
+};
+
+class Plugin final : public Probe {
+ public:
+  explicit Plugin(const locsim_init& init)
+      : Probe(init),
+        wheel_base_m_(init.robot->wheel_base_m),
+        x_(init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta) {}
+  void on_reading(const locsim_reading& given) override {
+    ReadingV1 r;  // the bytes as a version-1 plugin reads them
+    std::memcpy(&r, &given, sizeof(r));
+    struct_size_ = r.struct_size;
+    if (r.kind == LOCSIM_READING_ODOMETRY) {
+      const OdometryV1& o = r.data.odometry;
+      if (odometry_readings_++ > 0) {
+        x_ = locsim::sdk::diff_drive_motion(
+            x_, static_cast<double>(o.left_ticks - left_) * o.meters_per_tick,
+            static_cast<double>(o.right_ticks - right_) * o.meters_per_tick, wheel_base_m_);
+      }
+      left_ = o.left_ticks;
+      right_ = o.right_ticks;
+      meters_per_tick_ = o.meters_per_tick;
+      odom_ = o.odom_pose;
+    } else if (r.kind == LOCSIM_READING_LANDMARKS) {
+      const LandmarksV1& l = r.data.landmarks;
+      camera_ = l.camera;
+      detections_ = static_cast<double>(l.count);
+      ids_ = ranges_ = 0.0;
+      for (size_t i = 0; i < l.count; ++i) {
+        ids_ += l.detections[i].id;
+        ranges_ += l.detections[i].range_m;
+      }
+    }
+  }
+  locsim::sdk::Estimate estimate() const override {
+    return {{x_(0), x_(1), x_(2)}, Eigen::Matrix3d::Identity()};
+  }
+  std::vector<std::pair<std::string, double>> diagnostics() const override {
+    return {{"struct_size", struct_size_},
+            {"left_ticks", static_cast<double>(left_)},
+            {"right_ticks", static_cast<double>(right_)},
+            {"meters_per_tick", meters_per_tick_},
+            {"odom_x", odom_.x},
+            {"odom_y", odom_.y},
+            {"odom_theta", odom_.theta},
+            {"camera", camera_},
+            {"detections", detections_},
+            {"detection_ids", ids_},
+            {"detection_ranges", ranges_}};
+  }
+
+ private:
+  double wheel_base_m_;
+  locsim::sdk::Pose x_;
+  long odometry_readings_ = 0;
+  std::int64_t left_ = 0, right_ = 0;
+  double meters_per_tick_ = 0.0, struct_size_ = 0.0, camera_ = -1.0, detections_ = 0.0, ids_ = 0.0,
+         ranges_ = 0.0;
+  locsim_pose2 odom_{};
+};
 #elif defined(LOCSIM_TEST_NOOP)
 /// Does nothing at all: what is measured is the host.
 class Plugin final : public locsim::sdk::Localizer {
@@ -211,13 +302,16 @@ constexpr locsim_param_decl kParams[] = {
 
 }  // namespace
 
-#if defined(LOCSIM_TEST_BAD_ABI) || defined(LOCSIM_TEST_BAD_SIZE)
-// A table from another SDK: the host must refuse it with both versions / sizes.
+#if defined(LOCSIM_TEST_BAD_ABI) || defined(LOCSIM_TEST_BAD_SIZE) || defined(LOCSIM_TEST_ABI1)
+// A table from another SDK: the host must refuse it with both versions / sizes, or (ABI1) serve
+// it with the structs of its version (the table itself is the same in versions 1 and 2).
 extern "C" LOCSIM_EXPORT const locsim_localizer* locsim_localizer_entry(uint32_t) {
   static locsim_localizer table =
       locsim::sdk::detail::make_table<Plugin>(LOCSIM_TEST_NAME, "bad", kParams, 4);
 #if defined(LOCSIM_TEST_BAD_ABI)
   table.abi_version = 99;
+#elif defined(LOCSIM_TEST_ABI1)
+  table.abi_version = 1;
 #else
   table.struct_size = 24;
 #endif

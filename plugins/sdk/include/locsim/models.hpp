@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <numbers>
 #include <optional>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -54,25 +55,6 @@ inline Pose diff_drive_motion(const Pose& x, double d_left, double d_right, doub
   return {x(0) + D * c, x(1) + D * s, wrap(x(2) + a)};
 }
 
-/// Wheel travel (left, right) [m] since the previous odometry reading, from the tick counts and
-/// the nominal metres per tick; nothing for the first reading.
-class WheelTravel {
- public:
-  std::optional<std::pair<double, double>> update(const locsim_odometry& odometry) {
-    std::optional<std::pair<double, double>> travel;
-    if (last_) {
-      travel = std::pair{
-          static_cast<double>(odometry.left_ticks - last_->first) * odometry.meters_per_tick,
-          static_cast<double>(odometry.right_ticks - last_->second) * odometry.meters_per_tick};
-    }
-    last_ = {odometry.left_ticks, odometry.right_ticks};
-    return travel;
-  }
-
- private:
-  std::optional<std::pair<std::int64_t, std::int64_t>> last_;
-};
-
 /// Kalman prediction of pose x and covariance P by one step of wheel travel, with paper 002's
 /// input noise Q = diag(k_left^2 |d_left|, k_right^2 |d_right|):  P' = F P F^T + G Q G^T.
 inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double d_right,
@@ -112,6 +94,123 @@ inline Pose between(const Pose& a, const Pose& b) {
   const double dx = b(0) - a(0), dy = b(1) - a(1);
   return {c * dx + s * dy, -s * dx + c * dy, wrap(b(2) - a(2))};
 }
+
+/// sin(x) / x, with its Taylor series where the quotient loses precision (|x| < 1e-4: the
+/// series' next term, x^4 / 120, is below 1e-18).
+inline double sinc(double x) {
+  return std::abs(x) < 1e-4 ? 1.0 - x * x / 6.0 : std::sin(x) / x;
+}
+
+/// The pose reached from `x` by driving at forward velocity v [m/s] and angular velocity omega
+/// [rad/s], both held for dt [s]: an exact circular arc (a straight line when omega = 0). Its
+/// chord has length v dt sinc(omega dt / 2) and points along the mid-heading:
+///   x' = x + c cos(theta + omega dt / 2), y' = y + c sin(theta + omega dt / 2),
+///   theta' = theta + omega dt,   c = v dt sinc(omega dt / 2),
+/// which equals x + (v / omega)(sin(theta') - sin(theta)), ... without the division by omega.
+inline Pose advance_by_velocity(const Pose& x, double v_mps, double omega_radps, double dt_s) {
+  const double turn = omega_radps * dt_s;
+  const double chord = v_mps * dt_s * sinc(0.5 * turn);
+  const double heading = x(2) + 0.5 * turn;
+  return {x(0) + chord * std::cos(heading), x(1) + chord * std::sin(heading), wrap(x(2) + turn)};
+}
+
+/// An odometry pose dead-reckoned from velocity readings: each reading's velocity holds from its
+/// time until the next reading (a commanded velocity, as MRCLAM logs it), integrated along an
+/// exact arc (advance_by_velocity). The host builds locsim_odometry.odom_pose with this when
+/// the source reports no pose; a plugin may use it on its own readings likewise.
+class VelocityOdometry {
+ public:
+  explicit VelocityOdometry(const Pose& start = Pose::Zero()) : pose_(start) {}
+  /// The pose at t_s (the previous velocity held until then), then holds the new velocity.
+  const Pose& update(double t_s, double v_mps, double omega_radps) {
+    if (last_t_s_) {
+      pose_ = advance_by_velocity(pose_, v_mps_, omega_radps_, std::max(0.0, t_s - *last_t_s_));
+    }
+    last_t_s_ = t_s;
+    v_mps_ = v_mps;
+    omega_radps_ = omega_radps;
+    return pose_;
+  }
+  const Pose& pose() const { return pose_; }
+
+ private:
+  Pose pose_;
+  std::optional<double> last_t_s_;
+  double v_mps_ = 0.0, omega_radps_ = 0.0;
+};
+
+/// The wheel travel (left, right) [m] of a differential drive with wheel base b [m] that moves
+/// it by the pose increment `delta` (in the start pose's frame, as between() gives it), taking
+/// the increment as one circular arc: the inverse of the arc above. The chord c = |(dx, dy)|
+/// and the turn a = dtheta give the arc length ds = c / sinc(a / 2), signed by the chord's
+/// direction along the mid-heading (backwards: negative), and
+///   left = ds - b a / 2,  right = ds + b a / 2.
+/// A pure rotation gives ds = 0; a sideways step (which no differential drive makes) counts
+/// only by its component along the mid-heading's sign.
+inline std::pair<double, double> wheel_travel_from_increment(const Pose& delta, double wheel_base) {
+  const double turn = delta(2);
+  const double chord = std::hypot(delta(0), delta(1));
+  const double along = delta(0) * std::cos(0.5 * turn) + delta(1) * std::sin(0.5 * turn);
+  const double ds = (along < 0.0 ? -chord : chord) / sinc(0.5 * turn);
+  return {ds - 0.5 * wheel_base * turn, ds + 0.5 * wheel_base * turn};
+}
+
+/// What a filter needs from one odometry reading, whatever its source measured.
+struct OdometryStep {
+  double dt_s = 0.0;                       // since the previous reading
+  Pose pose_increment = Pose::Zero();      // odom pose change, in the previous odom pose's frame
+  double d_left_m = 0.0, d_right_m = 0.0;  // wheel travel since the previous reading
+  bool travel_from_ticks = false;          // else derived from pose_increment and the wheel base
+};
+
+/// Turns each odometry reading into an OdometryStep against the previous one (nothing for the
+/// first): the pose increment from odom_pose (always valid, the host integrates it from the
+/// velocities when the source has no pose); the wheel travel from the ticks when the source
+/// has them (tick difference x meters_per_tick), else from the pose increment with the
+/// nominal wheel base (wheel_travel_from_increment). velocity() is the latest reading's when its
+/// source measured one.
+class OdometryTracker {
+ public:
+  explicit OdometryTracker(double wheel_base_m) : wheel_base_m_(wheel_base_m) {}
+  std::optional<OdometryStep> update(double t_s, const locsim_odometry& odometry) {
+    const Pose now(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+    const bool ticks = (odometry.fields & LOCSIM_ODOMETRY_TICKS) != 0;
+    std::optional<OdometryStep> step;
+    if (last_) {
+      step.emplace();
+      step->dt_s = t_s - last_->t_s;
+      step->pose_increment = between(last_->pose, now);
+      if (ticks && last_->ticks) {
+        step->d_left_m =
+            static_cast<double>(odometry.left_ticks - last_->left) * odometry.meters_per_tick;
+        step->d_right_m =
+            static_cast<double>(odometry.right_ticks - last_->right) * odometry.meters_per_tick;
+        step->travel_from_ticks = true;
+      } else {
+        std::tie(step->d_left_m, step->d_right_m) =
+            wheel_travel_from_increment(step->pose_increment, wheel_base_m_);
+      }
+    }
+    last_ = Last{t_s, now, odometry.left_ticks, odometry.right_ticks, ticks};
+    if ((odometry.fields & LOCSIM_ODOMETRY_VELOCITY) != 0) {
+      velocity_ = std::pair{odometry.v_mps, odometry.omega_radps};
+    }
+    return step;
+  }
+  /// The latest measured (v [m/s], omega [rad/s]); nullopt when the source reports none.
+  const std::optional<std::pair<double, double>>& velocity() const { return velocity_; }
+
+ private:
+  struct Last {
+    double t_s;
+    Pose pose;
+    std::int64_t left, right;
+    bool ticks;
+  };
+  double wheel_base_m_;
+  std::optional<Last> last_;
+  std::optional<std::pair<double, double>> velocity_;
+};
 
 /// The robot pose in the world from two landmarks a, b at known world positions and their
 /// positions pa, pb in the robot frame: position from the ranges |pa|, |pb| (intersection of

@@ -1,0 +1,350 @@
+// Localizer ABI version 2 and what real data needs: the SDK's odometry helpers (velocity
+// integration along exact arcs, the wheel travel of a pose increment, OdometryTracker), the
+// host's translation of odometry without ticks or pose and of range-bearing detections, and what
+// a plugin built for ABI version 1 receives (docs/plugins.md, "ABI versions").
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "locsim/models.hpp"
+#include "sim/plugin_host/localizer_host.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+using sdk::Pose;
+
+/// The same motion by many small Euler steps: what the closed form must converge to.
+Pose euler(Pose x, double v, double omega, double dt, int steps = 100000) {
+  const double h = dt / steps;
+  for (int i = 0; i < steps; ++i) {
+    x(0) += v * h * std::cos(x(2));
+    x(1) += v * h * std::sin(x(2));
+    x(2) += omega * h;
+  }
+  x(2) = sdk::wrap(x(2));
+  return x;
+}
+
+struct Motion {
+  double v_mps, omega_radps, dt_s;
+};
+// Forward and turning, reverse and turning, straight, pure rotation (both ways), a slow creep.
+const Motion kMotions[] = {{0.5, 0.3, 0.7},  {-0.4, 0.8, 0.5}, {0.3, 0.0, 1.0},  {0.0, 1.2, 0.6},
+                           {0.0, -0.9, 1.1}, {0.2, -2.0, 0.9}, {1e-3, 1e-7, 0.1}};
+
+TEST(SdkOdometry, AdvanceByVelocityIsTheExactArc) {
+  const Pose start(1.0, -2.0, 2.9);  // near pi: the heading wraps on the way
+  for (const Motion& m : kMotions) {
+    const Pose closed = sdk::advance_by_velocity(start, m.v_mps, m.omega_radps, m.dt_s);
+    const Pose fine = euler(start, m.v_mps, m.omega_radps, m.dt_s);
+    EXPECT_NEAR(closed(0), fine(0), 1e-5) << m.v_mps << " " << m.omega_radps;
+    EXPECT_NEAR(closed(1), fine(1), 1e-5) << m.v_mps << " " << m.omega_radps;
+    EXPECT_NEAR(sdk::wrap(closed(2) - fine(2)), 0.0, 1e-9);
+    if (m.omega_radps != 0.0) {  // the textbook form, with its division by omega
+      const double r = m.v_mps / m.omega_radps, t1 = start(2) + m.omega_radps * m.dt_s;
+      EXPECT_NEAR(closed(0), start(0) + r * (std::sin(t1) - std::sin(start(2))), 1e-9);
+      EXPECT_NEAR(closed(1), start(1) - r * (std::cos(t1) - std::cos(start(2))), 1e-9);
+    }
+  }
+}
+
+TEST(SdkOdometry, WheelTravelOfAnIncrementInvertsTheArc) {
+  const double b = 0.35;
+  for (const Motion& m : kMotions) {
+    const Pose start(0.4, 0.2, -1.0);
+    const Pose end = sdk::advance_by_velocity(start, m.v_mps, m.omega_radps, m.dt_s);
+    const auto [left, right] = sdk::wheel_travel_from_increment(sdk::between(start, end), b);
+    // A differential drive at (v, omega) moves its wheels by (v -/+ b omega / 2) dt.
+    EXPECT_NEAR(left, (m.v_mps - 0.5 * b * m.omega_radps) * m.dt_s, 1e-9) << m.v_mps;
+    EXPECT_NEAR(right, (m.v_mps + 0.5 * b * m.omega_radps) * m.dt_s, 1e-9) << m.v_mps;
+  }
+  // Pure rotation: the wheels turn opposite ways by b dtheta / 2 each.
+  const auto [left, right] = sdk::wheel_travel_from_increment(Pose(0.0, 0.0, 0.5), b);
+  EXPECT_NEAR(left, -0.5 * b * 0.5, 1e-12);
+  EXPECT_NEAR(right, 0.5 * b * 0.5, 1e-12);
+}
+
+locsim_odometry odometry_of(const Pose& pose, std::uint32_t fields) {
+  locsim_odometry o{};
+  o.odom_pose = {pose(0), pose(1), pose(2)};
+  o.fields = fields;
+  return o;
+}
+
+TEST(SdkOdometry, TrackerTakesTheTicksWhenPresentElseThePose) {
+  sdk::OdometryTracker tracker(0.3);
+  locsim_odometry first =
+      odometry_of(Pose(1.0, 1.0, 0.0), LOCSIM_ODOMETRY_TICKS | LOCSIM_ODOMETRY_POSE);
+  first.left_ticks = 100, first.right_ticks = 200, first.meters_per_tick = 1e-3;
+  EXPECT_FALSE(tracker.update(0.0, first));
+  locsim_odometry second = first;
+  second.left_ticks = 150, second.right_ticks = 180;
+  second.odom_pose = {1.1, 1.0, 0.0};  // the pose need not agree: the ticks win
+  const auto step = tracker.update(0.5, second);
+  ASSERT_TRUE(step);
+  EXPECT_TRUE(step->travel_from_ticks);
+  EXPECT_EQ(step->d_left_m, 50 * 1e-3);
+  EXPECT_EQ(step->d_right_m, -20 * 1e-3);
+  EXPECT_DOUBLE_EQ(step->dt_s, 0.5);
+  EXPECT_NEAR(step->pose_increment(0), 0.1, 1e-12);
+  EXPECT_FALSE(tracker.velocity());
+
+  // A source with velocities only (the host integrated the pose): travel from the increment,
+  // backwards and turning.
+  sdk::OdometryTracker velocity_only(0.3);
+  Pose pose(2.0, -1.0, 3.0);
+  locsim_odometry o = odometry_of(pose, LOCSIM_ODOMETRY_POSE | LOCSIM_ODOMETRY_VELOCITY);
+  o.v_mps = -0.2, o.omega_radps = 0.4;
+  EXPECT_FALSE(velocity_only.update(1.0, o));
+  pose = sdk::advance_by_velocity(pose, -0.2, 0.4, 0.25);
+  o.odom_pose = {pose(0), pose(1), pose(2)};
+  const auto back = velocity_only.update(1.25, o);
+  ASSERT_TRUE(back);
+  EXPECT_FALSE(back->travel_from_ticks);
+  EXPECT_NEAR(back->d_left_m, (-0.2 - 0.15 * 0.4) * 0.25, 1e-9);
+  EXPECT_NEAR(back->d_right_m, (-0.2 + 0.15 * 0.4) * 0.25, 1e-9);
+  ASSERT_TRUE(velocity_only.velocity());
+  EXPECT_EQ(velocity_only.velocity()->first, -0.2);
+  EXPECT_EQ(velocity_only.velocity()->second, 0.4);
+}
+
+// ---- the host's translation ------------------------------------------------------------------
+Reading odometry_reading(double t_s, const OdometryReading& data) {
+  Reading r;
+  r.t_s = t_s;
+  r.kind = SensorKind::kEncoders;
+  r.data = data;
+  return r;
+}
+
+OdometryReading velocity_only(double v_mps, double omega_radps) {
+  OdometryReading o;
+  o.fields = kOdometryVelocity;
+  o.v_mps = v_mps;
+  o.omega_radps = omega_radps;
+  return o;
+}
+
+// Irregular times, each velocity held until the next reading (as MRCLAM's commands are).
+struct Command {
+  double t_s, v_mps, omega_radps;
+};
+const Command kCommands[] = {{0.0, 0.3, 0.0},  {0.1, 0.3, 0.5},  {0.35, -0.2, 0.5},
+                             {0.4, 0.0, -1.0}, {0.9, 0.25, 0.1}, {1.6, 0.0, 0.0}};
+
+TEST(HostTranslation, VelocityOnlyOdometryIsIntegratedFromTheStartPose) {
+  RobotDef robot;
+  robot.start = {1.0, 2.0, 0.3};
+  ReadingTranslator translator(robot);
+  Pose expected(1.0, 2.0, 0.3);
+  double last_t = 0.0, v = 0.0, omega = 0.0;
+  for (const Command& c : kCommands) {
+    expected = sdk::advance_by_velocity(expected, v, omega, c.t_s - last_t);
+    last_t = c.t_s, v = c.v_mps, omega = c.omega_radps;
+    const locsim_reading& out =
+        translator.translate(odometry_reading(c.t_s, velocity_only(c.v_mps, c.omega_radps)));
+    ASSERT_EQ(out.kind, LOCSIM_READING_ODOMETRY);
+    const locsim_odometry& o = out.data.odometry;
+    EXPECT_EQ(o.fields, static_cast<std::uint32_t>(LOCSIM_ODOMETRY_VELOCITY));
+    EXPECT_EQ(o.v_mps, c.v_mps);
+    EXPECT_EQ(o.omega_radps, c.omega_radps);
+    EXPECT_EQ(o.left_ticks, 0);
+    EXPECT_EQ(o.right_ticks, 0);
+    EXPECT_EQ(o.meters_per_tick, 0.0);  // no ticks: zero, not the encoder's nominal value
+    EXPECT_NEAR(o.odom_pose.x, expected(0), 1e-12) << "t = " << c.t_s;
+    EXPECT_NEAR(o.odom_pose.y, expected(1), 1e-12) << "t = " << c.t_s;
+    EXPECT_NEAR(o.odom_pose.theta, expected(2), 1e-12) << "t = " << c.t_s;
+  }
+  // Far from the start: the test would not see a pose left at the start.
+  EXPECT_GT(std::hypot(expected(0) - 1.0, expected(1) - 2.0), 0.1);
+}
+
+TEST(HostTranslation, TicksAndPoseAndDetectionsPassThrough) {
+  RobotDef robot;
+  robot.sensors.encoders = EncodersDef{};
+  robot.sensors.encoders->ticks_per_rev = 1000;
+  robot.wheel_radius_m = 0.05;
+  ReadingTranslator translator(robot);
+  OdometryReading ticks{120, 130, {0.5, 0.6, 0.7}};
+  const locsim_odometry& o = translator.translate(odometry_reading(1.0, ticks)).data.odometry;
+  EXPECT_EQ(o.fields, static_cast<std::uint32_t>(LOCSIM_ODOMETRY_TICKS | LOCSIM_ODOMETRY_POSE));
+  EXPECT_EQ(o.left_ticks, 120);
+  EXPECT_EQ(o.right_ticks, 130);
+  EXPECT_DOUBLE_EQ(o.meters_per_tick, 2.0 * std::numbers::pi * 0.05 / 1000);
+  EXPECT_EQ(o.odom_pose.x, 0.5);
+  EXPECT_EQ(o.odom_pose.theta, 0.7);
+
+  Reading seen;
+  seen.t_s = 1.5;
+  seen.kind = SensorKind::kRangeBearing;
+  RangeBearingReading rb;
+  rb.detections.push_back({"", 7, 2.5, 0.25, 7, DetectionTarget::kLandmark});
+  rb.detections.push_back({"", 3, 1.5, -0.5, 3, DetectionTarget::kRobot});
+  seen.data = rb;
+  const locsim_reading& out = translator.translate(seen);
+  ASSERT_EQ(out.kind, LOCSIM_READING_LANDMARKS);
+  EXPECT_EQ(out.data.landmarks.camera, LOCSIM_CAMERA_RANGE_BEARING);
+  ASSERT_EQ(out.data.landmarks.count, 2u);
+  EXPECT_EQ(out.data.landmarks.detections[0].target, LOCSIM_TARGET_LANDMARK);
+  EXPECT_EQ(out.data.landmarks.detections[0].id, 7);
+  EXPECT_EQ(out.data.landmarks.detections[1].target, LOCSIM_TARGET_ROBOT);
+  EXPECT_EQ(out.data.landmarks.detections[1].range_m, 1.5);
+}
+
+// ---- a plugin built for ABI version 1 --------------------------------------------------------
+class Collect final : public EstimateConsumer {
+ public:
+  void estimate(const EstimateSample& sample) override { samples.push_back(sample); }
+  void failure(const LocalizerFailure& failure) override { failures.push_back(failure); }
+  std::vector<EstimateSample> samples;
+  std::vector<LocalizerFailure> failures;
+};
+
+/// Robot 0's range-bearing reading at t_s.
+Record range_bearing_at(double t_s, std::vector<Detection> detections) {
+  Record record;
+  record.type = Record::Type::kReading;
+  record.reading.t_s = t_s;
+  record.reading.kind = SensorKind::kRangeBearing;
+  record.reading.data = RangeBearingReading{std::move(detections)};
+  return record;
+}
+
+/// Robot 0's true pose at t_s: the instant each filter gives an estimate sample.
+Record truth_at(double t_s) {
+  Record truth;
+  truth.type = Record::Type::kGroundTruth;
+  truth.robot = 0;
+  truth.t_s = t_s;
+  return truth;
+}
+
+std::map<std::string, double> named(const EstimateSample& sample) {
+  return {sample.diagnostics.begin(), sample.diagnostics.end()};
+}
+
+/// What test_abi1 receives, in this process or in a worker process.
+void check_abi1_plugin(bool isolate) {
+  const std::string plugin = std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_abi1.so";
+  EXPECT_EQ(PluginLibrary(plugin).abi_version(), 1u);
+
+  WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
+  world.robots.resize(1);
+  const RobotDef& robot = world.robots[0];
+  LocalizationDef localization;
+  localization.sigma_xy_m = localization.sigma_theta_rad = 0.0;  // the guess is the start
+  HostOptions options;
+  options.isolate = isolate;
+  LocalizerHost host({parse_localizer_spec(plugin)}, world, localization, OccupancyGrid{}, 1,
+                     options);
+  Collect out;
+  host.add_output(out);
+
+  Record record;
+  record.type = Record::Type::kReading;
+  record.robot = record.reading.robot = 0;
+  Pose expected(robot.start.x, robot.start.y, robot.start.theta);
+  double last_t = 0.0, v = 0.0, omega = 0.0;
+  for (const Command& c : kCommands) {
+    expected = sdk::advance_by_velocity(expected, v, omega, c.t_s - last_t);
+    last_t = c.t_s, v = c.v_mps, omega = c.omega_radps;
+    record.reading = odometry_reading(c.t_s, velocity_only(c.v_mps, c.omega_radps));
+    host.consume(record);
+  }
+  host.consume(range_bearing_at(1.7, {{"", 1, 2.5, 0.25, 1, DetectionTarget::kLandmark},
+                                      {"", 0, 1.5, -0.5, 0, DetectionTarget::kRobot},  // withheld
+                                      {"", 2, 4.0, 1.0, 2, DetectionTarget::kLandmark}}));
+  host.consume(truth_at(1.7));
+  host.finish(1.7);
+
+  ASSERT_TRUE(out.failures.empty()) << out.failures[0].message;
+  ASSERT_EQ(out.samples.size(), 1u);
+  const EstimateSample& sample = out.samples[0];
+  auto d = named(sample);
+  EXPECT_EQ(d["struct_size"], 80);  // version 1's locsim_reading
+  EXPECT_EQ(d["meters_per_tick"], 1e-4);
+  EXPECT_NEAR(d["odom_x"], expected(0), 1e-12);
+  EXPECT_NEAR(d["odom_y"], expected(1), 1e-12);
+  EXPECT_NEAR(d["odom_theta"], expected(2), 1e-12);
+  // Two detections of landmarks at version 1's stride (a wrong stride reads garbage ranges).
+  EXPECT_EQ(d["camera"], LOCSIM_CAMERA_RANGE_BEARING);
+  EXPECT_EQ(d["detections"], 2);
+  EXPECT_EQ(d["detection_ids"], 3);
+  EXPECT_EQ(d["detection_ranges"], 6.5);
+  // The plugin's own dead reckoning from the synthesised ticks lands where the velocities went
+  // (within the rounding to 0.1 mm ticks and the mid-heading approximation).
+  EXPECT_NEAR(sample.pose.x, expected(0), 1e-3);
+  EXPECT_NEAR(sample.pose.y, expected(1), 1e-3);
+  EXPECT_NEAR(sdk::wrap(sample.pose.theta - expected(2)), 0.0, 2e-3);
+  EXPECT_NE(d["left_ticks"], d["right_ticks"]);  // it turned
+}
+
+TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {
+  check_abi1_plugin(false);
+}
+
+TEST(AbiVersion1, SoInAWorkerProcessToo) {
+  check_abi1_plugin(true);
+}
+
+// ---- the landmark filters on the range-bearing sensor -----------------------------------------
+/// One filter of `spec` on the demo robot: an odometry reading at the start, then (unless
+/// nullopt) a range-bearing reading with `detections`; its estimate and how many landmarks it
+/// mapped (SLAM: a first detection moves no estimate, it maps the landmark).
+using Outcome = std::pair<Pose, std::size_t>;
+Outcome estimate_after(const std::string& spec, const std::optional<std::vector<Detection>>& seen) {
+  WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
+  world.robots.resize(1);
+  HostOptions options;
+  options.isolate = false;
+  LocalizerHost host({parse_localizer_spec(spec)}, world, LocalizationDef{}, OccupancyGrid{}, 5,
+                     options);
+  Collect out;
+  host.add_output(out);
+  Record record;
+  record.type = Record::Type::kReading;
+  record.reading = odometry_reading(0.0, OdometryReading{0, 0, world.robots[0].start});
+  host.consume(record);
+  if (seen) host.consume(range_bearing_at(0.1, *seen));
+  host.consume(truth_at(0.2));
+  const std::vector<LocalizerFinal> finals = host.finish(0.2);
+  EXPECT_TRUE(out.failures.empty()) << spec << ": " << out.failures[0].message;
+  if (out.samples.size() != 1) {
+    ADD_FAILURE() << spec << ": " << out.samples.size() << " samples";
+    return {};
+  }
+  return {Pose(out.samples[0].pose.x, out.samples[0].pose.y, out.samples[0].pose.theta),
+          finals.at(0).landmark_map.size()};
+}
+
+TEST(LandmarkFilters, TakeRangeBearingDetectionsAndSkipOtherRobots) {
+  // The demo robot starts at (1.5, 1.5, 0); landmark 1 (red) is at (0.3, 0.3): seen a little
+  // farther and to the left of where it should be, so that a filter using it moves.
+  const Detection landmark{"red", 1, 1.75, -2.33, 1, DetectionTarget::kLandmark};
+  const Detection robot{"", 1, 1.75, -2.33, 1, DetectionTarget::kRobot};
+  // FastSLAM maps a landmark at its first detection (that moves no estimate) when told to.
+  for (const std::string plugin : {"ekf_landmarks:", "mcl:", "srl:", "asrl:", "augmented_mcl:",
+                                   "fastslam:map_min_observations=1,"}) {
+    const Outcome used = estimate_after(plugin + "use_range_bearing=true", std::vector{landmark});
+    const Outcome empty =
+        estimate_after(plugin + "use_range_bearing=true", std::vector<Detection>{});
+    EXPECT_NE(used, empty) << plugin << " did not use the range-bearing detection";
+    EXPECT_EQ(estimate_after(plugin + "use_range_bearing=true", std::vector{robot}), empty)
+        << plugin << " used a detection of another robot";
+    EXPECT_EQ(estimate_after(plugin + "use_range_bearing=false", std::vector{landmark}),
+              estimate_after(plugin + "use_range_bearing=true", std::nullopt))
+        << plugin << " used the range-bearing sensor with use_range_bearing off";
+  }
+}
+
+}  // namespace
+}  // namespace locsim
