@@ -445,7 +445,9 @@ TEST(LogFormat, AVersion1LogStillReplaysWithTheSameResults) {
   replay_log(replay_options(v2, dir / "replay2"));
   for (const char* file : {"odometry.tum", "ekf.tum", "groundtruth.tum", "events.csv"}) {
     const std::string replayed = testing::read_file(dir / "replay2" / file);
-    EXPECT_GT(replayed.size(), 100u) << file;
+    if (std::string_view(file) != "events.csv") {  // no event in the first 8 s
+      EXPECT_GT(replayed.size(), 100u) << file;
+    }
     EXPECT_EQ(testing::read_file(dir / "replay1" / file), replayed) << file;
   }
   EXPECT_EQ(without_timing(dir / "replay1/metrics.json"),
