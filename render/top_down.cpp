@@ -664,7 +664,7 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
     });
   }
   if (sightings) {
-    marker("range-bearing: landmark, robot", [&](cv::Point c) {
+    marker("ranged: landmark, robot", [&](cv::Point c) {
       cv::line(image, c + cv::Point(-12, -3), c + cv::Point(12, -3), bgr(p.sighting), 2);
       cv::line(image, c + cv::Point(-12, 3), c + cv::Point(12, 3), bgr(p.robot_sighting), 2);
     });
