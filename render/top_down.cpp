@@ -327,6 +327,17 @@ void TopDownRenderer::draw(const FrameState& frame) {
       for (const Vec2& d : c.detections_m) glVertex2d(r.pose.x, r.pose.y), vertex(d);
       glEnd();
     }
+    if (!r.sightings.empty()) {
+      // Range-bearing detections as the cameras': a line to where each puts its target, robots
+      // in a colour of their own.
+      glLineWidth(1.5f);
+      glBegin(GL_LINES);
+      for (const FrameRobot::Sighting& s : r.sightings) {
+        color(s.robot ? p.robot_sighting : p.sighting, 0.9f);
+        glVertex2d(r.pose.x, r.pose.y), vertex(s.at_m);
+      }
+      glEnd();
+    }
     if (!r.laser_hits_m.empty()) {
       // Where the beams hit, and every sixth ray, faint, so the scan reads as a laser's (all the
       // rays, or a filled scan, cost llvmpipe a quarter of a frame).
@@ -627,9 +638,10 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
       cv::line(image, c + cv::Point(-6, 6), c + cv::Point(6, -6), bgr(p.kidnap), 2);
     });
   }
-  bool camera = false, laser = false, ultrasonic = false;
+  bool camera = false, laser = false, ultrasonic = false, sightings = false;
   for (const FrameRobot& r : frame.robots) {
     camera = camera || r.camera.has_value();
+    sightings = sightings || r.range_bearing;
     laser = laser || !r.laser_hits_m.empty();
     ultrasonic = ultrasonic || !r.ultrasonic.empty();
   }
@@ -649,6 +661,12 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
   if (camera) {
     marker("camera view, detections", [&](cv::Point c) {
       cv::rectangle(image, c - cv::Point(10, 6), c + cv::Point(10, 6), bgr(p.camera), cv::FILLED);
+    });
+  }
+  if (sightings) {
+    marker("ranged: landmark, robot", [&](cv::Point c) {
+      cv::line(image, c + cv::Point(-12, -3), c + cv::Point(12, -3), bgr(p.sighting), 2);
+      cv::line(image, c + cv::Point(-12, 3), c + cv::Point(12, 3), bgr(p.robot_sighting), 2);
     });
   }
   bool mapped = false;

@@ -31,6 +31,8 @@ struct Palette {
   Rgb line_of_sight{0.1f, 0.65f, 0.2f};
   Rgb occluded{0.9f, 0.0f, 0.0f};
   Rgb camera{0.95f, 0.8f, 0.1f};
+  Rgb sighting{0.1f, 0.55f, 0.85f};        // a range-bearing detection of a landmark
+  Rgb robot_sighting{0.85f, 0.1f, 0.65f};  // ... of another robot
   /// One colour per localizer, in the order they run (then repeating).
   std::vector<Rgb> filters{{0.12f, 0.47f, 0.71f}, {1.0f, 0.5f, 0.05f},   {0.17f, 0.63f, 0.17f},
                            {0.58f, 0.4f, 0.74f},  {0.55f, 0.34f, 0.29f}, {0.89f, 0.47f, 0.76f},

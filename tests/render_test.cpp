@@ -260,6 +260,50 @@ scenario:
   EXPECT_EQ(end.robots[0].kidnaps, 2);
 }
 
+TEST(Render, RangeBearingDetectionsAreCapturedWithRobotsTold) {
+  const fs::path dir = testing::temp_dir("sightings");
+  std::ofstream(dir / "world.yaml") << R"(
+walls:
+  - {points: [[0, 0], [4, 0], [4, 3], [0, 3]], closed: true, thickness_m: 0.1}
+landmarks:
+  - {id: 1, position: [2.0, 2.5]}
+robots:
+  - name: r
+    start: {x: 1, y: 1.5, theta: 0}
+    sensors:
+      range_bearing: {fov_deg: 360, sees_robots: true, sigma_range_m: 0, sigma_bearing: 0}
+  - name: s
+    start: {x: 3, y: 1.5, theta: 0}
+scenario: {duration_s: 0.5}
+)";
+  const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
+  Simulation sim(inputs.world, inputs.scenario, 1);
+  testing::KeepFrames sink;
+  VideoOptions video;
+  video.fps = 10.0;
+  FrameCapture capture(sink, video, sim);
+  SimulationSource source(sim);
+  while (!sim.done()) {
+    sim.step();
+    source.emit(capture);
+    capture.after_step(sim);
+  }
+  ASSERT_FALSE(sink.kept.empty());
+  const FrameState& last = sink.kept.back();
+  EXPECT_TRUE(last.robots[0].range_bearing);
+  EXPECT_FALSE(last.robots[1].range_bearing);
+  EXPECT_TRUE(last.robots[1].sightings.empty());
+  ASSERT_EQ(last.robots[0].sightings.size(), 2u);
+  const FrameRobot::Sighting& landmark = last.robots[0].sightings[0];
+  const FrameRobot::Sighting& robot = last.robots[0].sightings[1];
+  EXPECT_FALSE(landmark.robot);
+  EXPECT_NEAR(landmark.at_m.x(), 2.0, 1e-3);
+  EXPECT_NEAR(landmark.at_m.y(), 2.5, 1e-3);
+  EXPECT_TRUE(robot.robot);
+  EXPECT_NEAR(robot.at_m.x(), 3.0, 1e-3);
+  EXPECT_NEAR(robot.at_m.y(), 1.5, 1e-3);
+}
+
 TEST(Render, BadBackendAndSizeAreReportedClearly) {
   EXPECT_THROW(render::make_gl_context("egl", 64, 64), RenderError);
   EXPECT_THROW(render::make_gl_context("osmesa", 8, 64), RenderError);

@@ -4,12 +4,14 @@
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <zlib.h>
 
 #include <cstring>
 #include <nlohmann/json.hpp>
 
 #include "sim/run/runner.hpp"
 #include "sim/stream/log_file.hpp"
+#include "sim/stream/record_codec.hpp"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -23,11 +25,11 @@ std::string without_timing(const fs::path& file) {
   return j.dump();
 }
 
-/// Records 12 s of the demo (one kidnap) with two filters; returns the log's path.
-fs::path record(const fs::path& dir) {
+/// Records 25 s of the demo (one kidnap) with two filters; returns the log's path.
+fs::path record(const fs::path& dir, double duration_s = 25.0) {
   RunOptions options;
   options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
-  options.duration_s = 25.0;
+  options.duration_s = duration_s;
   options.seed = 4;
   options.out_dir = dir / "run";
   options.localizers = {"odometry", "ekf_landmarks:sigma_bearing_deg=2@ekf"};
@@ -281,6 +283,257 @@ TEST(Replay, RecordsTheWorldCannotHaveProducedAreRefused) {
     EXPECT_NE(error.find(std::string(problem) + " (record 2, byte "), std::string::npos) << error;
     EXPECT_NE(error.find(log.string()), std::string::npos) << error;
   }
+}
+
+TEST(Replay, RecordsTheirSensorsCannotHaveProducedAreRefused) {
+  // Two robots; r's encoders report ticks and velocity, its range_bearing sensor sees robots.
+  const std::string world = R"(
+walls: [{points: [[-3, -3], [3, -3], [3, 3], [-3, 3]], closed: true}]
+robots:
+  - name: r
+    start: {x: 0, y: 0, theta: 0}
+    sensors:
+      encoders: {reports: [ticks, velocity]}
+      range_bearing: {sees_robots: true}
+  - name: s
+    start: {x: 1.5, y: 0, theta: 0}
+)";
+  auto header = small_header();
+  header["world_yaml"] = world;
+  const fs::path dir = testing::temp_dir("contents");
+  Record odometry;
+  odometry.type = Record::Type::kReading;
+  odometry.reading.kind = SensorKind::kEncoders;
+  OdometryReading ticks_velocity;
+  ticks_velocity.fields = kOdometryTicks | kOdometryVelocity;
+  odometry.reading.data = ticks_velocity;
+  Record detections = odometry;
+  detections.reading.kind = SensorKind::kRangeBearing;
+  Detection robot_s{"", 1, 1.5, 0.0, 1, DetectionTarget::kRobot};
+  Detection unidentified{"", -1, 1.5, 0.0, -1, DetectionTarget::kRobot};
+  // A landmark's id is the localizer's business (a map may lack it).
+  Detection landmark{"red", 12, 2.0, 0.0, 12, DetectionTarget::kLandmark};
+  detections.reading.data = RangeBearingReading{{robot_s, unidentified, landmark}};
+  EXPECT_EQ(odometry_replay_error(
+                write_log(dir / "valid.locsimlog", header, {odometry, detections}), dir / "valid"),
+            "accepted");
+
+  Record pose_fields = odometry;
+  pose_fields.reading.data = OdometryReading{};  // ticks and pose
+  Record itself = detections, beyond = detections, negative = detections;
+  robot_s.id = 0;
+  itself.reading.data = RangeBearingReading{{robot_s}};
+  robot_s.id = 2;
+  beyond.reading.data = RangeBearingReading{{robot_s}};
+  robot_s.id = -3;
+  negative.reading.data = RangeBearingReading{{robot_s}};
+  for (const auto& [name, record, problem] :
+       {std::tuple{"fields", pose_fields,
+                   "an odometry reading with fields ticks, pose; robot 'r's encoders report "
+                   "ticks, velocity"},
+        std::tuple{"itself", itself,
+                   "a detection of robot 0 by robot 'r', which is not another robot of the "
+                   "world's 2"},
+        std::tuple{"beyond", beyond, "a detection of robot 2 by robot 'r'"},
+        std::tuple{"negative", negative, "a detection of robot -3 by robot 'r'"}}) {
+    SCOPED_TRACE(name);
+    const fs::path log =
+        write_log(dir / (std::string(name) + ".locsimlog"), header, {odometry, record});
+    const std::string error = odometry_replay_error(log, dir / name);
+    EXPECT_NE(error.find(std::string(problem)), std::string::npos) << error;
+    EXPECT_NE(error.find("(record 2, byte "), std::string::npos) << error;
+  }
+}
+
+// ---- Log format versions ----------------------------------------------------------------------
+
+std::uint32_t crc32_of(std::uint8_t type, const std::string& payload) {
+  uLong c = crc32(0L, Z_NULL, 0);
+  c = crc32(c, &type, 1);
+  return static_cast<std::uint32_t>(
+      crc32(c, reinterpret_cast<const Bytef*>(payload.data()), static_cast<uInt>(payload.size())));
+}
+
+/// A reading's payload as version 1 wrote it (docs/log_format.md): odometry without fields and
+/// velocity, detections without targets; the other kinds were as they are.
+std::string version_1_payload(const Record& record) {
+  std::string out;
+  const Reading& r = record.reading;
+  const auto detections = [&](const std::vector<Detection>& list) {
+    put<std::uint32_t>(out, static_cast<std::uint32_t>(list.size()));
+    for (const Detection& d : list) {
+      put_string(out, d.color);
+      put<std::int32_t>(out, d.id);
+      put(out, d.range_m), put(out, d.bearing_rad);
+      put<std::int32_t>(out, d.truth_id);
+    }
+  };
+  if (record.type == Record::Type::kReading && r.kind == SensorKind::kEncoders) {
+    const auto& d = std::get<OdometryReading>(r.data);
+    put(out, r.t_s), put<std::uint16_t>(out, static_cast<std::uint16_t>(r.robot));
+    put<std::uint8_t>(out, static_cast<std::uint8_t>(r.kind));
+    put(out, d.left_ticks), put(out, d.right_ticks);
+    put(out, d.odometry.x), put(out, d.odometry.y), put(out, d.odometry.theta);
+  } else if (record.type == Record::Type::kReading && r.kind == SensorKind::kPtzCamera) {
+    const auto& d = std::get<PtzReading>(r.data);
+    put(out, r.t_s), put<std::uint16_t>(out, static_cast<std::uint16_t>(r.robot));
+    put<std::uint8_t>(out, static_cast<std::uint8_t>(r.kind));
+    put(out, d.pan_rad), put(out, d.tilt_rad), put(out, d.zoom);
+    detections(d.detections);
+  } else if (record.type == Record::Type::kReading && r.kind == SensorKind::kOmniCamera) {
+    put(out, r.t_s), put<std::uint16_t>(out, static_cast<std::uint16_t>(r.robot));
+    put<std::uint8_t>(out, static_cast<std::uint8_t>(r.kind));
+    detections(std::get<OmniReading>(r.data).detections);
+  } else {
+    encode_record(record, out);
+  }
+  return out;
+}
+
+/// The log `v2` written byte by byte as version 1 would have written it.
+fs::path as_version_1(const fs::path& v2, const fs::path& v1) {
+  LogReader reader(v2);
+  EXPECT_EQ(reader.version(), 2u);
+  std::string bytes = "LOCSIMLG";
+  const std::string text = reader.header().dump();
+  put<std::uint32_t>(bytes, 1);
+  put<std::uint32_t>(bytes, static_cast<std::uint32_t>(text.size()));
+  bytes += text;
+  put<std::uint32_t>(bytes, crc32_of(0, text));
+  const auto frame = [&](Record::Type type, const std::string& payload) {
+    put<std::uint8_t>(bytes, static_cast<std::uint8_t>(type));
+    put<std::uint32_t>(bytes, static_cast<std::uint32_t>(payload.size()));
+    bytes += payload;
+    put<std::uint32_t>(bytes, crc32_of(static_cast<std::uint8_t>(type), payload));
+  };
+  Record record;
+  std::uint64_t count = 0;
+  while (reader.next(record)) frame(record.type, version_1_payload(record)), ++count;
+  std::string end;
+  put<std::uint64_t>(end, count);
+  frame(Record::Type::kEnd, end);
+  std::ofstream(v1, std::ios::binary) << bytes;
+  return v1;
+}
+
+TEST(LogFormat, AVersion1LogStillReplaysWithTheSameResults) {
+  const fs::path dir = testing::temp_dir("version1");
+  const fs::path v2 = record(dir, 8.0);
+  const fs::path v1 = as_version_1(v2, dir / "v1.locsimlog");
+  // The same records: version 1's odometry is ticks and pose, its detections of landmarks.
+  LogReader a(v1), b(v2);
+  EXPECT_EQ(a.version(), 1u);
+  Record ra, rb;
+  std::size_t records = 0, odometry = 0, detections = 0;
+  while (b.next(rb)) {
+    ASSERT_TRUE(a.next(ra));
+    std::string ea, eb;
+    encode_record(ra, ea);
+    encode_record(rb, eb);
+    ASSERT_EQ(ea, eb) << "record " << records;
+    ++records;
+    if (rb.type != Record::Type::kReading) continue;
+    if (rb.reading.kind == SensorKind::kEncoders) ++odometry;
+    if (const auto* ptz = std::get_if<PtzReading>(&rb.reading.data))
+      detections += ptz->detections.size();
+  }
+  EXPECT_FALSE(a.next(ra));
+  EXPECT_GT(odometry, 100u);
+  EXPECT_GT(detections, 10u);
+  ReplayOptions options = replay_options(v1, dir / "replay1");
+  replay_log(options);
+  replay_log(replay_options(v2, dir / "replay2"));
+  for (const char* file : {"odometry.tum", "ekf.tum", "groundtruth.tum", "events.csv"}) {
+    const std::string replayed = testing::read_file(dir / "replay2" / file);
+    if (std::string_view(file) != "events.csv") {  // no event in the first 8 s
+      EXPECT_GT(replayed.size(), 100u) << file;
+    }
+    EXPECT_EQ(testing::read_file(dir / "replay1" / file), replayed) << file;
+  }
+  EXPECT_EQ(without_timing(dir / "replay1/metrics.json"),
+            without_timing(dir / "replay2/metrics.json"));
+}
+
+TEST(LogFormat, Version2RoundTripsEveryNewField) {
+  const fs::path dir = testing::temp_dir("version2");
+  Record velocity;
+  velocity.type = Record::Type::kReading;
+  velocity.reading = Reading{1.25, 0, SensorKind::kEncoders,
+                             OdometryReading{0, 0, {}, 0.3125, -0.0625, kOdometryVelocity}};
+  Record all = velocity;
+  all.reading.data = OdometryReading{5, -7, {1.5, -2.5, 0.75}, 0.5, 0.25, kOdometryAllFields};
+  Record seen = velocity;
+  seen.reading.kind = SensorKind::kRangeBearing;
+  seen.reading.data =
+      RangeBearingReading{{Detection{"red", 4, 2.5, 0.125, 4, DetectionTarget::kLandmark},
+                           Detection{"", 1, 1.75, -0.5, 1, DetectionTarget::kRobot}}};
+  Record omni = seen;
+  omni.reading.kind = SensorKind::kOmniCamera;
+  omni.reading.data = OmniReading{std::get<RangeBearingReading>(seen.reading.data).detections};
+  const std::vector<Record> records = {velocity, all, seen, omni};
+  LogWriter writer(dir / "new.locsimlog", small_header());
+  for (const Record& r : records) writer.consume(r);
+  writer.finish();
+  LogReader reader(dir / "new.locsimlog");
+  EXPECT_EQ(reader.version(), kLogFormatVersion);
+  Record back;
+  for (const Record& r : records) {
+    ASSERT_TRUE(reader.next(back));
+    EXPECT_EQ(back.reading.kind, r.reading.kind);
+    EXPECT_EQ(back.reading.t_s, r.reading.t_s);
+    if (const auto* o = std::get_if<OdometryReading>(&r.reading.data)) {
+      const auto& b = std::get<OdometryReading>(back.reading.data);
+      EXPECT_EQ(b.fields, o->fields);
+      EXPECT_EQ(b.left_ticks, o->left_ticks);
+      EXPECT_EQ(b.right_ticks, o->right_ticks);
+      EXPECT_EQ(b.odometry.x, o->odometry.x);
+      EXPECT_EQ(b.odometry.theta, o->odometry.theta);
+      EXPECT_EQ(b.v_mps, o->v_mps);
+      EXPECT_EQ(b.omega_radps, o->omega_radps);
+    } else {
+      const auto list = [](const Record& x) {
+        if (const auto* rb = std::get_if<RangeBearingReading>(&x.reading.data))
+          return rb->detections;
+        return std::get<OmniReading>(x.reading.data).detections;
+      };
+      const auto want = list(r), got = list(back);
+      ASSERT_EQ(got.size(), want.size());
+      for (std::size_t i = 0; i < want.size(); ++i) {
+        EXPECT_EQ(got[i].color, want[i].color);
+        EXPECT_EQ(got[i].id, want[i].id);
+        EXPECT_EQ(got[i].range_m, want[i].range_m);
+        EXPECT_EQ(got[i].bearing_rad, want[i].bearing_rad);
+        EXPECT_EQ(got[i].truth_id, want[i].truth_id);
+        EXPECT_EQ(got[i].target, want[i].target);
+      }
+    }
+  }
+  EXPECT_FALSE(reader.next(back));
+  // What version 2 refuses: no fields, unknown fields or targets; version 1 has no range_bearing.
+  std::string payload;
+  encode_record(velocity, payload);
+  const std::size_t fields_at = 8 + 2 + 1;
+  const auto refusal = [](const std::string& bytes, std::uint32_t version) -> std::string {
+    Record r;
+    try {
+      decode_record(Record::Type::kReading, bytes, r, version);
+    } catch (const DecodeError& e) {
+      return e.what();
+    }
+    return "decoded";
+  };
+  for (const std::uint8_t fields : {std::uint8_t{0}, std::uint8_t{8}}) {
+    std::string bad = payload;
+    bad[fields_at] = static_cast<char>(fields);
+    EXPECT_NE(refusal(bad, 2).find("odometry fields"), std::string::npos) << int{fields};
+  }
+  payload.clear();
+  encode_record(seen, payload);
+  EXPECT_EQ(refusal(payload, 2), "decoded");
+  EXPECT_NE(refusal(payload, 1).find("unknown sensor kind 6"), std::string::npos);
+  std::string bad_target = payload;
+  bad_target.back() = 2;  // the last detection's target
+  EXPECT_NE(refusal(bad_target, 2).find("unknown detection target 2"), std::string::npos);
 }
 
 }  // namespace

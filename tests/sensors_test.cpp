@@ -103,6 +103,61 @@ robots:
   EXPECT_NEAR(s.stddev, k, 0.15 * k);  // the sample spread of 300 draws is within ~4 %
 }
 
+TEST(Encoders, ReportVelocityFromTheirOwnCountsAndOnlyTheFieldsAsked) {
+  const auto run = [](const std::string& reports) {
+    Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 1, y: 2, theta: 0.5}
+    sensors:
+      encoders: {k_left: 0.01, k_right: 0.01, ticks_per_rev: 2048)" +
+                              reports + "}\n");
+    return collect<OdometryReading>(sim, SensorKind::kEncoders, 4.0, 0.4, 0.3);
+  };
+  const auto all = run(", reports: [ticks, pose, velocity]");
+  ASSERT_EQ(all.size(), 4u * 50u + 1u);
+  // The velocity is the counted travel over the period: integrating it as the base dead-reckons
+  // gives its odometry pose back, noise and tick quantisation included.
+  Pose2 integrated = all.front().data.odometry;
+  for (std::size_t i = 1; i < all.size(); ++i) {
+    const OdometryReading& r = all[i].data;
+    EXPECT_EQ(r.fields, kOdometryAllFields);
+    const double period_s = all[i].t_s - all[i - 1].t_s;
+    const double turn = r.omega_radps * period_s;
+    const double mid_heading = integrated.theta + 0.5 * turn;
+    integrated.x += r.v_mps * period_s * std::cos(mid_heading);
+    integrated.y += r.v_mps * period_s * std::sin(mid_heading);
+    integrated.theta = wrap_angle(integrated.theta + turn);
+    ASSERT_NEAR(integrated.x, r.odometry.x, 1e-9);
+    ASSERT_NEAR(integrated.y, r.odometry.y, 1e-9);
+  }
+  EXPECT_EQ(all.front().data.v_mps, 0.0);  // no period before the first reading
+  // Once up to speed, near what was commanded (the noise and ticks make it differ a little).
+  double v_sum = 0.0, omega_sum = 0.0;
+  for (std::size_t i = 100; i < all.size(); ++i)
+    v_sum += all[i].data.v_mps, omega_sum += all[i].data.omega_radps;
+  EXPECT_NEAR(v_sum / static_cast<double>(all.size() - 100), 0.4, 0.02);
+  EXPECT_NEAR(omega_sum / static_cast<double>(all.size() - 100), 0.3, 0.03);
+  EXPECT_NE(all[150].data.v_mps, all[151].data.v_mps);  // measured, not the command
+
+  // Velocity only: the other fields are zeros, the velocities the same draws' (same stream).
+  const auto velocity = run(", reports: [velocity]");
+  ASSERT_EQ(velocity.size(), all.size());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const OdometryReading& r = velocity[i].data;
+    EXPECT_EQ(r.fields, kOdometryVelocity);
+    EXPECT_EQ(r.left_ticks, 0);
+    EXPECT_EQ(r.odometry.x, 0.0);
+    EXPECT_EQ(r.v_mps, all[i].data.v_mps);
+    EXPECT_EQ(r.omega_radps, all[i].data.omega_radps);
+  }
+  // The default: ticks and pose, no velocity.
+  const auto plain = run("");
+  EXPECT_EQ(plain.back().data.fields, kOdometryTicks | kOdometryPose);
+  EXPECT_EQ(plain.back().data.v_mps, 0.0);
+  EXPECT_EQ(plain.back().data.left_ticks, all.back().data.left_ticks);
+}
+
 TEST(Encoders, CountSlipOnIceThatTheGroundNeverSaw) {
   Simulation sim = make_sim(R"(
 floor: {friction: 0.05}
@@ -332,6 +387,161 @@ robots:
   EXPECT_NEAR(c.mean, 0.0, 0.005);
   EXPECT_NEAR(a.stddev, 0.2, 0.012);
   EXPECT_NEAR(c.stddev, 0.05, 0.003);
+}
+
+// ---------------------------------------------------------------------------- range-bearing
+/// A robot at the origin facing +x with a range_bearing sensor `sensor`, the landmarks `landmarks`
+/// (YAML list items) and `extra` (walls, more robots).
+std::string range_bearing_world(const std::string& landmarks, const std::string& sensor,
+                                const std::string& extra_robots = "",
+                                const std::string& extra = "") {
+  return "landmarks:\n" + landmarks + extra +
+         "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      range_bearing: " + sensor + "\n" +
+         extra_robots;
+}
+
+std::vector<Sample<RangeBearingReading>> range_bearing_readings(const std::string& world,
+                                                                double seconds,
+                                                                std::uint64_t seed = 1) {
+  Simulation sim = make_sim(world, seed);
+  return collect<RangeBearingReading>(sim, SensorKind::kRangeBearing, seconds);
+}
+
+TEST(RangeBearing, RangeAndBearingErrorsHaveTheGivenBiasesAndSpreads) {
+  const auto readings = range_bearing_readings(
+      range_bearing_world("  - {id: 4, position: [3, 0]}\n",
+                          "{rate_hz: 50, sigma_range_m: 0.05, sigma_range_per_m: 0.02, "
+                          "range_bias_m: 0.1, range_bias_per_m: 0.01, sigma_bearing_deg: 2, "
+                          "bearing_bias_deg: 1}"),
+      60.0);
+  ASSERT_EQ(readings.size(), 3001u);
+  std::vector<double> ranges, bearings;
+  for (const auto& r : readings) {
+    ASSERT_EQ(r.data.detections.size(), 1u);
+    const Detection& d = r.data.detections[0];
+    EXPECT_EQ(d.id, 4);
+    EXPECT_EQ(d.truth_id, 4);
+    EXPECT_EQ(d.target, DetectionTarget::kLandmark);
+    ranges.push_back(d.range_m);
+    bearings.push_back(d.bearing_rad);
+  }
+  // Range: 3 + 0.1 + 0.01 * 3 on average, spread 0.05 + 0.02 * 3. Bearing: 1 deg, spread 2 deg.
+  // Tolerances: about 4 standard errors of 3001 samples.
+  const Stats range = stats(ranges), bearing = stats(bearings);
+  EXPECT_NEAR(range.mean, 3.13, 0.008);
+  EXPECT_NEAR(range.stddev, 0.11, 0.006);
+  EXPECT_NEAR(bearing.mean, deg_to_rad(1.0), 0.0026);
+  EXPECT_NEAR(bearing.stddev, deg_to_rad(2.0), deg_to_rad(2.0) * 0.06);
+}
+
+TEST(RangeBearing, FieldOfViewRangeLimitsAndWallsDecideWhatIsSeen) {
+  // fov 60 deg (+-30): 26.6 deg is inside, 33.7 deg and behind outside; range [1, 5].
+  const auto readings = range_bearing_world(
+      "  - {id: 1, position: [3, 1.5]}\n"     // 26.6 deg, 3.35 m: seen
+      "  - {id: 2, position: [3, 2]}\n"       // 33.7 deg: outside the field of view
+      "  - {id: 3, position: [-3, 0]}\n"      // behind
+      "  - {id: 4, position: [5.5, 0]}\n"     // beyond max_range_m
+      "  - {id: 5, position: [0.8, -0.3]}\n"  // closer than min_range_m
+      "  - {id: 6, position: [2, -3.4]}\n"    // -59.5 deg: outside
+      "  - {id: 7, position: [4, -1]}\n",     // -14 deg, behind the wall
+      "{sigma_range_m: 0, sigma_bearing: 0, min_range_m: 1, max_range_m: 5, fov_deg: 60}", "",
+      "walls:\n  - points: [[3.5, -2], [3.5, -0.5]]\n");
+  for (const auto& r : range_bearing_readings(readings, 1.0)) {
+    ASSERT_EQ(r.data.detections.size(), 1u);
+    const Detection& d = r.data.detections[0];
+    EXPECT_EQ(d.id, 1);
+    EXPECT_NEAR(d.range_m, std::hypot(3.0, 1.5), 1e-9);
+    EXPECT_NEAR(d.bearing_rad, std::atan2(1.5, 3.0), 1e-9);
+  }
+  // Without the wall, landmark 7 is seen too; a full circle sees those behind and beside.
+  const auto open = range_bearing_readings(
+      range_bearing_world("  - {id: 7, position: [4, -1]}\n  - {id: 3, position: [-3, 0]}\n",
+                          "{min_range_m: 1, max_range_m: 5, fov_deg: 360}"),
+      0.0);
+  ASSERT_EQ(open.size(), 1u);
+  EXPECT_EQ(open[0].data.detections.size(), 2u);
+}
+
+TEST(RangeBearing, MissAndFalseDetectionRatesHold) {
+  const auto readings = range_bearing_readings(
+      range_bearing_world("  - {id: 7, position: [3, 0]}\n  - {id: 9, position: [-3, 0]}\n",
+                          "{miss_probability: 0.3, false_detections: 0.5, min_range_m: 0.5, "
+                          "max_range_m: 4, fov_deg: 90}"),
+      100.0);
+  ASSERT_EQ(readings.size(), 1001u);
+  int real = 0, phantom = 0, phantom_ids[2] = {0, 0};
+  for (const auto& r : readings) {
+    for (const Detection& d : r.data.detections) {
+      if (d.truth_id == 7) {
+        ++real;
+        continue;
+      }
+      ASSERT_EQ(d.truth_id, -1);
+      ++phantom;
+      ASSERT_TRUE(d.id == 7 || d.id == 9);
+      ++phantom_ids[d.id == 7 ? 0 : 1];
+      EXPECT_GE(d.range_m, 0.5);
+      EXPECT_LE(d.range_m, 4.0);
+      EXPECT_LE(std::abs(d.bearing_rad), deg_to_rad(45.0) + 1e-12);
+    }
+  }
+  // 1001 readings: 700 +- 14.5 seen, 500 +- 22 phantoms (Poisson), each landmark's id half of them.
+  EXPECT_NEAR(real / 1001.0, 0.7, 0.05);
+  EXPECT_NEAR(phantom / 1001.0, 0.5, 0.07);
+  EXPECT_NEAR(phantom_ids[0] / static_cast<double>(phantom), 0.5, 0.1);
+  // Without ids, phantoms and real detections alike report -1.
+  for (const auto& r :
+       range_bearing_readings(range_bearing_world("  - {id: 7, position: [3, 0]}\n",
+                                                  "{false_detections: 2, report_ids: false}"),
+                              1.0)) {
+    for (const Detection& d : r.data.detections) EXPECT_EQ(d.id, -1);
+  }
+}
+
+TEST(RangeBearing, SeesOtherRobotsOnlyWhenAskedAndByTheirIndex) {
+  const std::string others =
+      "  - {name: b, start: {x: 2, y: 0.5}}\n"
+      "  - {name: c, start: {x: -2, y: 0}}\n";  // behind
+  const std::string landmark = "  - {id: 3, position: [4, -1]}\n";
+  const auto with = range_bearing_readings(
+      range_bearing_world(landmark, "{sees_robots: true, sigma_range_m: 0, sigma_bearing: 0}",
+                          others),
+      1.0);
+  ASSERT_FALSE(with.empty());
+  for (const auto& r : with) {
+    ASSERT_EQ(r.data.detections.size(), 2u);
+    const Detection& landmark_seen = r.data.detections[0];
+    const Detection& robot_seen = r.data.detections[1];
+    EXPECT_EQ(landmark_seen.target, DetectionTarget::kLandmark);
+    EXPECT_EQ(landmark_seen.id, 3);
+    EXPECT_EQ(robot_seen.target, DetectionTarget::kRobot);
+    EXPECT_EQ(robot_seen.id, 1);
+    EXPECT_EQ(robot_seen.truth_id, 1);
+    EXPECT_NEAR(robot_seen.range_m, std::hypot(2.0, 0.5), 1e-6);
+  }
+  const auto without = range_bearing_readings(range_bearing_world(landmark, "{}", others), 1.0);
+  for (const auto& r : without) {
+    for (const Detection& d : r.data.detections) EXPECT_EQ(d.target, DetectionTarget::kLandmark);
+  }
+}
+
+TEST(RangeBearing, ABiasFaultShiftsTheRanges) {
+  const auto readings = range_bearing_readings(
+      range_bearing_world("  - {id: 1, position: [3, 0]}\n", "{sigma_range_m: 0}") +
+          "scenario:\n  events:\n"
+          "    - {at_s: 1, sensor_fault: {sensor: range_bearing, mode: bias, "
+          "bias: 0.5}}\n",
+      2.0);
+  ASSERT_FALSE(readings.empty());
+  int before = 0, after = 0;
+  for (const auto& r : readings) {
+    ASSERT_EQ(r.data.detections.size(), 1u);
+    if (std::abs(r.t_s - 1.0) < 1e-9) continue;  // the fault's own instant
+    EXPECT_NEAR(r.data.detections[0].range_m, r.t_s < 1.0 ? 3.0 : 3.5, 1e-9) << r.t_s;
+    ++(r.t_s < 1.0 ? before : after);
+  }
+  EXPECT_EQ(before, 10);
+  EXPECT_EQ(after, 10);
 }
 
 // ------------------------------------------------------------------------------- ultrasonic

@@ -43,6 +43,11 @@ json sensors(const SensorsDef& s) {
         {{"ticks_per_rev", d.ticks_per_rev}, {"k_left", d.k_left}, {"k_right", d.k_right}});
     if (d.odometry_wheel_base_m)
       out["encoders"]["odometry_wheel_base_m"] = *d.odometry_wheel_base_m;
+    json reports = json::array();
+    for (const OdometryField field : kOdometryFields) {
+      if ((d.reports & field) != 0) reports.push_back(odometry_field_name(field));
+    }
+    out["encoders"]["reports"] = reports;
   }
   if (s.imu) {
     const ImuDef& d = *s.imu;
@@ -114,6 +119,23 @@ json sensors(const SensorsDef& s) {
                          {"lambda_short", d.lambda_short},
                          {"p_max", d.p_max},
                          {"p_random", d.p_random}});
+  }
+  if (s.range_bearing) {
+    const RangeBearingDef& d = *s.range_bearing;
+    out["range_bearing"] = common(d.common);
+    out["range_bearing"].update({{"fov", d.fov_rad},
+                                 {"min_range_m", d.min_range_m},
+                                 {"max_range_m", d.max_range_m},
+                                 {"sigma_range_m", d.sigma_range_m},
+                                 {"sigma_range_per_m", d.sigma_range_per_m},
+                                 {"range_bias_m", d.range_bias_m},
+                                 {"range_bias_per_m", d.range_bias_per_m},
+                                 {"sigma_bearing", d.sigma_bearing_rad},
+                                 {"bearing_bias", d.bearing_bias_rad},
+                                 {"miss_probability", d.miss_probability},
+                                 {"false_detections", d.false_detections},
+                                 {"report_ids", d.report_ids},
+                                 {"sees_robots", d.sees_robots}});
   }
   return out;
 }

@@ -28,6 +28,7 @@ void FrameCapture::consume(const Record& record) {
         if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
         if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
         if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;
+        if constexpr (std::is_same_v<T, RangeBearingReading>) latest.range_bearing = data;
       },
       record.reading.data);
 }
@@ -130,6 +131,15 @@ FrameState FrameCapture::capture(const Simulation& sim) {
         }
       }
       r.camera = camera;
+    }
+    r.range_bearing = def.sensors.range_bearing && def.sensors.range_bearing->common.enabled;
+    if (latest.range_bearing && r.range_bearing) {
+      for (const Detection& d : latest.range_bearing->detections) {
+        const double bearing = r.pose.theta + d.bearing_rad;
+        r.sightings.push_back(
+            {r.pose.position() + d.range_m * Vec2(std::cos(bearing), std::sin(bearing)),
+             d.target == DetectionTarget::kRobot});
+      }
     }
     frame.robots.push_back(std::move(r));
   }

@@ -34,6 +34,7 @@ class FrameCapture final : public RecordConsumer {
     std::optional<LaserScan> laser;
     std::optional<UltrasonicReading> ultrasonic;
     std::optional<PtzReading> ptz;
+    std::optional<RangeBearingReading> range_bearing;
     bool carried = false;
     int kidnaps = 0;   // the simulation's count when last seen
     Pose2 floor_pose;  // the last pose on the floor, where a kidnap picks it up

@@ -44,6 +44,14 @@ struct FrameRobot {
     CameraShot shot;                 // for drawing the camera's own view
   };
   std::optional<Camera> camera;
+  // The range-bearing sensor's latest detections, from the robot's position: where each puts
+  // its target (world frame), and whether that is another robot.
+  struct Sighting {
+    Vec2 at_m{0.0, 0.0};
+    bool robot = false;
+  };
+  std::vector<Sighting> sightings;
+  bool range_bearing = false;  // has the sensor (the legend shows it even with nothing seen)
 };
 
 struct FrameMover {

@@ -87,36 +87,35 @@ RunRecorder::RunRecorder(const RunFolder& folder, const WorldDef& world,
                 "', TUM format, z = 0)\n");
   }
   readings_.resize(world.robots.size());
+  reports_velocity_.assign(world.robots.size(), false);
   for (std::size_t i = 0; readings && i < world.robots.size(); ++i) {
     const SensorsDef& sensors = world.robots[i].sensors;
-    const auto on = [](const auto& def) { return def && def->common.enabled; };
-    const std::pair<SensorKind, bool> enabled[] = {
-        {SensorKind::kEncoders, on(sensors.encoders)},
-        {SensorKind::kImu, on(sensors.imu)},
-        {SensorKind::kPtzCamera, on(sensors.ptz_camera)},
-        {SensorKind::kOmniCamera, on(sensors.omni_camera)},
-        {SensorKind::kUltrasonic, on(sensors.ultrasonic)},
-        {SensorKind::kLaser, on(sensors.laser)}};
-    if (std::none_of(std::begin(enabled), std::end(enabled),
-                     [](const auto& e) { return e.second; }))
-      continue;
+    const auto enabled = [&](SensorKind kind) { return sensor_enabled(sensors, kind); };
+    if (std::none_of(kSensorKinds.begin(), kSensorKinds.end(), enabled)) continue;
     const json config = to_json(world)["robots"][i]["sensors"];
     const fs::path dir = folder.robot_dirs[i] / "readings";
     fs::create_directories(dir);
-    static const char* kHeaders[] = {
-        "t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad",
+    // By SensorKind. The odometry's velocity columns only when the encoders report it: the
+    // readings/ of every other world stay as they were.
+    reports_velocity_[i] =
+        enabled(SensorKind::kEncoders) && (sensors.encoders->reports & kOdometryVelocity) != 0;
+    const std::string headers[] = {
+        std::string("t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad") +
+            (reports_velocity_[i] ? ",v_mps,omega_radps" : ""),
         "t_s,yaw_rate_radps,accel_x_mps2,accel_y_mps2",
         "t_s,pan_rad,tilt_rad,zoom,detections,color,id,range_m,bearing_rad,truth_id",
         "t_s,detections,color,id,range_m,bearing_rad,truth_id",
         "t_s,receiver,beacon_id,range_m,truth_status",
         "t_s,ranges_m",
+        "t_s,detections,color,id,range_m,bearing_rad,truth_id,target",
     };
-    for (const auto& [kind, is_on] : enabled) {
-      if (!is_on) continue;
+    static_assert(std::size(headers) == kSensorKinds.size());
+    for (const SensorKind kind : kSensorKinds) {
+      if (!enabled(kind)) continue;
       const auto k = static_cast<std::size_t>(kind);
       readings_[i][k] =
           std::make_unique<OutputFile>(dir / (std::string(sensor_name(kind)) + ".csv"));
-      readings_[i][k]->write(std::string(kHeaders[k]) + '\n');
+      readings_[i][k]->write(headers[k] + '\n');
     }
     json described = config;
     if (described.contains("laser")) {
@@ -157,6 +156,10 @@ void RunRecorder::write_reading(const Reading& reading) {
           number(data.odometry.x, 6);
           number(data.odometry.y, 6);
           number(data.odometry.theta, 6);
+          if (reports_velocity_[static_cast<std::size_t>(reading.robot)]) {
+            number(data.v_mps, 6);
+            number(data.omega_radps, 6);
+          }
           line_ += '\n';
         } else if constexpr (std::is_same_v<T, ImuReading>) {
           start_row();
@@ -164,7 +167,11 @@ void RunRecorder::write_reading(const Reading& reading) {
           number(data.accel_mps2.x(), 5);
           number(data.accel_mps2.y(), 5);
           line_ += '\n';
-        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading>) {
+        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading> ||
+                             std::is_same_v<T, RangeBearingReading>) {
+          // Only the range_bearing sensor's file says what each detection is of (the cameras'
+          // files keep their columns).
+          constexpr bool kTargets = std::is_same_v<T, RangeBearingReading>;
           std::string prefix;
           append_fixed(prefix, reading.t_s, 4);
           if constexpr (std::is_same_v<T, PtzReading>) {
@@ -176,12 +183,14 @@ void RunRecorder::write_reading(const Reading& reading) {
             append_fixed(prefix, data.zoom, 3);
           }
           prefix += ',' + std::to_string(data.detections.size());
-          if (data.detections.empty()) line_ += prefix + ",,,,,\n";
+          if (data.detections.empty()) line_ += prefix + (kTargets ? ",,,,,,\n" : ",,,,,\n");
           for (const Detection& d : data.detections) {
             line_ += prefix + ',' + d.color + ',' + std::to_string(d.id);
             number(d.range_m, 4);
             number(d.bearing_rad, 6);
-            line_ += ',' + std::to_string(d.truth_id) + '\n';
+            line_ += ',' + std::to_string(d.truth_id);
+            if constexpr (kTargets) line_ += ',' + std::string(detection_target_name(d.target));
+            line_ += '\n';
           }
         } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
           for (const BeaconRange& r : data.ranges) {

@@ -66,9 +66,11 @@ class RunRecorder final : public RecordConsumer, public EstimateConsumer {
 
  private:
   void write_reading(const Reading& reading);
-  std::vector<std::unique_ptr<OutputFile>> groundtruth_;              // by robot
-  std::vector<std::array<std::unique_ptr<OutputFile>, 6>> readings_;  // by robot, SensorKind
-  std::vector<std::unique_ptr<OutputFile>> estimates_;                // by localizer
+  std::vector<std::unique_ptr<OutputFile>> groundtruth_;  // by robot
+  // By robot, SensorKind.
+  std::vector<std::array<std::unique_ptr<OutputFile>, kSensorKinds.size()>> readings_;
+  std::vector<bool> reports_velocity_;  // by robot: odometry.csv has the velocity columns
+  std::vector<std::unique_ptr<OutputFile>> estimates_;  // by localizer
   std::unique_ptr<OutputFile> events_;
   std::string line_;
 };

@@ -1,6 +1,8 @@
 #include "sim/producers/log_source.hpp"
 
 #include <cmath>
+#include <type_traits>
+#include <variant>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/yaml_node.hpp"
@@ -54,6 +56,50 @@ bool LogSource::next(Record& record) {
   return true;
 }
 
+void LogSource::check_contents(const Record& record, const RobotDef& robot) const {
+  const Reading& reading = record.reading;
+  const SensorsDef& sensors = robot.sensors;
+  const auto check_detections = [&](const std::vector<Detection>& detections) {
+    for (const Detection& d : detections) {
+      // An unidentified robot (-1) is allowed: a sensor without ids reports none.
+      if (d.target == DetectionTarget::kRobot && d.id != -1 &&
+          (d.id < 0 || static_cast<std::size_t>(d.id) >= world_.robots.size() ||
+           d.id == reading.robot)) {
+        reader_.reject("a detection of robot " + std::to_string(d.id) + " by robot '" + robot.name +
+                       "', which is not another robot of the world's " +
+                       std::to_string(world_.robots.size()));
+      }
+    }
+  };
+  std::visit(
+      [&](const auto& data) {
+        using T = std::decay_t<decltype(data)>;
+        if constexpr (std::is_same_v<T, OdometryReading>) {
+          if (data.fields != sensors.encoders->reports) {
+            reader_.reject("an odometry reading with fields " + odometry_fields_text(data.fields) +
+                           "; robot '" + robot.name + "'s encoders report " +
+                           odometry_fields_text(sensors.encoders->reports));
+          }
+        } else if constexpr (std::is_same_v<T, UltrasonicReading>) {
+          for (const BeaconRange& range : data.ranges) {
+            if (range.receiver < 0 ||
+                static_cast<std::size_t>(range.receiver) >= sensors.ultrasonic->receivers.size())
+              reader_.reject("an ultrasonic range from receiver " + std::to_string(range.receiver) +
+                             ", which robot '" + robot.name + "' does not have");
+          }
+        } else if constexpr (std::is_same_v<T, LaserScan>) {
+          const std::size_t beams = data.ranges_m.size();
+          if (beams != static_cast<std::size_t>(sensors.laser->beams))
+            reader_.reject("a laser scan of " + std::to_string(beams) + " beams; robot '" +
+                           robot.name + "'s laser has " + std::to_string(sensors.laser->beams));
+        } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading> ||
+                             std::is_same_v<T, RangeBearingReading>) {
+          check_detections(data.detections);
+        }
+      },
+      reading.data);
+}
+
 void LogSource::check(const Record& record) const {
   const std::size_t robots = world_.robots.size();
   const auto robot_known = [&](int robot) {
@@ -68,46 +114,8 @@ void LogSource::check(const Record& record) const {
       }
       const RobotDef& robot = world_.robots[static_cast<std::size_t>(reading.robot)];
       const SensorsDef& sensors = robot.sensors;
-      const auto has = [](const auto& def) { return def && def->common.enabled; };
-      bool known = false;
-      switch (reading.kind) {
-        case SensorKind::kEncoders:
-          known = has(sensors.encoders);
-          break;
-        case SensorKind::kImu:
-          known = has(sensors.imu);
-          break;
-        case SensorKind::kPtzCamera:
-          known = has(sensors.ptz_camera);
-          break;
-        case SensorKind::kOmniCamera:
-          known = has(sensors.omni_camera);
-          break;
-        case SensorKind::kUltrasonic:
-          known = has(sensors.ultrasonic);
-          if (known) {
-            for (const BeaconRange& range : std::get<UltrasonicReading>(reading.data).ranges) {
-              if (range.receiver < 0 ||
-                  static_cast<std::size_t>(range.receiver) >= sensors.ultrasonic->receivers.size())
-                reader_.reject("an ultrasonic range from receiver " +
-                               std::to_string(range.receiver) + ", which robot '" + robot.name +
-                               "' does not have");
-            }
-          }
-          break;
-        case SensorKind::kLaser:
-          known = has(sensors.laser);
-          if (known) {
-            const std::size_t beams = std::get<LaserScan>(reading.data).ranges_m.size();
-            if (beams != static_cast<std::size_t>(sensors.laser->beams))
-              reader_.reject("a laser scan of " + std::to_string(beams) + " beams; robot '" +
-                             robot.name + "'s laser has " + std::to_string(sensors.laser->beams));
-          }
-          break;
-        case SensorKind::kRangeBearing:
-          known = has(sensors.range_bearing);
-          break;
-      }
+      const bool known = sensor_enabled(sensors, reading.kind);
+      if (known) check_contents(record, robot);
       if (!known) {
         reader_.reject(std::string("a reading of the ") + sensor_name(reading.kind) +
                        ", which robot '" + robot.name + "' does not have");

@@ -22,11 +22,15 @@ class LogSource {
   const nlohmann::ordered_json& header() const { return reader_.header(); }
   /// The next record; false after the last. Throws InputError on a corrupt or truncated log, and
   /// on a record its world cannot have produced (another robot's, a sensor the robot lacks, a
-  /// laser scan of another beam count), which the consumers could not take.
+  /// laser scan of another beam count, odometry fields its encoders do not report, a detection
+  /// of a robot that is not another robot of the world), which the consumers could not take.
   bool next(Record& record);
 
  private:
   void check(const Record& record) const;
+  /// What a reading of a sensor the robot has may hold: odometry fields as its encoders report,
+  /// receivers and beams it has, detected robots that are other robots of the world.
+  void check_contents(const Record& record, const RobotDef& robot) const;
   LogReader reader_;
   WorldDef world_;
   ScenarioDef scenario_;

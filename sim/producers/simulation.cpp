@@ -37,6 +37,7 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
       if (d.robot == def.name)
         slot.driver = make_driver(d, make_stream(seed, "driver/" + def.name));
     }
+    robot_views_.push_back(slot.robot.get());
     robots_.push_back(std::move(slot));
   }
   for (const EventDef& event : scenario_.events) {
@@ -102,6 +103,7 @@ void Simulation::run_sensors(bool physics_stepped) {
   for (std::size_t i = 0; i < robots_.size(); ++i) {
     RobotSlot& slot = robots_[i];
     SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
+    context.robots = &robot_views_;
     if (renders_images_) {
       if (!refreshed) refresh_moving_prisms(), refreshed = true;
       context.moving = &moving_prisms_;

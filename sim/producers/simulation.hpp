@@ -120,6 +120,7 @@ class Simulation {
   bool done_ = false;
   std::unique_ptr<PhysicsWorld> world_;
   std::vector<RobotSlot> robots_;
+  std::vector<const DiffDriveRobot*> robot_views_;  // robots_' robots, for sensors seeing robots
   std::vector<SimEvent> events_;
   std::unique_ptr<StaticRaycaster> static_rays_;
   std::unique_ptr<SceneRays> rays_;

@@ -153,12 +153,7 @@ EventDef parse_event(const YamlNode& node) {
     event.robot = fault->get_string("robot", "");
     const YamlNode sensor = (*fault)["sensor"];
     event.sensor = sensor.as_string();
-    static const std::array<std::string_view, 6> kSensors = {
-        "encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser"};
-    if (std::find(kSensors.begin(), kSensors.end(), event.sensor) == kSensors.end()) {
-      sensor.fail(
-          "unknown sensor (known: encoders, imu, ptz_camera, omni_camera, ultrasonic, laser)");
-    }
+    if (!sensor_kind(event.sensor)) sensor.fail("unknown sensor (known: " + sensor_names() + ")");
     const YamlNode mode = (*fault)["mode"];
     const std::string mode_name = mode.as_string();
     if (mode_name == "dropout") {
@@ -358,13 +353,8 @@ void bind_scenario(ScenarioDef& scenario, const WorldDef& world) {
         const RobotDef& robot =
             *std::find_if(world.robots.begin(), world.robots.end(),
                           [&](const RobotDef& r) { return r.name == event.robot; });
-        const SensorsDef& s = robot.sensors;
-        const bool present =
-            (event.sensor == "encoders" && s.encoders) || (event.sensor == "imu" && s.imu) ||
-            (event.sensor == "ptz_camera" && s.ptz_camera) ||
-            (event.sensor == "omni_camera" && s.omni_camera) ||
-            (event.sensor == "ultrasonic" && s.ultrasonic) || (event.sensor == "laser" && s.laser);
-        if (!present) {
+        const std::optional<SensorKind> kind = sensor_kind(event.sensor);
+        if (!kind || sensor_common(robot.sensors, *kind) == nullptr) {
           throw InputError(event.where, event.key_path + ".sensor",
                            "robot '" + event.robot + "' has no " + event.sensor);
         }

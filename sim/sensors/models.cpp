@@ -68,7 +68,19 @@ std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) 
   odometry_.x += distance * std::cos(mid_heading);
   odometry_.y += distance * std::sin(mid_heading);
   odometry_.theta = wrap_angle(odometry_.theta + turn);
-  return OdometryReading{ticks_[0], ticks_[1], odometry_};
+  // What a base computing its velocity from the counts says: the mean over the last period (none
+  // before the first period has passed).
+  const double period_s = context.t_s - last_sample_s_;
+  last_sample_s_ = context.t_s;
+  OdometryReading reading;
+  reading.fields = def_.reports;
+  if (reading.has(kOdometryTicks)) reading.left_ticks = ticks_[0], reading.right_ticks = ticks_[1];
+  if (reading.has(kOdometryPose)) reading.odometry = odometry_;
+  if (reading.has(kOdometryVelocity) && period_s > 0.0) {
+    reading.v_mps = distance / period_s;
+    reading.omega_radps = turn / period_s;
+  }
+  return reading;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -441,6 +453,94 @@ std::optional<ReadingData> OmniCameraSensor::measure(const SensorContext& contex
 
 void OmniCameraSensor::apply_bias(ReadingData& data, double bias) const {
   for (Detection& d : std::get<OmniReading>(data).detections) d.range_m += bias;
+}
+
+// ---------------------------------------------------------------------------------------------
+std::optional<Detection> RangeBearingSensor::observe(const SensorContext& context,
+                                                     const Pose2& sensor, const Vec2& position_m,
+                                                     double radius_m) {
+  const Vec2 offset = position_m - sensor.position();
+  const double range = offset.norm();
+  if (range < def_.min_range_m || range > def_.max_range_m || range < 1e-6) return std::nullopt;
+  const double bearing = wrap_angle(std::atan2(offset.y(), offset.x()) - sensor.theta);
+  if (std::abs(bearing) > 0.5 * def_.fov_rad) return std::nullopt;
+  // Line of sight as the omni camera checks it: the centre may be hidden by the target's own
+  // surface only.
+  if (context.rays.blocked(sensor.position(), position_m, context.robot.body()) &&
+      context.rays.cast(sensor.position(), offset / range, range - radius_m, context.robot.body()) <
+          range - radius_m - 1e-6) {
+    return std::nullopt;
+  }
+  // Drawn only when misses are asked for: the other draws of a world without them stay put.
+  if (def_.miss_probability > 0.0 && rng().uniform() < def_.miss_probability) return std::nullopt;
+  // One draw per statement (see OmniCameraSensor::measure): range first, then bearing.
+  const double range_noise_m =
+      rng().normal(0.0, def_.sigma_range_m + def_.sigma_range_per_m * range);
+  const double bearing_noise_rad = rng().normal(0.0, def_.sigma_bearing_rad);
+  // A range is never negative, however large the noise.
+  const double measured_range =
+      std::max(0.0, range + def_.range_bias_m + def_.range_bias_per_m * range + range_noise_m);
+  const double measured_bearing = bearing + def_.bearing_bias_rad + bearing_noise_rad;
+  Detection detection;
+  to_robot_frame(
+      def_.common.mount,
+      {measured_range * std::cos(measured_bearing), measured_range * std::sin(measured_bearing)},
+      detection.range_m, detection.bearing_rad);
+  return detection;
+}
+
+Detection RangeBearingSensor::phantom(const SensorContext& context) {
+  Detection detection;
+  const auto& landmarks = context.world.landmarks;
+  if (!landmarks.empty()) {
+    const auto& pick = landmarks[std::min(
+        landmarks.size() - 1,
+        static_cast<std::size_t>(rng().uniform() * static_cast<double>(landmarks.size())))];
+    detection.color = color_label(pick);
+    detection.id = def_.report_ids ? pick.id : -1;
+  }
+  const double range = rng().uniform(def_.min_range_m, def_.max_range_m);
+  const double bearing = rng().uniform(-0.5 * def_.fov_rad, 0.5 * def_.fov_rad);
+  to_robot_frame(def_.common.mount, {range * std::cos(bearing), range * std::sin(bearing)},
+                 detection.range_m, detection.bearing_rad);
+  return detection;
+}
+
+std::optional<ReadingData> RangeBearingSensor::measure(const SensorContext& context) {
+  RangeBearingReading reading;
+  if (context.robot.carried()) return reading;  // in the air: sees nothing useful
+  const Pose2 sensor = sensor_pose(context.robot, def_.common.mount);
+  for (const LandmarkDef& landmark : context.world.landmarks) {
+    std::optional<Detection> detection =
+        observe(context, sensor, landmark.position_m, landmark.radius_m);
+    if (!detection) continue;
+    detection->color = color_label(landmark);
+    detection->id = def_.report_ids ? landmark.id : -1;
+    detection->truth_id = landmark.id;
+    reading.detections.push_back(std::move(*detection));
+  }
+  if (def_.sees_robots && context.robots != nullptr) {
+    for (std::size_t i = 0; i < context.robots->size(); ++i) {
+      const DiffDriveRobot& other = *(*context.robots)[i];
+      if (&other == &context.robot || other.carried()) continue;
+      std::optional<Detection> detection =
+          observe(context, sensor, other.pose().position(), bounding_radius(other.def().footprint));
+      if (!detection) continue;
+      detection->target = DetectionTarget::kRobot;
+      detection->id = def_.report_ids ? static_cast<int>(i) : -1;
+      detection->truth_id = static_cast<int>(i);
+      reading.detections.push_back(std::move(*detection));
+    }
+  }
+  if (def_.false_detections > 0.0) {
+    const int count = poisson(rng(), def_.false_detections);
+    for (int i = 0; i < count; ++i) reading.detections.push_back(phantom(context));
+  }
+  return reading;
+}
+
+void RangeBearingSensor::apply_bias(ReadingData& data, double bias) const {
+  for (Detection& d : std::get<RangeBearingReading>(data).detections) d.range_m += bias;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,7 +6,8 @@
 namespace locsim {
 
 /// Counts wheel rotation (slip, collisions and kidnaps show as on a real robot) with paper 002's
-/// distance-proportional random error, and dead-reckons the odometry pose from the counts.
+/// distance-proportional random error, and dead-reckons the odometry pose from the counts; it
+/// reports what EncodersDef::reports names (the velocity: the counted travel over the period).
 class EncoderSensor final : public Sensor {
  public:
   EncoderSensor(const EncodersDef& def, const RobotDef& robot, RandomStream rng);
@@ -24,6 +25,7 @@ class EncoderSensor final : public Sensor {
   double counted_angle_rad_[2] = {0.0, 0.0};  // what the encoder has counted, with its error
   std::int64_t ticks_[2] = {0, 0};
   Pose2 odometry_;
+  double last_sample_s_ = 0.0;  // for the velocity over the last period [s]
 };
 
 /// Yaw rate and specific force at the mount, averaged over each sample interval (the IMU's
@@ -96,6 +98,28 @@ class OmniCameraSensor final : public Sensor {
 
  private:
   OmniCameraDef def_;
+};
+
+/// Range and bearing to the landmarks (and optionally the other robots) in a field of view and
+/// range interval, in line of sight: Gaussian noise in range (spread and bias growing with range)
+/// and bearing, missed and false detections (a barcode camera as MRCLAM's robots carry).
+class RangeBearingSensor final : public Sensor {
+ public:
+  RangeBearingSensor(const RangeBearingDef& def, RandomStream rng)
+      : Sensor(SensorKind::kRangeBearing, def.common, rng), def_(def) {}
+
+ protected:
+  std::optional<ReadingData> measure(const SensorContext& context) override;
+  void apply_bias(ReadingData& data, double bias) const override;
+
+ private:
+  /// The target at `position_m` (of radius `radius_m`, on `body`) as measured from `sensor`, or
+  /// nothing when it is outside the field of view or range, hidden, or missed.
+  std::optional<Detection> observe(const SensorContext& context, const Pose2& sensor,
+                                   const Vec2& position_m, double radius_m);
+  /// A false detection, uniform over the field of view and range interval.
+  Detection phantom(const SensorContext& context);
+  RangeBearingDef def_;
 };
 
 /// Time-of-flight ranges from each receiver to each fixed beacon; blocked lines of sight give a

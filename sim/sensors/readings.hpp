@@ -2,8 +2,11 @@
 // are the simulator's knowledge for analysis; a filter must never be given them.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -21,7 +24,14 @@ enum class SensorKind {
   kLaser,
   kRangeBearing
 };
+inline constexpr std::array kSensorKinds = {
+    SensorKind::kEncoders,   SensorKind::kImu,   SensorKind::kPtzCamera,   SensorKind::kOmniCamera,
+    SensorKind::kUltrasonic, SensorKind::kLaser, SensorKind::kRangeBearing};
 const char* sensor_name(SensorKind kind);  // "encoders", "imu", "ptz_camera", ...
+/// The kind of the sensor called `name` (its YAML key), if there is one.
+std::optional<SensorKind> sensor_kind(std::string_view name);
+/// Every sensor's name, comma-separated, for messages.
+std::string sensor_names();
 
 /// What an odometry reading carries: a simulated base reports its wheel ticks and the pose it
 /// dead-reckons from them; a real dataset reports what its robot logged (MRCLAM: commanded
@@ -34,6 +44,10 @@ enum OdometryField : std::uint8_t {
 };
 inline constexpr std::uint8_t kOdometryAllFields =
     kOdometryTicks | kOdometryPose | kOdometryVelocity;
+inline constexpr std::array kOdometryFields = {kOdometryTicks, kOdometryPose, kOdometryVelocity};
+const char* odometry_field_name(OdometryField field);  // "ticks", "pose", "velocity"
+/// The names of the bits set in `fields`, comma-separated ("ticks, pose"), for messages.
+std::string odometry_fields_text(std::uint8_t fields);
 
 /// The `encoders` sensor's reading: the fields `fields` names hold values, the others zeros.
 struct OdometryReading {
@@ -55,6 +69,7 @@ struct ImuReading {
 
 /// What a detection is of. Values of the log format and of the ABI's LOCSIM_TARGET_*.
 enum class DetectionTarget : std::uint8_t { kLandmark = 0, kRobot = 1 };
+const char* detection_target_name(DetectionTarget target);  // "landmark", "robot"
 
 /// A landmark (or another robot) seen by a camera, relative to the robot frame.
 struct Detection {

@@ -26,6 +26,82 @@ const char* sensor_name(SensorKind kind) {
   return "?";
 }
 
+std::optional<SensorKind> sensor_kind(std::string_view name) {
+  for (const SensorKind kind : kSensorKinds) {
+    if (name == sensor_name(kind)) return kind;
+  }
+  return std::nullopt;
+}
+
+std::string sensor_names() {
+  std::string names;
+  for (const SensorKind kind : kSensorKinds) {
+    if (!names.empty()) names += ", ";
+    names += sensor_name(kind);
+  }
+  return names;
+}
+
+const char* odometry_field_name(OdometryField field) {
+  switch (field) {
+    case kOdometryTicks:
+      return "ticks";
+    case kOdometryPose:
+      return "pose";
+    case kOdometryVelocity:
+      return "velocity";
+  }
+  return "?";
+}
+
+std::string odometry_fields_text(std::uint8_t fields) {
+  std::string text;
+  for (const OdometryField field : kOdometryFields) {
+    if ((fields & field) == 0) continue;
+    if (!text.empty()) text += ", ";
+    text += odometry_field_name(field);
+  }
+  return text.empty() ? "none" : text;
+}
+
+const char* detection_target_name(DetectionTarget target) {
+  switch (target) {
+    case DetectionTarget::kLandmark:
+      return "landmark";
+    case DetectionTarget::kRobot:
+      return "robot";
+  }
+  return "?";
+}
+
+const SensorCommon* sensor_common(const SensorsDef& sensors, SensorKind kind) {
+  const auto common = [](const auto& def) -> const SensorCommon* {
+    return def ? &def->common : nullptr;
+  };
+  switch (kind) {
+    case SensorKind::kEncoders:
+      return common(sensors.encoders);
+    case SensorKind::kImu:
+      return common(sensors.imu);
+    case SensorKind::kPtzCamera:
+      return common(sensors.ptz_camera);
+    case SensorKind::kOmniCamera:
+      return common(sensors.omni_camera);
+    case SensorKind::kUltrasonic:
+      return common(sensors.ultrasonic);
+    case SensorKind::kLaser:
+      return common(sensors.laser);
+    case SensorKind::kRangeBearing:
+      return common(sensors.range_bearing);
+  }
+  return nullptr;
+}
+
+bool sensor_enabled(const SensorsDef& sensors, SensorKind kind) {
+  const SensorCommon* common = sensor_common(sensors, kind);
+  return common != nullptr && common->enabled;
+}
+
 const char* range_status_name(RangeStatus status) {
   switch (status) {
     case RangeStatus::kLineOfSight:
@@ -102,6 +178,10 @@ std::vector<std::unique_ptr<Sensor>> make_sensors(const RobotDef& robot, std::ui
   }
   if (defs.laser && defs.laser->common.enabled) {
     sensors.push_back(std::make_unique<LaserSensor>(*defs.laser, stream(SensorKind::kLaser)));
+  }
+  if (defs.range_bearing && defs.range_bearing->common.enabled) {
+    sensors.push_back(std::make_unique<RangeBearingSensor>(*defs.range_bearing,
+                                                           stream(SensorKind::kRangeBearing)));
   }
   return sensors;
 }

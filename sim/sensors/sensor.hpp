@@ -27,6 +27,9 @@ struct SensorContext {
   const SceneRays& rays;
   // Everything that moves, for a camera that renders its image; null unless one does.
   const std::vector<ScenePrism>* moving = nullptr;
+  // Every robot of the world, by index (this one included), for a sensor that detects robots;
+  // null when none does.
+  const std::vector<const DiffDriveRobot*>* robots = nullptr;
 };
 
 class Sensor {

@@ -204,4 +204,9 @@ struct SensorsDef {
   std::optional<RangeBearingDef> range_bearing;
 };
 
+/// The common settings of the sensor of `kind` in `sensors`; null when the robot has none.
+const SensorCommon* sensor_common(const SensorsDef& sensors, SensorKind kind);
+/// Whether the robot has the sensor of `kind`, enabled.
+bool sensor_enabled(const SensorsDef& sensors, SensorKind kind);
+
 }  // namespace locsim

@@ -57,10 +57,10 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
                           d.reports = 0;
                           for (const YamlNode& item : reports->items()) {
                             const std::string field = item.as_string();
-                            const std::uint8_t bit = field == "ticks"      ? kOdometryTicks
-                                                     : field == "pose"     ? kOdometryPose
-                                                     : field == "velocity" ? kOdometryVelocity
-                                                                           : 0;
+                            std::uint8_t bit = 0;
+                            for (const OdometryField f : kOdometryFields) {
+                              if (field == odometry_field_name(f)) bit = f;
+                            }
                             if (bit == 0)
                               item.fail("must be ticks, pose or velocity, not '" + field + "'");
                             d.reports |= bit;

@@ -40,7 +40,12 @@ void BM_SensorAlone(benchmark::State& state, SensorKind kind) {
       only.laser = all.laser;
       break;
     case SensorKind::kRangeBearing:
-      only.range_bearing = all.range_bearing;
+      // The demo robot has none (the MRCLAM twin world will): the defaults, seeing everything.
+      only.range_bearing = all.range_bearing.value_or(RangeBearingDef{});
+      only.range_bearing->fov_rad = deg_to_rad(360.0);
+      only.range_bearing->max_range_m = 20.0;
+      only.range_bearing->miss_probability = 0.05;
+      only.range_bearing->false_detections = 0.5;
       break;
   }
   all = only;
@@ -65,6 +70,7 @@ BENCHMARK_CAPTURE(BM_SensorAlone, ptz_camera, SensorKind::kPtzCamera);
 BENCHMARK_CAPTURE(BM_SensorAlone, omni_camera, SensorKind::kOmniCamera);
 BENCHMARK_CAPTURE(BM_SensorAlone, ultrasonic, SensorKind::kUltrasonic);
 BENCHMARK_CAPTURE(BM_SensorAlone, laser, SensorKind::kLaser);
+BENCHMARK_CAPTURE(BM_SensorAlone, range_bearing, SensorKind::kRangeBearing);
 
 /// One 360-beam sweep from the middle of a world: the static grid vs Box2D's broad-phase cast.
 void BM_RaySweep(benchmark::State& state, const char* world_file, bool box2d) {
