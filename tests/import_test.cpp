@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "sim/common/errors.hpp"
+#include "sim/producers/generic_import.hpp"
 #include "sim/producers/log_source.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/run/replay.hpp"
@@ -56,7 +57,8 @@ fs::path write_dataset(const fs::path& dir) {
                                       << "  1 \t   5 \n  2 \t  14 \n  3 \t  41 \n  4 \t  32 \n"
                                          "  5 \t  23 \n  6 \t  63 \n  7 \t  81 \n";
   std::ofstream(dir / "Landmark_Groundtruth.dat")
-      << kHeader << "  6 \t 4.0 \t 0.0 \t 0.0001 \t 0.0002 \n  7 \t 4.0 \t 2.0 \t 0.0001 \t 0.0002 \n";
+      << kHeader
+      << "  6 \t 4.0 \t 0.0 \t 0.0001 \t 0.0002 \n  7 \t 4.0 \t 2.0 \t 0.0001 \t 0.0002 \n";
   std::string odometry1 = kHeader, truth1 = kHeader, measurements1 = kHeader;
   for (int i = 1; i <= 200; ++i)  // 50 Hz from 0.02 s
     odometry1 += line("%.3f \t %.3f \t %.3f \n", kT0 + 0.02 * i, kV, kW);
@@ -156,8 +158,7 @@ TEST(MrclamImport, WritesALogReplayReadsWithTheDatasetsReadingsAndTruth) {
       ASSERT_LE(time_of(before), time_of(r)) << i;
       // At equal times the readings come before the true poses.
       if (time_of(before) == time_of(r)) {
-        EXPECT_FALSE(before.type == Record::Type::kGroundTruth &&
-                     r.type == Record::Type::kReading)
+        EXPECT_FALSE(before.type == Record::Type::kGroundTruth && r.type == Record::Type::kReading)
             << i;
       }
     }
@@ -250,7 +251,7 @@ TEST(MrclamImport, AWindowStartsTheLogAtItsBeginning) {
   ASSERT_FALSE(records.empty());
   EXPECT_NEAR(time_of(records.front()), 0.0, 1e-6);
   EXPECT_LE(time_of(records.back()), 1.0 + 1e-6);
-  EXPECT_EQ(summary.ground_truth, 101u + 10u);  // robot 1 at 100 Hz, robot 2 at 10 Hz
+  EXPECT_EQ(summary.ground_truth, 101u + 11u);  // 100 Hz and 10 Hz, both ends included
 }
 
 struct BadInput {
@@ -312,7 +313,7 @@ INSTANTIATE_TEST_SUITE_P(
                  "subject 8 has no barcode"},
         BadInput{"BarcodeTwice", "Barcodes.dat", 2, "  2 \t   5 ", "barcode listed twice"},
         BadInput{"EmptyFile", "Robot2_Measurement.dat", 0, kHeader, "no data rows"}),
-    [](const auto& info) { return info.param.name; });
+    [](const auto& test) { return test.param.name; });
 
 TEST(MrclamImport, AMissingFileOrFolderIsNamed) {
   const fs::path dir = write_dataset(testing::temp_dir("data"));
@@ -342,8 +343,8 @@ TEST(MrclamImport, CommandLineImportsPrintsASummaryAndRefusesBadInputWithExit2) 
       testing::locsim("import mrclam " + dir.string() + " --robots 1,2 --out " + log.string());
   EXPECT_EQ(again.exit_code, 2) << again.output;
   EXPECT_NE(again.output.find("--overwrite"), std::string::npos) << again.output;
-  const auto bad_list = testing::locsim("import mrclam " + dir.string() +
-                                        " --robots 1,x --out " + (out / "y").string());
+  const auto bad_list = testing::locsim("import mrclam " + dir.string() + " --robots 1,x --out " +
+                                        (out / "y").string());
   EXPECT_EQ(bad_list.exit_code, 2) << bad_list.output;
   std::ofstream(dir / "Robot2_Odometry.dat") << kHeader << "1248444000.1 \t 0.1\n";
   const auto bad = testing::locsim("import mrclam " + dir.string() + " --robots 1,2 --out " +
@@ -362,8 +363,8 @@ TEST(MrclamImport, EveryLandmarkLocalizerReplaysAnImport) {
   const fs::path dir = write_dataset(testing::temp_dir("data"));
   const fs::path out = testing::temp_dir("out");
   import(dir, out / "log.locsimlog");
-  for (const char* localizer : {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl",
-                                "fastslam"}) {
+  for (const char* localizer :
+       {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl", "fastslam"}) {
     ReplayOptions options;
     options.log_file = out / "log.locsimlog";
     options.out_dir = out / localizer;
@@ -376,6 +377,103 @@ TEST(MrclamImport, EveryLandmarkLocalizerReplaysAnImport) {
         testing::read_file(out / localizer / "robot1" / (std::string(localizer) + ".tum"));
     EXPECT_GT(estimates.size(), 100u) << localizer;
   }
+}
+
+/// The generic format: two robots as sub-folders, one logging velocity and pose, the other a
+/// pose only; a detection of the other robot; an unidentified one (id -1).
+TEST(GenericImport, ReadsMapOdometryDetectionsAndTumGroundTruth) {
+  const fs::path dir = testing::temp_dir("data");
+  std::ofstream(dir / "map.csv") << "id,x,y\n6,4.0,0.0\n7,4.0,2.0\n";
+  fs::create_directories(dir / "alpha");
+  fs::create_directories(dir / "beta");
+  std::string odometry = "t,v,omega,x,y,theta\n", truth = "# t x y z qx qy qz qw\n";
+  for (int i = 0; i <= 100; ++i) {
+    const double t = 100.0 + 0.02 * i;  // absolute times: shifted by t0
+    const Pose2 p = robot1_at(0.02 * i);
+    odometry += line("%.2f,%.3f,%.3f,%.8f,%.8f,%.8f\n", t, kV, kW, p.x, p.y, p.theta);
+    truth += line("%.2f %.8f %.8f 0 0 0 %.10f %.10f\n", t, p.x, p.y, std::sin(p.theta / 2),
+                  std::cos(p.theta / 2));
+  }
+  std::ofstream(dir / "alpha" / "odometry.csv") << odometry;
+  std::ofstream(dir / "alpha" / "groundtruth.tum") << truth;
+  const auto [r, b] = range_bearing(robot1_at(1.0), kLandmark6);
+  std::ofstream(dir / "alpha" / "detections.csv")
+      << "t,id,range,bearing,target\n"
+      << line("101.00,6,%.6f,%.6f,landmark\n", r, b) << "101.00,1,2.5,0.1,robot\n"
+      << "101.50,-1,3.0,-0.2,landmark\n";
+  std::ofstream(dir / "beta" / "odometry.csv") << "t,x,y,theta\n100.5,3,1,0\n101.5,3,1,0\n";
+  std::ofstream(dir / "beta" / "groundtruth.tum") << "100.5 3 1 0 0 0 0 1\n101.5 3 1 0 0 0 0 1\n";
+
+  const fs::path log = testing::temp_dir("out") / "generic.locsimlog";
+  const ImportSummary summary = write_import(read_generic(dir), {}, log);
+  EXPECT_EQ(summary.odometry, 103u);
+  EXPECT_EQ(summary.ground_truth, 103u);
+  EXPECT_EQ(summary.detection_readings, 2u);
+  EXPECT_EQ(summary.detections, 3u);
+  EXPECT_DOUBLE_EQ(summary.t0_s, 100.0);
+  LogSource source(log);
+  EXPECT_EQ(source.header().at("source").at("format"), "generic");
+  ASSERT_EQ(source.world().robots.size(), 2u);
+  EXPECT_EQ(source.world().robots[0].name, "alpha");
+  EXPECT_EQ(source.world().robots[0].sensors.encoders->reports, kOdometryVelocity | kOdometryPose);
+  EXPECT_EQ(source.world().robots[1].sensors.encoders->reports, kOdometryPose);
+  int robot_seen = 0, unidentified = 0;
+  for (const Record& rec : read_all(source)) {
+    if (rec.type == Record::Type::kGroundTruth && rec.robot == 0) {
+      const Pose2 p = robot1_at(rec.t_s);
+      EXPECT_NEAR(rec.pose.x, p.x, 1e-6);
+      EXPECT_NEAR(rec.pose.theta, p.theta, 1e-6);  // yaw from the quaternion
+    }
+    if (rec.type != Record::Type::kReading) continue;
+    if (rec.reading.kind == SensorKind::kEncoders && rec.reading.robot == 0) {
+      const auto& o = std::get<OdometryReading>(rec.reading.data);
+      EXPECT_NEAR(o.odometry.y, robot1_at(rec.reading.t_s).y, 1e-6);
+      EXPECT_DOUBLE_EQ(o.v_mps, kV);
+    }
+    if (rec.reading.kind != SensorKind::kRangeBearing) continue;
+    for (const Detection& d : std::get<RangeBearingReading>(rec.reading.data).detections) {
+      if (d.target == DetectionTarget::kRobot) {
+        ++robot_seen;
+        EXPECT_EQ(d.id, 1);
+      } else if (d.id == -1) {
+        ++unidentified;
+        EXPECT_NEAR(rec.reading.t_s, 1.5, 1e-9);
+      } else {
+        EXPECT_EQ(d.id, 6);
+        EXPECT_NEAR(d.range_m, r, 1e-6);
+      }
+    }
+  }
+  EXPECT_EQ(robot_seen, 1);
+  EXPECT_EQ(unidentified, 1);
+}
+
+TEST(GenericImport, BadInputIsRefusedNamingFileLineAndColumn) {
+  const auto refused = [](const std::string& file, const std::string& content,
+                          const std::string& expected) {
+    const fs::path dir = testing::temp_dir("data");
+    std::ofstream(dir / "map.csv") << "id,x,y\n6,4.0,0.0\n";
+    std::ofstream(dir / "odometry.csv") << "t,v,omega\n0,0.1,0\n1,0.1,0\n";
+    std::ofstream(dir / "groundtruth.tum") << "0 0 0 0 0 0 0 1\n1 0.1 0 0 0 0 0 1\n";
+    std::ofstream(dir / file) << content;
+    try {
+      read_generic(dir);
+      ADD_FAILURE() << file << " accepted: " << content;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  refused("detections.csv", "t,id,range,bearing\n0.5,9,1.0,0.1\n",
+          "detections.csv:2:5: 'id': landmark 9 is not in map.csv");
+  refused("detections.csv", "t,id,range\n0.5,6,1.0\n", "lacks column 'bearing'");
+  refused("odometry.csv", "t,v\n0,0.1\n", "must name t,v,omega or t,x,y,theta");
+  refused("odometry.csv", "t,v,omega\n1,0.1,0\n0,0.1,0\n", "odometry.csv:3:1: 't': time 0");
+  refused("odometry.csv", "t,v,omega\n0,0.1,NaN\n", "'omega': 'NaN' is not a finite number");
+  refused("odometry.csv", "", "empty file");
+  refused("groundtruth.tum", "0 0 0 0 0 0 0.5 0.5\n", "not of unit length");
+  refused("map.csv", "id,x,y\n6,1,1\n6,2,2\n", "map.csv:3:1: 'id': landmark id listed twice");
+  refused("detections.csv", "t,id,range,bearing,target\n0.5,6,1.0,0.1,wall\n",
+          "expected landmark or robot");
 }
 
 }  // namespace

@@ -27,8 +27,8 @@ namespace {
 constexpr double kPhysicsHz = 100.0;
 constexpr std::array<double, 9> kNominalRatesHz{1, 2, 4, 5, 10, 20, 25, 50, 100};
 // Named colours of the world format that draw well on the floor, given to landmarks in turn.
-constexpr std::array<const char*, 10> kPalette{"red",    "green",  "blue",   "orange", "purple",
-                                               "cyan",   "magenta", "yellow", "brown",  "pink"};
+constexpr std::array<const char*, 10> kPalette{"red",  "green",   "blue",   "orange", "purple",
+                                               "cyan", "magenta", "yellow", "brown",  "pink"};
 
 /// The divisor of the physics rate nearest (in ratio) to the data's mean rate: the sensors'
 /// rate_hz must divide the physics rate, and readings come at the dataset's own times anyway.
@@ -51,7 +51,9 @@ void window_samples(std::vector<Sample>& samples, double lo, double hi) {
   for (Sample& s : samples) s.t_s -= lo;
 }
 
-std::string number(double value) { return short_number(value); }
+std::string number(double value) {
+  return short_number(value);
+}
 
 }  // namespace
 
@@ -195,15 +197,11 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
   json dropped = json::object();
   for (const auto& [reason, count] : summary.dropped) dropped[reason] = count;
   source["dropped_detections"] = dropped;
-  json header = {{"format", "locsim-log"},
-                 {"locsim_version", locsim_version()},
+  json header = {{"format", "locsim-log"},   {"locsim_version", locsim_version()},
                  {"seed", std::uint64_t{0}},  // nothing random in an import
-                 {"world_file", world_file},
-                 {"world_dir", world_dir.string()},
-                 {"world_yaml", yaml},
-                 {"scenario_file", nullptr},
-                 {"scenario_yaml", nullptr},
-                 {"duration_s", summary.duration_s},
+                 {"world_file", world_file}, {"world_dir", world_dir.string()},
+                 {"world_yaml", yaml},       {"scenario_file", nullptr},
+                 {"scenario_yaml", nullptr}, {"duration_s", summary.duration_s},
                  {"source", source}};
 
   const fs::path partial = out.string() + ".partial";
@@ -230,7 +228,8 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
           record.reading.kind = SensorKind::kRangeBearing;
           RangeBearingReading reading{robot.detections[e.index].detections};
           for (Detection& d : reading.detections) {
-            if (d.target == DetectionTarget::kLandmark) d.color = colors.at(d.id);
+            // An unidentified detection (id -1) has no colour either.
+            if (d.target == DetectionTarget::kLandmark && d.id >= 0) d.color = colors.at(d.id);
           }
           summary.detections += reading.detections.size();
           record.reading.data = std::move(reading);
@@ -257,8 +256,8 @@ std::string describe(const ImportSummary& s) {
   for (const std::string& name : s.robots) robots += (robots.empty() ? "" : ", ") + name;
   std::string text = std::to_string(s.records) + " records (" + std::to_string(s.odometry) +
                      " odometry, " + std::to_string(s.detection_readings) +
-                     " detection readings with " + std::to_string(s.detections) +
-                     " detections, " + std::to_string(s.ground_truth) + " true poses) of " +
+                     " detection readings with " + std::to_string(s.detections) + " detections, " +
+                     std::to_string(s.ground_truth) + " true poses) of " +
                      std::to_string(s.robots.size()) + " robots (" + robots + "), " +
                      fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) + " s";
   std::size_t dropped = 0;

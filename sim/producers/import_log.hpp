@@ -50,8 +50,8 @@ struct ImportedRobot {
 };
 
 struct ImportedDataset {
-  std::string name;                // the world's name
-  nlohmann::ordered_json source;   // the header's "source"; t0 is added under `t0_key`
+  std::string name;               // the world's name
+  nlohmann::ordered_json source;  // the header's "source"; t0 is added under `t0_key`
   std::string t0_key = "t0_s";
   std::vector<ImportedLandmark> landmarks;
   std::vector<ImportedRobot> robots;

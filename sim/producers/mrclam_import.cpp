@@ -105,9 +105,9 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
     truth.check_non_decreasing(0);
     robot.truth.reserve(truth.rows().size());
     for (const auto& row : truth.rows()) {
-      robot.truth.push_back({truth.number(row, 0),
-                             {truth.number(row, 1), truth.number(row, 2),
-                              wrap_angle(truth.number(row, 3))}});
+      robot.truth.push_back(
+          {truth.number(row, 0),
+           {truth.number(row, 1), truth.number(row, 2), wrap_angle(truth.number(row, 3))}});
     }
 
     const TextTable measurements(dir / (prefix + "Measurement.dat"), Layout::kWhitespace,
@@ -119,7 +119,8 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
       const double range_m = measurements.number(row, 2);
       const double bearing_rad = measurements.number(row, 3);
       if (range_m < 0.0) measurements.fail(row, 2, "a negative range");
-      if (std::abs(bearing_rad) > std::numbers::pi) measurements.fail(row, 3, "a bearing beyond +-pi");
+      if (std::abs(bearing_rad) > std::numbers::pi)
+        measurements.fail(row, 3, "a bearing beyond +-pi");
       Detection d;
       d.range_m = range_m;
       d.bearing_rad = bearing_rad;

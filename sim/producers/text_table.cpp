@@ -14,7 +14,9 @@ namespace {
 // text in memory (MRCLAM's largest is 3.4 MB).
 constexpr std::uintmax_t kMaxTableBytes = std::uintmax_t{1} << 30;
 
-bool blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+bool blank(char c) {
+  return c == ' ' || c == '\t' || c == '\r';
+}
 
 std::string_view trim(std::string_view text) {
   while (!text.empty() && blank(text.front())) text.remove_prefix(1);
@@ -101,9 +103,9 @@ TextTable::TextTable(const std::filesystem::path& file, Layout layout,
     rows_.push_back(std::move(row));
   }
   if (rows_.empty()) {
-    throw InputError(SourceLocation{file_.string()}, "",
-                     layout == Layout::kCsv && !header_seen ? "empty file (no header row)"
-                                                            : "no data rows");
+    throw InputError(
+        SourceLocation{file_.string()}, "",
+        layout == Layout::kCsv && !header_seen ? "empty file (no header row)" : "no data rows");
   }
 }
 
@@ -172,9 +174,8 @@ void TextTable::check_non_decreasing(int column) const {
     const double t = number(row, column);
     if (t < previous) {
       fail(row, column,
-           "time " + short_number(t) + " is before the previous line's (" +
-               short_number(previous) + ", line " + std::to_string(previous_line) +
-               "): times must not decrease");
+           "time " + short_number(t) + " is before the previous line's (" + short_number(previous) +
+               ", line " + std::to_string(previous_line) + "): times must not decrease");
     }
     previous = t;
     previous_line = row.line;

@@ -21,6 +21,7 @@
 #include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
+#include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/producers/simulation.hpp"
 #include "sim/run/replay.hpp"
@@ -480,9 +481,9 @@ int main(int argc, char** argv) {
   bool import_overwrite = false, import_quiet = false;
   CLI::App* import_cmd = app.add_subcommand(
       "import", "Turn a real dataset into a log that `locsim replay` runs (docs/real_data.md)");
-  import_cmd->add_option("format", import_format, "mrclam")
+  import_cmd->add_option("format", import_format, "mrclam or generic")
       ->required()
-      ->check(CLI::IsMember({"mrclam"}));
+      ->check(CLI::IsMember({"mrclam", "generic"}));
   import_cmd->add_option("source", import_source, "The dataset's folder")->required();
   import_cmd->add_option("--out", import_out, "The log file to write (.locsimlog)")->required();
   import_cmd->add_option("--robots", import_robots,
@@ -523,6 +524,11 @@ int main(int argc, char** argv) {
         throw locsim::InputError("--out: " + import_out +
                                  " exists (pass --overwrite to replace it)");
       }
+      if (import_format == "generic" && import_robots != "all") {
+        throw locsim::InputError(
+            "--robots: for mrclam only (a generic dataset's robots are its "
+            "sub-folders)");
+      }
       locsim::MrclamImportOptions mrclam;
       mrclam.dir = import_source;
       if (import_robots != "all") {
@@ -541,7 +547,9 @@ int main(int argc, char** argv) {
         if (mrclam.robots.empty()) throw locsim::InputError("--robots: no robot given");
       }
       const locsim::ImportSummary summary =
-          locsim::write_import(locsim::read_mrclam(mrclam), import_window, import_out);
+          locsim::write_import(import_format == "generic" ? locsim::read_generic(import_source)
+                                                          : locsim::read_mrclam(mrclam),
+                               import_window, import_out);
       if (!import_quiet) {
         std::printf("%s: %s -> %s\n", import_source.c_str(), locsim::describe(summary).c_str(),
                     import_out.c_str());
