@@ -262,6 +262,11 @@ struct BadInput {
   std::string expected;  // in the message, after "file:line:"
 };
 
+// For the test's name in ctest's listing, instead of the struct's bytes.
+void PrintTo(const BadInput& bad, std::ostream* out) {
+  *out << bad.name;
+}
+
 class MrclamBadInput : public ::testing::TestWithParam<BadInput> {};
 
 TEST_P(MrclamBadInput, IsRefusedNamingFileLineAndColumnAndNothingIsWritten) {
