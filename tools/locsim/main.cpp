@@ -21,6 +21,8 @@
 #include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
+#include "sim/producers/generic_import.hpp"
+#include "sim/producers/mrclam_import.hpp"
 #include "sim/producers/simulation.hpp"
 #include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
@@ -473,6 +475,28 @@ int main(int argc, char** argv) {
   bool replay_quiet = false;
   replay->add_flag("-q,--quiet", replay_quiet, "No summary line");
   add_session_options(replay, replay_options);
+  std::string import_format, import_source, import_out, import_robots = "all";
+  locsim::ImportWindow import_window;
+  double import_duration_s = 0.0;
+  bool import_overwrite = false, import_quiet = false;
+  CLI::App* import_cmd = app.add_subcommand(
+      "import", "Turn a real dataset into a log that `locsim replay` runs (docs/real_data.md)");
+  import_cmd->add_option("format", import_format, "mrclam or generic")
+      ->required()
+      ->check(CLI::IsMember({"mrclam", "generic"}));
+  import_cmd->add_option("source", import_source, "The dataset's folder")->required();
+  import_cmd->add_option("--out", import_out, "The log file to write (.locsimlog)")->required();
+  import_cmd->add_option("--robots", import_robots,
+                         "mrclam: the robots to import, as 1,3 (subjects 1-5), or all");
+  import_cmd
+      ->add_option("--from", import_window.from_s,
+                   "Start this many seconds after the dataset's first time stamp")
+      ->check(number_in(0.0, 1e7));
+  CLI::Option* import_duration =
+      import_cmd->add_option("--duration", import_duration_s, "Import this many seconds")
+          ->check(number_above(0.0, 1e7));
+  import_cmd->add_flag("--overwrite", import_overwrite, "Replace an existing log file");
+  import_cmd->add_flag("-q,--quiet", import_quiet, "No summary line");
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
@@ -494,6 +518,44 @@ int main(int argc, char** argv) {
     if (*check) return validate(validate_world, validate_scenario);
     if (*plugins) return list_plugins();
     if (*report_cmd) return report(report_dir);
+    if (*import_cmd) {
+      if (*import_duration) import_window.duration_s = import_duration_s;
+      if (std::filesystem::exists(import_out) && !import_overwrite) {
+        throw locsim::InputError("--out: " + import_out +
+                                 " exists (pass --overwrite to replace it)");
+      }
+      if (import_format == "generic" && import_robots != "all") {
+        throw locsim::InputError(
+            "--robots: for mrclam only (a generic dataset's robots are its "
+            "sub-folders)");
+      }
+      locsim::MrclamImportOptions mrclam;
+      mrclam.dir = import_source;
+      if (import_robots != "all") {
+        std::istringstream list(import_robots);
+        std::string item;
+        while (std::getline(list, item, ',')) {
+          int subject = 0;
+          const auto [end, error] =
+              std::from_chars(item.data(), item.data() + item.size(), subject);
+          if (item.empty() || error != std::errc() || end != item.data() + item.size()) {
+            throw locsim::InputError("--robots: expected robot numbers as 1,3 or all, got '" +
+                                     import_robots + "'");
+          }
+          mrclam.robots.push_back(subject);
+        }
+        if (mrclam.robots.empty()) throw locsim::InputError("--robots: no robot given");
+      }
+      const locsim::ImportSummary summary =
+          locsim::write_import(import_format == "generic" ? locsim::read_generic(import_source)
+                                                          : locsim::read_mrclam(mrclam),
+                               import_window, import_out);
+      if (!import_quiet) {
+        std::printf("%s: %s -> %s\n", import_source.c_str(), locsim::describe(summary).c_str(),
+                    import_out.c_str());
+      }
+      return locsim::kExitOk;
+    }
     if (*replay) {
       replay_options.out_dir = replay_out;
       replay_options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);

@@ -1,0 +1,274 @@
+#include "sim/producers/import_log.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <tuple>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/format.hpp"
+#include "sim/common/yaml_node.hpp"
+#include "sim/run/runner.hpp"
+#include "sim/sensors/sensor_defs.hpp"
+#include "sim/stream/log_file.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+// The generated world's physics rate: the Vicon rate of MRCLAM's ground truth, and a rate with
+// many divisors for the sensors' nominal rates.
+constexpr double kPhysicsHz = 100.0;
+constexpr std::array<double, 9> kNominalRatesHz{1, 2, 4, 5, 10, 20, 25, 50, 100};
+// Named colours of the world format that draw well on the floor, given to landmarks in turn.
+constexpr std::array<const char*, 10> kPalette{"red",  "green",   "blue",   "orange", "purple",
+                                               "cyan", "magenta", "yellow", "brown",  "pink"};
+
+/// The divisor of the physics rate nearest (in ratio) to the data's mean rate: the sensors'
+/// rate_hz must divide the physics rate, and readings come at the dataset's own times anyway.
+template <typename Samples>
+double nominal_rate_hz(const Samples& samples) {
+  if (samples.size() < 2 || !(samples.back().t_s > samples.front().t_s)) return 1.0;
+  const double mean_hz =
+      static_cast<double>(samples.size() - 1) / (samples.back().t_s - samples.front().t_s);
+  double best = kNominalRatesHz.front();
+  for (const double rate : kNominalRatesHz) {
+    if (std::abs(std::log(rate / mean_hz)) < std::abs(std::log(best / mean_hz))) best = rate;
+  }
+  return best;
+}
+
+/// Keeps the samples in [lo, hi] and makes their times relative to lo.
+template <typename Sample>
+void window_samples(std::vector<Sample>& samples, double lo, double hi) {
+  std::erase_if(samples, [&](const Sample& s) { return s.t_s < lo || s.t_s > hi; });
+  for (Sample& s : samples) s.t_s -= lo;
+}
+
+std::string number(double value) {
+  return short_number(value);
+}
+
+}  // namespace
+
+ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
+                           const fs::path& out) {
+  const SourceLocation where{dataset.source.value("path", std::string())};
+  double t0 = std::numeric_limits<double>::infinity();
+  for (const ImportedRobot& robot : dataset.robots) {
+    if (!robot.odometry.empty()) t0 = std::min(t0, robot.odometry.front().t_s);
+    if (!robot.truth.empty()) t0 = std::min(t0, robot.truth.front().t_s);
+    if (!robot.detections.empty()) t0 = std::min(t0, robot.detections.front().t_s);
+  }
+  if (!std::isfinite(t0)) throw InputError(where, "", "the dataset holds no readings");
+  const double lo = t0 + window.from_s;
+  const double hi =
+      window.duration_s ? lo + *window.duration_s : std::numeric_limits<double>::infinity();
+
+  ImportSummary summary;
+  summary.t0_s = lo;
+  for (const auto& d : dataset.dropped) {
+    if (d.t_s >= lo && d.t_s <= hi) ++summary.dropped[d.reason];
+  }
+  double end_s = 0.0;
+  double max_bearing_rad = 0.0;
+  double min_range_m = std::numeric_limits<double>::infinity(), max_range_m = 0.0;
+  for (ImportedRobot& robot : dataset.robots) {
+    window_samples(robot.odometry, lo, hi);
+    window_samples(robot.truth, lo, hi);
+    window_samples(robot.detections, lo, hi);
+    if (!robot.start) {
+      if (robot.truth.empty()) {
+        throw InputError(where, "",
+                         "robot '" + robot.name +
+                             "' has no ground truth in the imported time window, so it has no "
+                             "start pose (give one, or import another window)");
+      }
+      robot.start = robot.truth.front().pose;
+    }
+    if (!robot.odometry.empty()) end_s = std::max(end_s, robot.odometry.back().t_s);
+    if (!robot.truth.empty()) end_s = std::max(end_s, robot.truth.back().t_s);
+    if (!robot.detections.empty()) end_s = std::max(end_s, robot.detections.back().t_s);
+    for (const auto& reading : robot.detections) {
+      for (const Detection& d : reading.detections) {
+        max_bearing_rad = std::max(max_bearing_rad, std::abs(d.bearing_rad));
+        min_range_m = std::min(min_range_m, d.range_m);
+        max_range_m = std::max(max_range_m, d.range_m);
+      }
+    }
+    summary.robots.push_back(robot.name);
+  }
+  // The sensor as the data shows it: the field of view and the ranges that held every detection.
+  const RangeBearingDef defaults;
+  double fov_rad = defaults.fov_rad, min_m = defaults.min_range_m, max_m = defaults.max_range_m;
+  if (std::isfinite(min_range_m)) {
+    fov_rad = std::clamp(2.0 * max_bearing_rad, RangeBearingDef::kFovRange.min,
+                         RangeBearingDef::kFovRange.max);
+    min_m = min_range_m;
+    // The loader wants min < max; a single distance seen gives the narrowest such interval.
+    max_m = max_range_m > min_range_m ? max_range_m : min_range_m + 1e-3;
+  }
+
+  // The generated world (docs/real_data.md): the landmarks, the robots at their first true
+  // poses, no walls; the scenario only says how long the log is and that the start is known.
+  std::map<int, std::string> colors;
+  std::string yaml = "# Generated by `locsim import` (docs/real_data.md)\n";
+  yaml += "name: " + json(dataset.name).dump() + "\n";
+  yaml += "physics: {step_hz: " + number(kPhysicsHz) + "}\n";
+  if (!dataset.landmarks.empty()) yaml += "landmarks:\n";
+  for (std::size_t i = 0; i < dataset.landmarks.size(); ++i) {
+    const ImportedLandmark& l = dataset.landmarks[i];
+    const char* color = kPalette[i % kPalette.size()];
+    colors[l.id] = color;
+    yaml += "  - {id: " + std::to_string(l.id) + ", position: [" + number(l.position_m.x()) + ", " +
+            number(l.position_m.y()) + "], color: " + color + ", radius_m: 0.05}\n";
+  }
+  yaml += "robots:\n";
+  for (const ImportedRobot& robot : dataset.robots) {
+    yaml += "  - name: " + robot.name + "\n";
+    yaml += "    footprint: {radius_m: " + number(robot.radius_m) + "}\n";
+    yaml += "    wheel_base_m: " + number(robot.wheel_base_m) + "\n";
+    yaml += "    wheel_radius_m: " + number(robot.wheel_radius_m) + "\n";
+    yaml += "    start: {x: " + number(robot.start->x) + ", y: " + number(robot.start->y) +
+            ", theta: " + number(robot.start->theta) + "}\n";
+    yaml += "    sensors:\n";
+    std::uint8_t reports = 0;
+    for (const auto& o : robot.odometry) reports |= o.reading.fields;
+    if (reports == 0) reports = kOdometryVelocity;
+    std::string report_list;
+    for (const auto& [bit, name] : {std::pair{kOdometryTicks, "ticks"},
+                                    {kOdometryPose, "pose"},
+                                    {kOdometryVelocity, "velocity"}}) {
+      if ((reports & bit) != 0) report_list += std::string(report_list.empty() ? "" : ", ") + name;
+    }
+    // Nominal rates (the readings keep the dataset's own times).
+    yaml += "      encoders: {rate_hz: " + number(nominal_rate_hz(robot.odometry)) +
+            ", reports: [" + report_list + "]}\n";
+    yaml += "      range_bearing: {rate_hz: " + number(nominal_rate_hz(robot.detections)) +
+            ", fov: " + number(robot.fov_rad.value_or(fov_rad)) +
+            ", min_range_m: " + number(robot.min_range_m.value_or(min_m)) +
+            ", max_range_m: " + number(robot.max_range_m.value_or(max_m)) +
+            ", sees_robots: true}\n";
+  }
+  summary.duration_s = std::max(end_s, ScenarioDef::kDurationRange.min);
+  yaml += "scenario:\n  name: imported\n  duration_s: " + number(summary.duration_s) + "\n";
+  yaml += "  groundtruth_hz: " + number(kPhysicsHz) + "\n";
+  yaml += "  localization: {initial_pose: known, sigma_xy_m: 0, sigma_theta: 0}\n";
+
+  const std::string world_file = dataset.name + ".yaml";
+  const fs::path world_dir = fs::absolute(out).parent_path();
+  // Checked as LogSource will read it: a dataset whose numbers the world format refuses (a
+  // landmark beyond the coordinate range, say) is refused here, before anything is written.
+  parse_world(YamlNode::load_string(yaml, world_file), world_dir);
+
+  // The records in stream order (stream/record.hpp): by time; at equal times the readings
+  // (robot by robot, odometry before detections), then the true poses.
+  struct Entry {
+    double t_s;
+    int cls;  // 0 reading, 1 ground truth
+    std::size_t robot;
+    int kind;  // 0 odometry, 1 detections
+    std::size_t index;
+    bool operator<(const Entry& o) const {
+      return std::tie(t_s, cls, robot, kind, index) <
+             std::tie(o.t_s, o.cls, o.robot, o.kind, o.index);
+    }
+  };
+  std::vector<Entry> order;
+  for (std::size_t r = 0; r < dataset.robots.size(); ++r) {
+    const ImportedRobot& robot = dataset.robots[r];
+    for (std::size_t i = 0; i < robot.odometry.size(); ++i)
+      order.push_back({robot.odometry[i].t_s, 0, r, 0, i});
+    for (std::size_t i = 0; i < robot.detections.size(); ++i)
+      order.push_back({robot.detections[i].t_s, 0, r, 1, i});
+    for (std::size_t i = 0; i < robot.truth.size(); ++i)
+      order.push_back({robot.truth[i].t_s, 1, r, 0, i});
+  }
+  std::sort(order.begin(), order.end());
+
+  json source = dataset.source;
+  source[dataset.t0_key] = lo;
+  json dropped = json::object();
+  for (const auto& [reason, count] : summary.dropped) dropped[reason] = count;
+  source["dropped_detections"] = dropped;
+  json header = {{"format", "locsim-log"},   {"locsim_version", locsim_version()},
+                 {"seed", std::uint64_t{0}},  // nothing random in an import
+                 {"world_file", world_file}, {"world_dir", world_dir.string()},
+                 {"world_yaml", yaml},       {"scenario_file", nullptr},
+                 {"scenario_yaml", nullptr}, {"duration_s", summary.duration_s},
+                 {"source", source}};
+
+  const fs::path partial = out.string() + ".partial";
+  try {
+    LogWriter writer(partial, header);
+    Record record;
+    for (const Entry& e : order) {
+      const ImportedRobot& robot = dataset.robots[e.robot];
+      if (e.cls == 1) {
+        record.type = Record::Type::kGroundTruth;
+        record.t_s = e.t_s;
+        record.robot = static_cast<int>(e.robot);
+        record.pose = robot.truth[e.index].pose;
+        ++summary.ground_truth;
+      } else {
+        record.type = Record::Type::kReading;
+        record.reading.t_s = e.t_s;
+        record.reading.robot = static_cast<int>(e.robot);
+        if (e.kind == 0) {
+          record.reading.kind = SensorKind::kEncoders;
+          record.reading.data = robot.odometry[e.index].reading;
+          ++summary.odometry;
+        } else {
+          record.reading.kind = SensorKind::kRangeBearing;
+          RangeBearingReading reading{robot.detections[e.index].detections};
+          for (Detection& d : reading.detections) {
+            // An unidentified detection (id -1) has no colour either.
+            if (d.target == DetectionTarget::kLandmark && d.id >= 0) d.color = colors.at(d.id);
+          }
+          summary.detections += reading.detections.size();
+          record.reading.data = std::move(reading);
+          ++summary.detection_readings;
+        }
+      }
+      writer.consume(record);
+      ++summary.records;
+    }
+    writer.finish();
+    fs::rename(partial, out);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(partial, ignored);
+    throw;
+  }
+  summary.header = header;
+  summary.world_yaml = yaml;
+  return summary;
+}
+
+std::string describe(const ImportSummary& s) {
+  std::string robots;
+  for (const std::string& name : s.robots) robots += (robots.empty() ? "" : ", ") + name;
+  std::string text = std::to_string(s.records) + " records (" + std::to_string(s.odometry) +
+                     " odometry, " + std::to_string(s.detection_readings) +
+                     " detection readings with " + std::to_string(s.detections) + " detections, " +
+                     std::to_string(s.ground_truth) + " true poses) of " +
+                     std::to_string(s.robots.size()) + " robots (" + robots + "), " +
+                     fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) + " s";
+  std::size_t dropped = 0;
+  std::string reasons;
+  for (const auto& [reason, count] : s.dropped) {
+    dropped += count;
+    reasons += (reasons.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
+  }
+  text += dropped == 0 ? "; no detection dropped"
+                       : "; dropped " + std::to_string(dropped) + " detections (" + reasons + ")";
+  return text;
+}
+
+}  // namespace locsim

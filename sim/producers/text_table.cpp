@@ -1,0 +1,185 @@
+#include "sim/producers/text_table.hpp"
+
+#include <charconv>
+#include <cmath>
+
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
+
+namespace locsim {
+
+namespace {
+
+// A dataset file larger than this is refused before it is read: the importers hold a file's
+// text in memory (MRCLAM's largest is 3.4 MB).
+constexpr std::uintmax_t kMaxTableBytes = std::uintmax_t{1} << 30;
+
+bool blank(char c) {
+  return c == ' ' || c == '\t' || c == '\r';
+}
+
+std::string_view trim(std::string_view text) {
+  while (!text.empty() && blank(text.front())) text.remove_prefix(1);
+  while (!text.empty() && blank(text.back())) text.remove_suffix(1);
+  return text;
+}
+
+}  // namespace
+
+TextTable::TextTable(const std::filesystem::path& file, Layout layout,
+                     std::vector<std::string> names, std::vector<std::string> optional)
+    : file_(file), text_(read_input_file(file, kMaxTableBytes)), names_(std::move(names)) {
+  const std::string_view text = text_;
+  bool header_seen = layout != Layout::kCsv;
+  int line = 0;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view whole_line = text.substr(start, end - start);
+    const std::size_t line_start = start;
+    start = end + 1;
+    ++line;
+    const std::string_view content = trim(whole_line);
+    if (content.empty() || content.front() == '#') continue;
+    Row row;
+    row.line = line;
+    const auto add = [&](std::size_t from, std::size_t to) {
+      std::string_view field = text.substr(from, to - from);
+      std::size_t lead = 0;
+      while (lead < field.size() && blank(field[lead])) ++lead;
+      field = trim(field);
+      row.fields.push_back(field);
+      row.columns.push_back(static_cast<int>(from + lead - line_start) + 1);
+    };
+    const std::size_t line_end = line_start + whole_line.size();
+    if (layout == Layout::kWhitespace) {
+      std::size_t i = line_start;
+      while (i < line_end) {
+        while (i < line_end && blank(text[i])) ++i;
+        if (i == line_end) break;
+        const std::size_t from = i;
+        while (i < line_end && !blank(text[i])) ++i;
+        add(from, i);
+      }
+    } else {
+      std::size_t from = line_start;
+      for (std::size_t i = line_start; i <= line_end; ++i) {
+        if (i == line_end || text[i] == ',') {
+          add(from, i);
+          from = i + 1;
+        }
+      }
+    }
+    if (!header_seen) {
+      header_seen = true;
+      std::vector<std::string> header(row.fields.begin(), row.fields.end());
+      std::vector<std::string> ordered;
+      for (const std::string& name : names_) {
+        if (std::find(header.begin(), header.end(), name) == header.end()) {
+          std::string columns;
+          for (const std::string& n : names_) columns += (columns.empty() ? "" : ",") + n;
+          throw InputError(SourceLocation{file_.string(), line, 1}, name,
+                           "the header row lacks column '" + name + "' (expected " + columns +
+                               ", got '" + std::string(content) + "')");
+        }
+      }
+      // Columns are addressed by name: the header's own order is kept, and names_ becomes it.
+      for (const std::string& name : header) {
+        const bool known = std::find(names_.begin(), names_.end(), name) != names_.end() ||
+                           std::find(optional.begin(), optional.end(), name) != optional.end();
+        if (!known) {
+          throw InputError(SourceLocation{file_.string(), line, 1}, name,
+                           "unknown column '" + name + "'");
+        }
+        if (std::find(ordered.begin(), ordered.end(), name) != ordered.end()) {
+          throw InputError(SourceLocation{file_.string(), line, 1}, name,
+                           "column '" + name + "' named twice");
+        }
+        ordered.push_back(name);
+      }
+      names_ = std::move(ordered);
+      continue;
+    }
+    rows_.push_back(std::move(row));
+  }
+  if (rows_.empty()) {
+    throw InputError(
+        SourceLocation{file_.string()}, "",
+        layout == Layout::kCsv && !header_seen ? "empty file (no header row)" : "no data rows");
+  }
+}
+
+int TextTable::column(std::string_view name) const {
+  for (std::size_t i = 0; i < names_.size(); ++i) {
+    if (names_[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void TextTable::fail(const Row& row, int column, const std::string& problem) const {
+  const bool named = column >= 0 && static_cast<std::size_t>(column) < names_.size();
+  const int col = column >= 0 && static_cast<std::size_t>(column) < row.columns.size()
+                      ? row.columns[static_cast<std::size_t>(column)]
+                      : 0;
+  throw InputError(SourceLocation{file_.string(), row.line, col},
+                   named ? names_[static_cast<std::size_t>(column)] : "", problem);
+}
+
+void TextTable::need(const Row& row, int column) const {
+  if (column < 0 || static_cast<std::size_t>(column) >= row.fields.size()) {
+    fail(row, column,
+         "the line has " + std::to_string(row.fields.size()) + " columns, expected at least " +
+             std::to_string(column + 1) + " (a truncated line?)");
+  }
+  if (row.fields[static_cast<std::size_t>(column)].empty()) fail(row, column, "empty value");
+}
+
+std::string_view TextTable::text(const Row& row, int column) const {
+  if (column < 0 || static_cast<std::size_t>(column) >= row.fields.size()) return {};
+  return row.fields[static_cast<std::size_t>(column)];
+}
+
+double TextTable::number(const Row& row, int column) const {
+  need(row, column);
+  const std::string_view field = row.fields[static_cast<std::size_t>(column)];
+  double value = 0.0;
+  const char* begin = field.data();
+  if (field.size() > 1 && field.front() == '+') ++begin;  // from_chars refuses a leading '+'
+  const auto [end, error] = std::from_chars(begin, field.data() + field.size(), value);
+  if (error == std::errc::result_out_of_range || (error == std::errc() && !std::isfinite(value)) ||
+      field == "nan" || field == "NaN") {
+    fail(row, column, "'" + std::string(field) + "' is not a finite number");
+  }
+  if (error != std::errc() || end != field.data() + field.size()) {
+    fail(row, column, "'" + std::string(field) + "' is not a number");
+  }
+  return value;
+}
+
+long long TextTable::whole(const Row& row, int column, long long lo, long long hi) const {
+  const double value = number(row, column);
+  if (value != std::floor(value) || value < static_cast<double>(lo) ||
+      value > static_cast<double>(hi)) {
+    fail(row, column,
+         "'" + std::string(row.fields[static_cast<std::size_t>(column)]) +
+             "' is not a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+  return static_cast<long long>(value);
+}
+
+void TextTable::check_non_decreasing(int column) const {
+  double previous = -std::numeric_limits<double>::infinity();
+  int previous_line = 0;
+  for (const Row& row : rows_) {
+    const double t = number(row, column);
+    if (t < previous) {
+      fail(row, column,
+           "time " + short_number(t) + " is before the previous line's (" + short_number(previous) +
+               ", line " + std::to_string(previous_line) + "): times must not decrease");
+    }
+    previous = t;
+    previous_line = row.line;
+  }
+}
+
+}  // namespace locsim

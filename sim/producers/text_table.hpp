@@ -1,0 +1,58 @@
+// A table of numbers in a text file, as datasets ship them: whitespace-separated columns
+// (MRCLAM's .dat, TUM trajectories) or comma-separated ones with a header row (CSV). Every value
+// keeps its line and column, so that a bad one is reported where the user can fix it.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sim/common/errors.hpp"
+
+namespace locsim {
+
+class TextTable {
+ public:
+  enum class Layout {
+    kWhitespace,  // columns separated by spaces and tabs; lines starting with '#' are comments
+    kCsv,         // columns separated by commas (spaces around them ignored); a header row first;
+                  // lines starting with '#' are comments
+  };
+  struct Row {
+    int line = 0;  // 1-based
+    std::vector<std::string_view> fields;
+    std::vector<int> columns;  // 1-based character column of each field
+  };
+
+  /// Reads the file. `names` are the columns' names for messages (kWhitespace), or the columns a
+  /// kCsv header must name (more may follow in `optional`). Throws InputError naming the file
+  /// when it cannot be read, is empty of data, or a header lacks a required column.
+  TextTable(const std::filesystem::path& file, Layout layout, std::vector<std::string> names,
+            std::vector<std::string> optional = {});
+
+  const std::filesystem::path& file() const { return file_; }
+  const std::vector<Row>& rows() const { return rows_; }
+  /// The index of a named column, or -1 when the header lacks it (an optional column).
+  int column(std::string_view name) const;
+  /// The row's value in column `column` as a finite number; InputError (file:line:col and the
+  /// column's name) when the row is too short, or the field is not a finite number.
+  double number(const Row& row, int column) const;
+  /// A whole number in [lo, hi].
+  long long whole(const Row& row, int column, long long lo, long long hi) const;
+  /// The field's text ("" when the row is too short and the column optional).
+  std::string_view text(const Row& row, int column) const;
+  /// Throws InputError at the row (and the column, when >= 0).
+  [[noreturn]] void fail(const Row& row, int column, const std::string& problem) const;
+  /// Checks that column `column` never decreases from row to row (times).
+  void check_non_decreasing(int column) const;
+
+ private:
+  void need(const Row& row, int column) const;
+  std::filesystem::path file_;
+  std::string text_;
+  std::vector<std::string> names_;
+  std::vector<Row> rows_;
+};
+
+}  // namespace locsim

@@ -1,0 +1,57 @@
+// `locsim import mrclam` on generated MRCLAM-format files of one robot and 300 s (odometry at
+// 67 Hz, Vicon at 100 Hz, 3 barcode readings a second, as the real dataset): parsing, merging and
+// writing the log. Counter: dataset lines read per second.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "sim/producers/mrclam_import.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::size_t write_dataset(const fs::path& dir) {
+  constexpr double kT0 = 1248444000.0, kDurationS = 300.0;
+  std::size_t lines = 0;
+  char text[160];
+  std::ofstream(dir / "Barcodes.dat") << "# subject barcode\n1 5\n6 63\n7 81\n";
+  std::ofstream(dir / "Landmark_Groundtruth.dat") << "# subject x y sx sy\n6 4 0 0 0\n7 4 2 0 0\n";
+  std::ofstream odometry(dir / "Robot1_Odometry.dat"), truth(dir / "Robot1_Groundtruth.dat"),
+      measurements(dir / "Robot1_Measurement.dat");
+  for (double t = 0.0; t < kDurationS; t += 0.015, ++lines) {
+    std::snprintf(text, sizeof(text), "%.3f \t 0.100 \t -0.050 \n", kT0 + t);
+    odometry << text;
+  }
+  for (double t = 0.0; t < kDurationS; t += 0.01, ++lines) {
+    std::snprintf(text, sizeof(text), "%.3f \t %.8f \t %.8f \t %.8f \n", kT0 + t, std::cos(t),
+                  std::sin(t), std::fmod(t, 3.0));
+    truth << text;
+  }
+  for (double t = 0.1; t < kDurationS; t += 0.33, ++lines) {
+    std::snprintf(text, sizeof(text), "%.3f \t %d \t %.3f \t %.3f \n", kT0 + t,
+                  lines % 2 == 0 ? 63 : 81, 2.0 + std::sin(t), 0.3 * std::cos(t));
+    measurements << text;
+  }
+  return lines;
+}
+
+void BM_ImportMrclam(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_import";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::size_t lines = write_dataset(dir);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        locsim::write_import(locsim::read_mrclam({dir, {1}}), {}, dir / "out.locsimlog"));
+  }
+  fs::remove_all(dir);
+  state.counters["lines_per_s"] = benchmark::Counter(
+      static_cast<double>(lines * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ImportMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
