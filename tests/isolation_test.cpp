@@ -175,17 +175,23 @@ TEST(RunAndReplay, ReportOfSeveralRobotsTablesEachRobotAndAllTogether) {
   const fs::path dir = testing::temp_dir("bugs");
   const std::string world = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/four_robots.yaml";
   ASSERT_EQ(locsim("run " + world + " --duration 2 -q --localizer odometry --out " +
-                   (dir / "run").string())
+                   (dir / "run").string() + " --log " + (dir / "run.log").string())
                 .exit_code,
             0);
-  const Outcome report = locsim("report " + (dir / "run").string());
-  ASSERT_EQ(report.exit_code, 0) << report.output;
-  const std::string text = testing::read_file(dir / "run/report.md");
-  EXPECT_NE(text.find("4 robots. Over all robots"), std::string::npos) << text;
-  EXPECT_NE(text.find("| odometry | 4 of 4 |"), std::string::npos) << text;
-  for (const char* robot : {"| r1 | odometry |", "| r4 | odometry |"})
-    EXPECT_NE(text.find(robot), std::string::npos) << robot << "\n" << text;
-  EXPECT_EQ(text.find("No localizers ran"), std::string::npos) << text;
+  ASSERT_EQ(locsim("replay " + (dir / "run.log").string() + " -q --localizer odometry --out " +
+                   (dir / "replay").string())
+                .exit_code,
+            0);
+  for (const char* folder : {"run", "replay"}) {
+    const Outcome report = locsim("report " + (dir / folder).string());
+    ASSERT_EQ(report.exit_code, 0) << report.output;
+    const std::string text = testing::read_file(dir / folder / "report.md");
+    EXPECT_NE(text.find("4 robots. Over all robots"), std::string::npos) << folder << text;
+    EXPECT_NE(text.find("| odometry | 4 of 4 |"), std::string::npos) << folder << text;
+    for (const char* robot : {"| r1 | odometry |", "| r4 | odometry |"})
+      EXPECT_NE(text.find(robot), std::string::npos) << folder << robot << "\n" << text;
+    EXPECT_EQ(text.find("No localizers ran"), std::string::npos) << folder << text;
+  }
 }
 
 TEST(RunAndReplay, AnOutputThatIsAFileIsRefusedClearlyByBoth) {

@@ -279,7 +279,7 @@ def run_report(root, out_dir):
     header = "| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | per segment (RMS m, recovery s) |"
     # A run of several robots keeps each robot's files in its own folder (run.json's robots).
     folders = [(r["name"], os.path.join(root, r["folder"])) for r in run.get("robots", []) if r.get("folder")]
-    if not folders:
+    if len(folders) < 2:
         metrics_path = os.path.join(root, "metrics.json")
         if not os.path.exists(metrics_path):
             return lines + ["No localizers ran (run with --localizer)."]

@@ -62,6 +62,14 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   run["scenario_file"] = source.scenario().source.string();
   run["simulated_s"] = result.replayed_s;
   run["records"] = result.records;
+  // Where each robot's files are, as a run says it (tools/report.py reads it).
+  json robots = json::array();
+  for (std::size_t i = 0; i < source.world().robots.size(); ++i) {
+    robots.push_back(
+        {{"name", source.world().robots[i].name},
+         {"folder", fs::relative(session.folder().robot_dirs[i], options.out_dir).string()}});
+  }
+  run["robots"] = robots;
   if (session.has_localizers()) run["localizers"] = localizers;
   run["config"] = {{"world", to_json(source.world())}, {"scenario", to_json(source.scenario())}};
   run["timing"] = {{"wall_s", result.wall_s}, {"peak_memory_mb", peak_memory_json()}};
