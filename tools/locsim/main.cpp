@@ -21,6 +21,8 @@
 #include "sim/experiments/sweep.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
+#include "sim/common/files.hpp"
+#include "sim/metrics/calibration.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/producers/simulation.hpp"
@@ -497,6 +499,36 @@ int main(int argc, char** argv) {
           ->check(number_above(0.0, 1e7));
   import_cmd->add_flag("--overwrite", import_overwrite, "Replace an existing log file");
   import_cmd->add_flag("-q,--quiet", import_quiet, "No summary line");
+  std::vector<std::string> calibrate_logs;
+  std::string calibrate_out, calibrate_robots = "all";
+  locsim::CalibrationOptions calibration;
+  bool calibrate_overwrite = false, calibrate_quiet = false;
+  CLI::App* calibrate_cmd = app.add_subcommand(
+      "calibrate",
+      "Measure odometry and detection noise in logs with ground truth; write a parameter file "
+      "for the localizers (--params) and sensor settings for a world (docs/real_data.md)");
+  calibrate_cmd->add_option("logs", calibrate_logs, "Logs (run --log, or locsim import)")
+      ->required();
+  calibrate_cmd
+      ->add_option("--out", calibrate_out,
+                   "Folder for calibration.yaml and calibration.json (`locsim report` plots them)")
+      ->required();
+  calibrate_cmd->add_option("--robots", calibrate_robots,
+                            "The robots to use, by name, as robot1,robot3; or all");
+  calibrate_cmd
+      ->add_option("--outlier-sigmas", calibration.outlier_sigmas,
+                   "A detection this many robust standard deviations off is false [-]")
+      ->check(number_in(locsim::CalibrationOptions::kMinOutlierSigmas,
+                        locsim::CalibrationOptions::kMaxOutlierSigmas))
+      ->capture_default_str();
+  calibrate_cmd
+      ->add_option("--range-bins", calibration.range_bins,
+                   "At most this many range bins for the detection noise [-]")
+      ->check(CLI::Range(std::size_t{1}, locsim::CalibrationOptions::kMaxRangeBins))
+      ->capture_default_str();
+  calibrate_cmd->add_flag("--overwrite", calibrate_overwrite,
+                          "Replace calibration.yaml and calibration.json in --out");
+  calibrate_cmd->add_flag("-q,--quiet", calibrate_quiet, "No summary");
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
@@ -554,6 +586,31 @@ int main(int argc, char** argv) {
         std::printf("%s: %s -> %s\n", import_source.c_str(), locsim::describe(summary).c_str(),
                     import_out.c_str());
       }
+      return locsim::kExitOk;
+    }
+    if (*calibrate_cmd) {
+      if (calibrate_robots != "all") {
+        std::istringstream list(calibrate_robots);
+        std::string item;
+        while (std::getline(list, item, ',')) {
+          if (item.empty()) throw locsim::InputError("--robots: an empty name in '" +
+                                                     calibrate_robots + "'");
+          calibration.robots.push_back(item);
+        }
+      }
+      const std::filesystem::path out(calibrate_out);
+      for (const char* name : {"calibration.yaml", "calibration.json"}) {
+        if (std::filesystem::exists(out / name) && !calibrate_overwrite) {
+          throw locsim::InputError("--out: " + (out / name).string() +
+                                   " exists (pass --overwrite to replace it)");
+        }
+      }
+      std::vector<std::filesystem::path> logs(calibrate_logs.begin(), calibrate_logs.end());
+      const locsim::Calibration result = locsim::calibrate(logs, calibration);
+      std::filesystem::create_directories(out);
+      locsim::write_json_atomically(out / "calibration.json", result.to_json());
+      locsim::write_file(out / "calibration.yaml", result.to_yaml());
+      if (!calibrate_quiet) std::printf("%s", locsim::describe(result).c_str());
       return locsim::kExitOk;
     }
     if (*replay) {

@@ -1,0 +1,828 @@
+#include "sim/metrics/calibration.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <locsim/models.hpp>
+#include <locsim/particles.hpp>
+#include <map>
+#include <numbers>
+#include <numeric>
+#include <set>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/format.hpp"
+#include "sim/common/math.hpp"
+#include "sim/common/minimize.hpp"
+#include "sim/plugin_host/localizer_instance.hpp"
+#include "sim/producers/log_source.hpp"
+#include "sim/sensors/scene_rays.hpp"
+#include "sim/world/physics_world.hpp"
+
+namespace locsim {
+
+using json = nlohmann::ordered_json;
+
+namespace {
+
+// Truth and timing noise the models cannot represent, added to every fitted covariance so that
+// a step with no motion has a finite likelihood: 10 micrometres, 10 microradians. Far below any
+// odometry noise worth modelling, and below Vicon's millimetre (which the fits then count as
+// odometry noise: conservative).
+constexpr double kFloorVariance = 1e-10;
+
+/// A robot's true path: samples in time order, broken where it was kidnapped or put down, or
+/// where the samples stop for longer than a few sampling periods (carried, or a gap in the data).
+class TruthTrack {
+ public:
+  void add(double t_s, const Pose2& pose) {
+    t_.push_back(t_s);
+    pose_.push_back(pose);
+  }
+  void cut(double t_s) { cuts_.push_back(t_s); }
+
+  /// Marks the breaks; called once all samples are in.
+  void finish() {
+    std::vector<double> periods;
+    for (std::size_t i = 1; i < t_.size(); ++i) periods.push_back(t_[i] - t_[i - 1]);
+    double max_gap_s = std::numeric_limits<double>::infinity();
+    if (!periods.empty()) {
+      std::nth_element(periods.begin(), periods.begin() + periods.size() / 2, periods.end());
+      max_gap_s = 5.0 * periods[periods.size() / 2];
+    }
+    std::sort(cuts_.begin(), cuts_.end());
+    breaks_.assign(t_.size(), 0);
+    for (std::size_t i = 1; i < t_.size(); ++i) {
+      const auto cut = std::upper_bound(cuts_.begin(), cuts_.end(), t_[i - 1]);
+      const bool broken = t_[i] - t_[i - 1] > max_gap_s || (cut != cuts_.end() && *cut <= t_[i]);
+      breaks_[i] = breaks_[i - 1] + (broken ? 1 : 0);
+    }
+  }
+  bool empty() const { return t_.empty(); }
+
+  /// The pose at t, interpolated between its neighbours; none outside the samples or in a break.
+  std::optional<sdk::Pose> at(double t_s) const {
+    const std::size_t i =
+        static_cast<std::size_t>(std::lower_bound(t_.begin(), t_.end(), t_s) - t_.begin());
+    if (i == t_.size()) return std::nullopt;
+    if (t_[i] == t_s) return sdk::Pose(pose_[i].x, pose_[i].y, pose_[i].theta);
+    if (i == 0 || breaks_[i] != breaks_[i - 1]) return std::nullopt;
+    const double u = (t_s - t_[i - 1]) / (t_[i] - t_[i - 1]);
+    const Pose2& a = pose_[i - 1];
+    const Pose2& b = pose_[i];
+    return sdk::Pose(a.x + u * (b.x - a.x), a.y + u * (b.y - a.y),
+                     sdk::wrap(a.theta + u * sdk::wrap(b.theta - a.theta)));
+  }
+  /// True when [a, b] lies within one unbroken piece.
+  bool continuous(double a_s, double b_s) const {
+    const auto first = std::lower_bound(t_.begin(), t_.end(), a_s);
+    const auto last = std::lower_bound(t_.begin(), t_.end(), b_s);
+    if (first == t_.end() || last == t_.end()) return false;
+    const std::size_t i = static_cast<std::size_t>(first - t_.begin());
+    const std::size_t j = static_cast<std::size_t>(last - t_.begin());
+    if (t_[i] != a_s && i == 0) return false;  // before the first sample
+    return breaks_[j] == breaks_[t_[i] == a_s ? i : i - 1];
+  }
+
+ private:
+  std::vector<double> t_;
+  std::vector<Pose2> pose_;
+  std::vector<double> cuts_;
+  std::vector<std::size_t> breaks_;  // breaks between samples 0..i
+};
+
+const std::vector<Detection>* detections_of(const ReadingData& data) {
+  if (const auto* r = std::get_if<RangeBearingReading>(&data)) return &r->detections;
+  if (const auto* r = std::get_if<PtzReading>(&data)) return &r->detections;
+  if (const auto* r = std::get_if<OmniReading>(&data)) return &r->detections;
+  return nullptr;
+}
+
+/// One perception-step interval: the odometry's increment and the truth's.
+struct MotionSample {
+  sdk::OdometryDelta measured;
+  Eigen::Vector3d local_error;  // measured - true increment in the start's frame
+  Eigen::Vector3d wheel_error;  // wheel-model prediction from the true start - true end
+  Eigen::Matrix3d wheel_p_left, wheel_p_right;  // its covariance per unit k_left^2, k_right^2
+  double dt_s = 0.0;
+  bool has_velocity = false;
+  double v_mps = 0.0, omega_radps = 0.0;            // measured, time-weighted mean
+  double true_v_mps = 0.0, true_omega_radps = 0.0;  // of the true increment
+};
+
+struct Residual {
+  double range_m = 0.0;  // true
+  double range_error_m = 0.0;
+  double bearing_error_rad = 0.0;
+  std::size_t landmark = 0;  // index in its world
+  bool inlier = true;
+};
+
+/// A reading of a camera with a field of view: what it should have seen and where its
+/// detections' residuals are.
+struct Visibility {
+  std::size_t first = 0, count = 0;  // into CameraData::residuals
+  std::vector<std::size_t> visible;  // landmark indices
+};
+
+struct CameraData {
+  std::size_t readings = 0, detections = 0, unmatched = 0;
+  std::vector<Residual> residuals;
+  std::vector<Visibility> visibility;  // range_bearing only
+};
+
+struct Pooled {
+  std::vector<MotionSample> motion;
+  std::map<SensorKind, CameraData> cameras;
+};
+
+struct RobotLog {
+  const RobotDef* def = nullptr;
+  TruthTrack truth;
+  std::vector<std::pair<double, locsim_odometry>> odometry;
+  struct Seen {
+    double t_s;
+    SensorKind kind;
+    std::vector<Detection> detections;
+  };
+  std::vector<Seen> seen;
+};
+
+/// The landmark a detection is of: its id's, else the nearest (to where the detection puts it,
+/// seen from the true pose) of its colour; none when it is not on the map.
+std::optional<std::size_t> landmark_of(const Detection& d, const WorldDef& world,
+                                       const sdk::Pose& pose) {
+  std::optional<std::size_t> best;
+  double best_m2 = std::numeric_limits<double>::infinity();
+  const double a = pose(2) + d.bearing_rad;
+  const double px = pose(0) + d.range_m * std::cos(a), py = pose(1) + d.range_m * std::sin(a);
+  for (std::size_t i = 0; i < world.landmarks.size(); ++i) {
+    const LandmarkDef& l = world.landmarks[i];
+    if (d.id >= 0 ? l.id != d.id : color_label(l) != d.color) continue;
+    const double m2 = std::pow(l.position_m.x() - px, 2) + std::pow(l.position_m.y() - py, 2);
+    if (m2 < best_m2) best_m2 = m2, best = i;
+  }
+  return best;
+}
+
+bool counts_as_step(const RobotLog::Seen& seen, const WorldDef& world) {
+  for (const Detection& d : seen.detections) {
+    if (d.target != DetectionTarget::kLandmark) continue;
+    for (const LandmarkDef& l : world.landmarks) {
+      if (d.id >= 0 ? l.id == d.id : color_label(l) == d.color) return true;
+    }
+  }
+  return false;
+}
+
+void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled) {
+  std::vector<double> steps;
+  for (const RobotLog::Seen& seen : robot.seen) {
+    if (counts_as_step(seen, world) && (steps.empty() || seen.t_s > steps.back()))
+      steps.push_back(seen.t_s);
+  }
+  const auto& odometry = robot.odometry;
+  // The odometry a filter has at time t: the latest reading at or before it.
+  const auto latest = [&](double t_s) -> std::optional<std::size_t> {
+    const auto it = std::upper_bound(odometry.begin(), odometry.end(), t_s,
+                                     [](double t, const auto& o) { return t < o.first; });
+    if (it == odometry.begin()) return std::nullopt;
+    return static_cast<std::size_t>(it - odometry.begin()) - 1;
+  };
+  const double wheel_base_m = robot.def->wheel_base_m;  // what ekf_landmarks is told
+  for (std::size_t k = 1; k < steps.size(); ++k) {
+    const auto ia = latest(steps[k - 1]), ib = latest(steps[k]);
+    if (!ia || !ib || *ib <= *ia) continue;
+    const double ta = odometry[*ia].first, tb = odometry[*ib].first;
+    if (!robot.truth.continuous(ta, tb)) continue;
+    const auto true_a = robot.truth.at(ta), true_b = robot.truth.at(tb);
+    if (!true_a || !true_b) continue;
+    const auto pose_of = [](const locsim_odometry& o) {
+      return sdk::Pose(o.odom_pose.x, o.odom_pose.y, o.odom_pose.theta);
+    };
+    MotionSample s;
+    s.dt_s = tb - ta;
+    const sdk::Pose odom_a = pose_of(odometry[*ia].second), odom_b = pose_of(odometry[*ib].second);
+    s.measured = sdk::decompose(odom_a, odom_b);
+    s.local_error = sdk::between(odom_a, odom_b) - sdk::between(*true_a, *true_b);
+    s.local_error(2) = sdk::wrap(s.local_error(2));
+    // The wheel model: predicted from the true start through every odometry step, as
+    // ekf_landmarks does; the covariance is linear in k_left^2 and k_right^2 (F does not depend
+    // on them), so one prediction per wheel with k = 1 gives it for any k.
+    sdk::OdometryTracker tracker(wheel_base_m);
+    tracker.update(ta, odometry[*ia].second);
+    sdk::Pose x = *true_a, x_right = *true_a;
+    s.wheel_p_left.setZero();
+    s.wheel_p_right.setZero();
+    double v_integral = 0.0, omega_integral = 0.0;
+    s.has_velocity = (odometry[*ia].second.fields & LOCSIM_ODOMETRY_VELOCITY) != 0;
+    for (std::size_t i = *ia + 1; i <= *ib; ++i) {
+      const auto step = tracker.update(odometry[i].first, odometry[i].second);
+      if (step) {
+        sdk::predict_by_wheels(x, s.wheel_p_left, step->d_left_m, step->d_right_m, wheel_base_m,
+                               1.0, 0.0);
+        sdk::predict_by_wheels(x_right, s.wheel_p_right, step->d_left_m, step->d_right_m,
+                               wheel_base_m, 0.0, 1.0);
+      }
+      const locsim_odometry& held = odometry[i - 1].second;
+      const double dt_s = odometry[i].first - odometry[i - 1].first;
+      v_integral += held.v_mps * dt_s;
+      omega_integral += held.omega_radps * dt_s;
+      s.has_velocity = s.has_velocity && (held.fields & LOCSIM_ODOMETRY_VELOCITY) != 0;
+    }
+    s.wheel_error = x - *true_b;
+    s.wheel_error(2) = sdk::wrap(s.wheel_error(2));
+    if (s.has_velocity && s.dt_s > 0.0) {
+      s.v_mps = v_integral / s.dt_s;
+      s.omega_radps = omega_integral / s.dt_s;
+      const sdk::Pose d = sdk::between(*true_a, *true_b);
+      // The arc through the true increment: its chord and turn give v and omega.
+      const double chord = std::hypot(d(0), d(1)) * (d(0) < 0.0 ? -1.0 : 1.0);
+      s.true_omega_radps = d(2) / s.dt_s;
+      s.true_v_mps = chord / sdk::sinc(0.5 * d(2)) / s.dt_s;
+    }
+    pooled.motion.push_back(s);
+  }
+}
+
+void collect_detections(const RobotLog& robot, const WorldDef& world,
+                        const StaticRaycaster& walls, Pooled& pooled) {
+  const std::optional<RangeBearingDef>& fov_sensor = robot.def->sensors.range_bearing;
+  for (const RobotLog::Seen& seen : robot.seen) {
+    const auto pose = robot.truth.at(seen.t_s);
+    if (!pose) continue;
+    CameraData& camera = pooled.cameras[seen.kind];
+    ++camera.readings;
+    Visibility visibility;
+    visibility.first = camera.residuals.size();
+    for (const Detection& d : seen.detections) {
+      if (d.target != DetectionTarget::kLandmark) continue;
+      ++camera.detections;
+      const auto landmark = landmark_of(d, world, *pose);
+      if (!landmark) {
+        ++camera.unmatched;
+        continue;
+      }
+      const LandmarkDef& l = world.landmarks[*landmark];
+      const Eigen::Vector2d predicted =
+          sdk::range_bearing(*pose, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
+      camera.residuals.push_back(
+          {predicted(0), d.range_m - predicted(0), sdk::wrap(d.bearing_rad - predicted(1)),
+           *landmark});
+    }
+    visibility.count = camera.residuals.size() - visibility.first;
+    if (seen.kind == SensorKind::kRangeBearing && fov_sensor) {
+      // What the simulated sensor would report: in range and field of view of the mount, and not
+      // behind a wall (other robots and moving obstacles are not in the log: their occlusions
+      // count as misses).
+      const Pose2 body{(*pose)(0), (*pose)(1), (*pose)(2)};
+      const Vec2 origin = body.transform(fov_sensor->common.mount.position());
+      const double heading = (*pose)(2) + fov_sensor->common.mount.theta;
+      for (std::size_t i = 0; i < world.landmarks.size(); ++i) {
+        const LandmarkDef& l = world.landmarks[i];
+        const Vec2 offset = l.position_m - origin;
+        const double range = offset.norm();
+        if (range < fov_sensor->min_range_m || range > fov_sensor->max_range_m || range < 1e-6)
+          continue;
+        const double bearing = wrap_angle(std::atan2(offset.y(), offset.x()) - heading);
+        if (std::abs(bearing) > 0.5 * fov_sensor->fov_rad) continue;
+        if (walls.cast(origin, offset / range, range - l.radius_m) < range - l.radius_m - 1e-6)
+          continue;
+        visibility.visible.push_back(i);
+      }
+      camera.visibility.push_back(std::move(visibility));
+    }
+  }
+}
+
+// ---- fits ------------------------------------------------------------------------------------
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// Least squares line (a constant when x does not vary).
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = static_cast<double>(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
+  if (n == 0.0) return {};
+  const double det = n * sxx - sx * sx;
+  if (!(det > 1e-12 * n * sxx)) return {sy / n, 0.0};
+  return {(sxx * sy - sx * sxy) / det, (n * sxy - sx * sy) / det};
+}
+
+/// The spread sigma(x) = a + b x (a, b >= 0) of zero-mean errors e at x, by maximum likelihood:
+/// a line through binned standard deviations would be pulled by the bins' own widths.
+LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e);
+
+/// Bins of (about) equal counts of `order` (indices sorted by range).
+std::vector<std::pair<std::size_t, std::size_t>> equal_bins(std::size_t n, std::size_t bins) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  bins = std::max<std::size_t>(1, std::min(bins, n / 50));
+  for (std::size_t b = 0; b < bins && n > 0; ++b) out.emplace_back(b * n / bins, (b + 1) * n / bins);
+  return out;
+}
+
+LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e) {
+  double ee = 0.0;
+  for (const double v : e) ee += v * v;
+  const double rms = std::sqrt(ee / static_cast<double>(std::max<std::size_t>(1, e.size())));
+  if (!(rms > 0.0)) return {};
+  const auto nll = [&](const std::vector<double>& p) {
+    const double a = rms * std::exp(std::clamp(p[0], -30.0, 5.0));
+    const double b = rms * std::exp(std::clamp(p[1], -30.0, 5.0));
+    double sum = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double sigma = a + b * x[i];
+      sum += std::log(sigma) + 0.5 * e[i] * e[i] / (sigma * sigma);
+    }
+    return sum / static_cast<double>(x.size());
+  };
+  // Scaled by the overall spread, so that the simplex starts where the answer is.
+  const MinimizeResult best = minimize_restarted(nll, {-1.0, -2.0}, 1.0, 2000);
+  return {rms * std::exp(std::clamp(best.x[0], -30.0, 5.0)),
+          rms * std::exp(std::clamp(best.x[1], -30.0, 5.0))};
+}
+
+DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
+                                const CalibrationOptions& options) {
+  DetectionCalibration c;
+  c.camera = sensor_name(kind);
+  c.readings = data.readings;
+  c.detections = data.detections;
+  std::vector<Residual>& r = data.residuals;
+  std::vector<std::size_t> order(r.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return r[a].range_m < r[b].range_m; });
+  // Outliers against robust statistics per range bin (the spread grows with range).
+  for (const auto& [begin, end] : equal_bins(order.size(), options.range_bins)) {
+    std::vector<double> er, eb;
+    for (std::size_t i = begin; i < end; ++i)
+      er.push_back(r[order[i]].range_error_m), eb.push_back(r[order[i]].bearing_error_rad);
+    const double mr = median(er), mb = median(eb);
+    for (double& e : er) e = std::abs(e - mr);
+    for (double& e : eb) e = std::abs(e - mb);
+    const double sr = std::max(1.4826 * median(er), 1e-9);
+    const double sb = std::max(1.4826 * median(eb), 1e-9);
+    for (std::size_t i = begin; i < end; ++i) {
+      Residual& x = r[order[i]];
+      x.inlier = std::abs(x.range_error_m - mr) <= options.outlier_sigmas * sr &&
+                 std::abs(x.bearing_error_rad - mb) <= options.outlier_sigmas * sb;
+    }
+  }
+  std::vector<std::size_t> kept;
+  for (const std::size_t i : order)
+    if (r[i].inlier) kept.push_back(i);
+  c.inliers = kept.size();
+  c.false_detections = data.unmatched + (r.size() - kept.size());
+  c.false_per_reading =
+      data.readings > 0 ? static_cast<double>(c.false_detections) / static_cast<double>(data.readings) : 0.0;
+  if (kept.empty()) return c;
+  {
+    std::vector<double> x, y;
+    double sb = 0, sbb = 0;
+    for (const std::size_t i : kept) {
+      x.push_back(r[i].range_m), y.push_back(r[i].range_error_m);
+      sb += r[i].bearing_error_rad, sbb += r[i].bearing_error_rad * r[i].bearing_error_rad;
+    }
+    c.range_bias_m = fit_line(x, y);
+    const double n = static_cast<double>(kept.size());
+    c.bearing_bias_rad = sb / n;
+    c.bearing_rms_rad = std::sqrt(sbb / n);
+    c.bearing_spread_rad = std::sqrt(std::max(0.0, sbb / n - c.bearing_bias_rad * c.bearing_bias_rad) *
+                                     (n > 1 ? n / (n - 1) : 1.0));
+  }
+  for (const auto& [begin, end] : equal_bins(kept.size(), options.range_bins)) {
+    RangeBin bin;
+    bin.count = end - begin;
+    const double n = static_cast<double>(bin.count);
+    double s = 0, e = 0, ee = 0, d2 = 0, b = 0, bb = 0;
+    for (std::size_t k = begin; k < end; ++k) {
+      const Residual& x = r[kept[k]];
+      const double about_bias = x.range_error_m - c.range_bias_m.at(x.range_m);
+      s += x.range_m, e += x.range_error_m, ee += x.range_error_m * x.range_error_m;
+      d2 += about_bias * about_bias, b += x.bearing_error_rad;
+      bb += x.bearing_error_rad * x.bearing_error_rad;
+    }
+    const double dof = n > 1 ? n / (n - 1) : 1.0;
+    bin.range_m = s / n;
+    bin.range_error_mean_m = e / n;
+    bin.range_error_std_m = std::sqrt(d2 / n * dof);
+    bin.range_error_rms_m = std::sqrt(ee / n);
+    bin.bearing_error_mean_rad = b / n;
+    bin.bearing_error_std_rad = std::sqrt(std::max(0.0, bb / n - (b / n) * (b / n)) * dof);
+    c.bins.push_back(bin);
+  }
+  {
+    std::vector<double> x, about_bias, about_zero;
+    for (const std::size_t i : kept) {
+      x.push_back(r[i].range_m);
+      about_bias.push_back(r[i].range_error_m - c.range_bias_m.at(r[i].range_m));
+      about_zero.push_back(r[i].range_error_m);
+    }
+    c.range_spread_m = fit_spread(x, about_bias);
+    c.range_rms_m = fit_spread(x, about_zero);
+  }
+  if (!data.visibility.empty()) {
+    std::size_t visible = 0, missed = 0;
+    for (const Visibility& v : data.visibility) {
+      std::set<std::size_t> seen;
+      for (std::size_t i = v.first; i < v.first + v.count; ++i)
+        if (r[i].inlier) seen.insert(r[i].landmark);
+      visible += v.visible.size();
+      for (const std::size_t l : v.visible) missed += seen.count(l) == 0 ? 1 : 0;
+    }
+    c.visible = visible;
+    c.missed = missed;
+    if (visible > 0) c.miss_probability = static_cast<double>(missed) / static_cast<double>(visible);
+  }
+  return c;
+}
+
+/// Covariance of the pose reached by (rot1, trans, rot2), in the start's frame, for spreads s.
+Eigen::Matrix3d delta_covariance(const sdk::OdometryDelta& d, const sdk::OdometryDelta& s) {
+  Eigen::Matrix3d J;
+  const double c = std::cos(d.rot1), sn = std::sin(d.rot1);
+  J << -d.trans * sn, c, 0,  //
+      d.trans * c, sn, 0,    //
+      1, 0, 1;
+  const Eigen::Vector3d var(s.rot1 * s.rot1, s.trans * s.trans, s.rot2 * s.rot2);
+  return J * var.asDiagonal() * J.transpose();
+}
+
+/// Negative log-likelihood of e under N(0, P), without the constant.
+double gaussian_nll(const Eigen::Vector3d& e, const Eigen::Matrix3d& P) {
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(P);
+  const double det = ldlt.vectorD().prod();
+  if (!(det > 0.0)) return 1e300;
+  return 0.5 * (std::log(det) + e.dot(ldlt.solve(e)));
+}
+
+// log(parameter) kept in a box: a fit may drive a noise term to zero, which is its answer.
+constexpr double kMinLog = -25.0, kMaxLog = 2.3;  // 1.4e-11 .. 10
+double bounded_exp(double p) { return std::exp(std::clamp(p, kMinLog, kMaxLog)); }
+
+/// The error every interval has whatever its motion (truth noise, timing, a robot that creeps
+/// while its odometry says it stands): fitted beside each model as standard deviations in
+/// position and heading, so that it does not inflate the terms that grow with motion.
+Eigen::Matrix3d floor_covariance(double position_m, double heading_rad) {
+  return Eigen::Vector3d(position_m * position_m + kFloorVariance,
+                         position_m * position_m + kFloorVariance,
+                         heading_rad * heading_rad + kFloorVariance)
+      .asDiagonal();
+}
+
+OdometryModelFit fit_odometry_model(const std::vector<MotionSample>& samples, bool variance_form) {
+  const auto noise_of = [&](const std::vector<double>& p) {
+    return sdk::OdometryNoise{bounded_exp(p[0]), bounded_exp(p[1]), bounded_exp(p[2]),
+                              bounded_exp(p[3]), variance_form};
+  };
+  const auto nll = [&](const std::vector<double>& p) {
+    const sdk::OdometryNoise noise = noise_of(p);
+    const Eigen::Matrix3d floor = floor_covariance(bounded_exp(p[4]), bounded_exp(p[5]));
+    double sum = 0.0;
+    for (const MotionSample& s : samples) {
+      sum += gaussian_nll(
+          s.local_error,
+          delta_covariance(s.measured, sdk::motion_spread(s.measured, noise)) + floor);
+    }
+    return sum / static_cast<double>(samples.size());
+  };
+  const MinimizeResult best =
+      minimize_restarted(nll, {-3.0, -3.0, -3.0, -3.0, -7.0, -7.0}, 2.0, 6000);
+  const sdk::OdometryNoise noise = noise_of(best.x);
+  return {noise.alpha1,           noise.alpha2,           noise.alpha3, noise.alpha4,
+          bounded_exp(best.x[4]), bounded_exp(best.x[5]), -best.value};
+}
+
+/// Thrun's velocity-model noise: variance of the measured v and omega about the true ones as
+/// alpha1 v^2 + alpha2 omega^2 and alpha3 v^2 + alpha4 omega^2 (least squares on the squared
+/// errors, coefficients kept non-negative).
+std::optional<OdometryModelFit> fit_velocity_model(const std::vector<MotionSample>& samples,
+                                                   std::size_t& used) {
+  std::vector<const MotionSample*> with;
+  for (const MotionSample& s : samples)
+    if (s.has_velocity) with.push_back(&s);
+  used = with.size();
+  if (with.size() < 10) return std::nullopt;
+  const auto fit = [&](auto error) {
+    Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d b = Eigen::Vector2d::Zero();
+    for (const MotionSample* s : with) {
+      const Eigen::Vector2d f(s->v_mps * s->v_mps, s->omega_radps * s->omega_radps);
+      const double e = error(*s);
+      A += f * f.transpose(), b += f * e * e;
+    }
+    Eigen::Vector2d c = A.ldlt().solve(b);
+    if (!(c(0) >= 0.0) || !(c(1) >= 0.0)) {
+      const int keep = A(0, 0) > 0 && b(0) / A(0, 0) * b(0) >= (A(1, 1) > 0 ? b(1) / A(1, 1) * b(1) : 0)
+                           ? 0
+                           : 1;
+      c.setZero();
+      if (A(keep, keep) > 0.0) c(keep) = std::max(0.0, b(keep) / A(keep, keep));
+    }
+    return c;
+  };
+  const Eigen::Vector2d v = fit([](const MotionSample& s) { return s.v_mps - s.true_v_mps; });
+  const Eigen::Vector2d w =
+      fit([](const MotionSample& s) { return s.omega_radps - s.true_omega_radps; });
+  OdometryModelFit out{v(0), v(1), w(0), w(1), 0.0, 0.0, 0.0};
+  for (const MotionSample* s : with) {
+    const double vv =
+        v(0) * s->v_mps * s->v_mps + v(1) * s->omega_radps * s->omega_radps + kFloorVariance;
+    const double ww =
+        w(0) * s->v_mps * s->v_mps + w(1) * s->omega_radps * s->omega_radps + kFloorVariance;
+    const double ev = s->v_mps - s->true_v_mps, ew = s->omega_radps - s->true_omega_radps;
+    out.log_likelihood -= 0.5 * (std::log(vv * ww) + ev * ev / vv + ew * ew / ww);
+  }
+  out.log_likelihood /= static_cast<double>(with.size());
+  return out;
+}
+
+MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
+  MotionCalibration m;
+  m.intervals = samples.size();
+  for (const MotionSample& s : samples) {
+    m.mean_interval_s += s.dt_s / static_cast<double>(samples.size());
+    m.mean_travel_m += s.measured.trans / static_cast<double>(samples.size());
+  }
+  m.odometry_std = fit_odometry_model(samples, false);
+  m.odometry_variance = fit_odometry_model(samples, true);
+  m.variance_form = m.odometry_variance.log_likelihood > m.odometry_std.log_likelihood;
+  const auto wheel_p = [](const MotionSample& s, const std::vector<double>& p) {
+    const double kl = bounded_exp(p[0]), kr = bounded_exp(p[1]);
+    return Eigen::Matrix3d(kl * kl * s.wheel_p_left + kr * kr * s.wheel_p_right +
+                           floor_covariance(bounded_exp(p[2]), bounded_exp(p[3])));
+  };
+  const auto nll = [&](const std::vector<double>& p) {
+    double sum = 0.0;
+    for (const MotionSample& s : samples) sum += gaussian_nll(s.wheel_error, wheel_p(s, p));
+    return sum / static_cast<double>(samples.size());
+  };
+  const MinimizeResult best = minimize_restarted(nll, {-5.0, -5.0, -7.0, -7.0}, 2.0, 4000);
+  m.k_left = std::min(bounded_exp(best.x[0]), 1.0);
+  m.k_right = std::min(bounded_exp(best.x[1]), 1.0);
+  m.k_floor_position_m = bounded_exp(best.x[2]);
+  m.k_floor_heading_rad = bounded_exp(best.x[3]);
+  m.k_log_likelihood = -best.value;
+  for (const MotionSample& s : samples) {
+    m.k_mean_nees += s.wheel_error.dot(wheel_p(s, best.x).ldlt().solve(s.wheel_error)) /
+                     static_cast<double>(samples.size());
+  }
+  m.velocity = fit_velocity_model(samples, m.velocity_intervals);
+  return m;
+}
+
+json line_json(const LineFit& line, const char* at_zero, const char* per_unit) {
+  return {{at_zero, line.at_zero}, {per_unit, line.per_unit}};
+}
+
+json model_json(const OdometryModelFit& f) {
+  return {{"alpha1", f.alpha1},
+          {"alpha2", f.alpha2},
+          {"alpha3", f.alpha3},
+          {"alpha4", f.alpha4},
+          {"floor_position_m", f.floor_position_m},
+          {"floor_heading_rad", f.floor_heading_rad},
+          {"log_likelihood", f.log_likelihood}};
+}
+
+std::string num(double value) { return rounded_number(value, 4); }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+Calibration calibrate(const std::vector<std::filesystem::path>& logs,
+                      const CalibrationOptions& options) {
+  if (logs.empty()) throw InputError("calibrate: give at least one log");
+  Calibration out;
+  Pooled pooled;
+  std::set<std::string> unused(options.robots.begin(), options.robots.end());
+  for (const std::filesystem::path& file : logs) {
+    LogSource source(file);
+    const WorldDef& world = source.world();
+    std::vector<RobotLog> robots(world.robots.size());
+    std::vector<std::optional<ReadingTranslator>> translators(world.robots.size());
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < world.robots.size(); ++i) {
+      const RobotDef& def = world.robots[i];
+      robots[i].def = &def;
+      if (options.robots.empty() ||
+          std::find(options.robots.begin(), options.robots.end(), def.name) !=
+              options.robots.end()) {
+        translators[i].emplace(def);
+        names.push_back(def.name);
+        unused.erase(def.name);
+      }
+    }
+    Record record;
+    while (source.next(record)) {
+      const int index = record.type == Record::Type::kReading ? record.reading.robot : record.robot;
+      if (index < 0 || !translators[static_cast<std::size_t>(index)]) continue;
+      RobotLog& robot = robots[static_cast<std::size_t>(index)];
+      switch (record.type) {
+        case Record::Type::kGroundTruth:
+          robot.truth.add(record.t_s, record.pose);
+          break;
+        case Record::Type::kEvent:
+          if (record.event.kind == "kidnap" || record.event.kind == "put_down")
+            robot.truth.cut(record.event.t_s);
+          break;
+        case Record::Type::kReading:
+          if (record.reading.kind == SensorKind::kEncoders) {
+            const locsim_reading& translated =
+                translators[static_cast<std::size_t>(index)]->translate(record.reading);
+            robot.odometry.emplace_back(record.reading.t_s, translated.data.odometry);
+          } else if (const auto* detections = detections_of(record.reading.data)) {
+            robot.seen.push_back({record.reading.t_s, record.reading.kind, *detections});
+          }
+          break;
+        case Record::Type::kEnd:
+          break;
+      }
+    }
+    const PhysicsWorld physics(world);
+    const StaticRaycaster walls = StaticRaycaster::from_world(physics);
+    std::string used;
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (!translators[i]) continue;
+      RobotLog& robot = robots[i];
+      robot.truth.finish();
+      if (robot.truth.empty()) {
+        throw InputError(file.string() + ": robot '" + robot.def->name +
+                         "' has no ground truth: calibrating needs the true path");
+      }
+      collect_motion(robot, world, pooled);
+      collect_detections(robot, world, walls, pooled);
+    }
+    std::string list;
+    for (const std::string& name : names) list += (list.empty() ? "" : ", ") + name;
+    out.sources.push_back(file.string() + " (" + list + ")");
+  }
+  if (!unused.empty()) {
+    throw InputError("calibrate --robots: no robot named '" + *unused.begin() +
+                     "' in any of the logs");
+  }
+  if (pooled.motion.size() >= 10) out.motion = fit_motion(pooled.motion);
+  for (auto& [kind, data] : pooled.cameras) {
+    if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
+  }
+  if (!out.motion && out.cameras.empty()) {
+    throw InputError(
+        "calibrate: nothing to measure: fewer than 10 odometry intervals between detections of "
+        "landmarks on the map, and fewer than 10 such detections with a true pose");
+  }
+  return out;
+}
+
+json Calibration::to_json() const {
+  json j;
+  j["sources"] = sources;
+  if (motion) {
+    const MotionCalibration& m = *motion;
+    j["motion"] = {{"intervals", m.intervals},
+                   {"mean_interval_s", m.mean_interval_s},
+                   {"mean_travel_m", m.mean_travel_m},
+                   {"odometry_model", {{"standard_deviation_form", model_json(m.odometry_std)},
+                                       {"variance_form", model_json(m.odometry_variance)},
+                                       {"chosen", m.variance_form ? "variance_form"
+                                                                  : "standard_deviation_form"}}},
+                   {"wheel_model",
+                    {{"k_left", m.k_left},
+                     {"k_right", m.k_right},
+                     {"floor_position_m", m.k_floor_position_m},
+                     {"floor_heading_rad", m.k_floor_heading_rad},
+                     {"log_likelihood", m.k_log_likelihood},
+                     {"mean_nees", m.k_mean_nees}}}};
+    if (m.velocity) {
+      j["motion"]["velocity_model"] = model_json(*m.velocity);
+      j["motion"]["velocity_model"]["intervals"] = m.velocity_intervals;
+    }
+  }
+  j["cameras"] = json::array();
+  for (const DetectionCalibration& c : cameras) {
+    json cj = {{"camera", c.camera},
+               {"readings", c.readings},
+               {"detections", c.detections},
+               {"inliers", c.inliers},
+               {"false_detections", c.false_detections},
+               {"false_per_reading", c.false_per_reading},
+               {"range_bias", line_json(c.range_bias_m, "m", "per_m")},
+               {"range_spread", line_json(c.range_spread_m, "m", "per_m")},
+               {"range_rms", line_json(c.range_rms_m, "m", "per_m")},
+               {"bearing_bias_rad", c.bearing_bias_rad},
+               {"bearing_spread_rad", c.bearing_spread_rad},
+               {"bearing_rms_rad", c.bearing_rms_rad}};
+    if (c.miss_probability) {
+      cj["visible"] = *c.visible;
+      cj["missed"] = *c.missed;
+      cj["miss_probability"] = *c.miss_probability;
+    }
+    cj["bins"] = json::array();
+    for (const RangeBin& b : c.bins) {
+      cj["bins"].push_back({{"count", b.count},
+                            {"range_m", b.range_m},
+                            {"range_error_mean_m", b.range_error_mean_m},
+                            {"range_error_std_m", b.range_error_std_m},
+                            {"range_error_rms_m", b.range_error_rms_m},
+                            {"bearing_error_mean_rad", b.bearing_error_mean_rad},
+                            {"bearing_error_std_rad", b.bearing_error_std_rad}});
+    }
+    j["cameras"].push_back(cj);
+  }
+  return j;
+}
+
+std::string Calibration::to_yaml() const {
+  std::string y = "# Written by `locsim calibrate`: noise measured against the ground truth of\n";
+  for (const std::string& source : sources) y += "#   " + source + "\n";
+  y += "# Use: locsim replay LOG --localizer NAME --params THIS_FILE (docs/real_data.md);\n"
+       "# calibration.json beside it has the fits, bins and counts.\n";
+  // The camera whose noise the localizers get: the range-bearing sensor, else the one with the
+  // most inliers.
+  const DetectionCalibration* camera = nullptr;
+  for (const DetectionCalibration& c : cameras) {
+    if (camera == nullptr || c.camera == sensor_name(SensorKind::kRangeBearing) ||
+        (camera->camera != sensor_name(SensorKind::kRangeBearing) && c.inliers > camera->inliers))
+      camera = &c;
+  }
+  y += "localizer_params:  # each localizer takes the keys it declares\n";
+  if (motion) {
+    const OdometryModelFit& f = motion->variance_form ? motion->odometry_variance : motion->odometry_std;
+    y += "  alpha1: " + num(f.alpha1) + "\n  alpha2: " + num(f.alpha2) +
+         "\n  alpha3: " + num(f.alpha3) + "\n  alpha4: " + num(f.alpha4) +
+         "\n  variance_form: " + (motion->variance_form ? "true" : "false") +
+         "  # the form that explains the odometry better\n";
+    y += "  k_left: " + num(motion->k_left) + "\n  k_right: " + num(motion->k_right) + "\n";
+  }
+  if (camera != nullptr) {
+    // Localizers do not model a bias: they get the spread about zero (root mean square).
+    y += "  # from the " + camera->camera + "'s detections; the spread about zero (bias included)\n";
+    y += "  sigma_range_m: " + num(std::max(camera->range_rms_m.at_zero, 1e-6)) +
+         "\n  sigma_range_per_m: " + num(camera->range_rms_m.per_unit) +
+         "\n  sigma_range_per_m2: 0\n  sigma_bearing_deg: " +
+         num(std::max(rad_to_deg(camera->bearing_rms_rad), 1e-6)) + "\n";
+    // The FastSLAM filters take one range noise: the spread at the middle bin's range.
+    if (!camera->bins.empty()) {
+      const double middle_m = camera->bins[camera->bins.size() / 2].range_m;
+      const std::string fixed = num(std::max(camera->range_rms_m.at(middle_m), 1e-6));
+      for (const char* name : {"fastslam", "fastslam_afsa", "pso_pf"}) {
+        y += std::string("  ") + name + ": {sigma_range_m: " + fixed + "}  # at " + num(middle_m) +
+             " m\n";
+      }
+    }
+  }
+  y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
+  if (motion) {
+    y += "  encoders: {k_left: " + num(motion->k_left) + ", k_right: " + num(motion->k_right) +
+         "}\n";
+  }
+  for (const DetectionCalibration& c : cameras) {
+    if (c.camera != sensor_name(SensorKind::kRangeBearing)) continue;
+    y += "  range_bearing:\n    sigma_range_m: " + num(c.range_spread_m.at_zero) +
+         "\n    sigma_range_per_m: " + num(c.range_spread_m.per_unit) +
+         "\n    range_bias_m: " + num(c.range_bias_m.at_zero) +
+         "\n    range_bias_per_m: " + num(c.range_bias_m.per_unit) +
+         "\n    sigma_bearing_deg: " + num(rad_to_deg(c.bearing_spread_rad)) +
+         "\n    bearing_bias_deg: " + num(rad_to_deg(c.bearing_bias_rad)) + "\n";
+    if (c.miss_probability) y += "    miss_probability: " + num(*c.miss_probability) + "\n";
+    y += "    false_detections: " + num(c.false_per_reading) + "\n";
+  }
+  return y;
+}
+
+std::string describe(const Calibration& c) {
+  std::string text;
+  for (const std::string& source : c.sources) text += source + "\n";
+  if (c.motion) {
+    const MotionCalibration& m = *c.motion;
+    const OdometryModelFit& f = m.variance_form ? m.odometry_variance : m.odometry_std;
+    text += "  motion: " + std::to_string(m.intervals) + " intervals (mean " +
+            num(m.mean_interval_s) + " s, " + num(m.mean_travel_m) + " m): alpha " + num(f.alpha1) +
+            " " + num(f.alpha2) + " " + num(f.alpha3) + " " + num(f.alpha4) +
+            (m.variance_form ? " (variance form)" : "") + "; k_left " + num(m.k_left) +
+            ", k_right " + num(m.k_right) + " m^1/2 (mean NEES " + num(m.k_mean_nees) +
+            "); error whatever the motion " + num(f.floor_position_m) + " m, " +
+            num(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
+  }
+  for (const DetectionCalibration& d : c.cameras) {
+    text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
+            std::to_string(d.false_detections) + " false (" + num(d.false_per_reading) +
+            " per reading): range bias " + num(d.range_bias_m.at_zero) + " m + " +
+            num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) +
+            " m + " + num(d.range_spread_m.per_unit) + " r; bearing bias " +
+            num(rad_to_deg(d.bearing_bias_rad)) + " deg, spread " +
+            num(rad_to_deg(d.bearing_spread_rad)) + " deg" +
+            (d.miss_probability ? "; missed " + num(*d.miss_probability) : std::string()) + "\n";
+  }
+  return text;
+}
+
+}  // namespace locsim

@@ -1,0 +1,121 @@
+// Noise calibration from logs with ground truth (`locsim calibrate`): how far the odometry and
+// the landmark detections a localizer is given stray from what the true path implies, fitted to
+// the noise models locsim's localizers and simulated sensors use, so that a filter can run on a
+// dataset (or a world) with noise measured rather than guessed. docs/real_data.md.
+//
+// Every quantity is measured on what a plugin sees (the host's translation of the readings,
+// sim/plugin_host ReadingTranslator) over the intervals a filter uses it:
+// - motion: between consecutive perception steps (readings with a detection of a landmark on the
+//   map: a landmark particle filter applies odometry once per such step), the odometry's
+//   increment against the true one. Fitted by maximum likelihood to the odometry model's
+//   alpha1..alpha4 (the SDK's motion_spread, in both its standard-deviation and variance forms,
+//   through the end pose's covariance so that a short step's ill-defined direction does not
+//   matter) and to the wheel model's k_left, k_right (the SDK's predict_by_wheels over each of the
+//   interval's odometry readings, as ekf_landmarks predicts); with velocity readings, the velocity
+//   model's alpha1..alpha4 (Thrun's table 5.3: variance of v from v^2 and omega^2, of omega from
+//   v^2 and omega^2) over the same intervals.
+// - detections: each one's range and bearing against those of its landmark (its id, else the
+//   nearest of its colour) from the true pose. Detections farther than `outlier_sigmas` robust
+//   standard deviations (MAD, per range bin) are false; the rest give the bias and spread as lines
+//   in range; missed: landmarks in a range-bearing sensor's field of view and range, not hidden by
+//   walls, that no inlier reported.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace locsim {
+
+struct CalibrationOptions {
+  std::vector<std::string> robots;  // names of the robots to use; empty: all
+  double outlier_sigmas = 5.0;      // gate of a false detection, in robust sigmas [-]
+  static constexpr double kMinOutlierSigmas = 2.0, kMaxOutlierSigmas = 100.0;
+  std::size_t range_bins = 8;  // at most this many bins of equal counts in range [-]
+  static constexpr std::size_t kMaxRangeBins = 100;
+};
+
+/// y = at_zero + per_unit * x.
+struct LineFit {
+  double at_zero = 0.0;
+  double per_unit = 0.0;
+  double at(double x) const { return at_zero + per_unit * x; }
+};
+
+struct RangeBin {
+  std::size_t count = 0;
+  double range_m = 0.0;              // mean true range of the bin [m]
+  double range_error_mean_m = 0.0;   // measured - true [m]
+  double range_error_std_m = 0.0;    // about the fitted bias line [m]
+  double range_error_rms_m = 0.0;    // about zero [m]
+  double bearing_error_mean_rad = 0.0;
+  double bearing_error_std_rad = 0.0;
+};
+
+/// One camera kind's detections (range_bearing, ptz_camera, omni_camera).
+struct DetectionCalibration {
+  std::string camera;
+  std::size_t readings = 0;        // readings of this camera with a true pose
+  std::size_t detections = 0;      // of landmarks (detections of robots are not used)
+  std::size_t inliers = 0;
+  std::size_t false_detections = 0;  // outliers, and ids or colours not on the map
+  double false_per_reading = 0.0;  // Poisson mean, as the simulated sensor takes it [-]
+  LineFit range_bias_m;            // measured - true range against true range
+  LineFit range_spread_m;          // standard deviation about the bias line
+  LineFit range_rms_m;             // about zero: the noise a filter that ignores bias must allow
+  double bearing_bias_rad = 0.0, bearing_spread_rad = 0.0, bearing_rms_rad = 0.0;
+  std::vector<RangeBin> bins;
+  // A range_bearing sensor's field of view decides what it should have seen.
+  std::optional<std::size_t> visible, missed;
+  std::optional<double> miss_probability;
+};
+
+struct OdometryModelFit {
+  double alpha1 = 0.0, alpha2 = 0.0, alpha3 = 0.0, alpha4 = 0.0;
+  // The error of an interval that no motion explains (fitted beside the alphas; no localizer
+  // models it): standard deviations [m], [rad].
+  double floor_position_m = 0.0, floor_heading_rad = 0.0;
+  double log_likelihood = 0.0;  // per interval [nats]
+};
+
+struct MotionCalibration {
+  std::size_t intervals = 0;     // perception-step intervals used
+  double mean_interval_s = 0.0;  // their mean length
+  double mean_travel_m = 0.0;    // and the odometry's mean travel over one
+  OdometryModelFit odometry_std;       // standard-deviation form (variance_form false)
+  OdometryModelFit odometry_variance;  // Thrun's variance form
+  bool variance_form = false;          // the form with the higher likelihood
+  double k_left = 0.0, k_right = 0.0;  // wheel model [m^1/2]
+  double k_floor_position_m = 0.0, k_floor_heading_rad = 0.0;  // as OdometryModelFit's
+  double k_log_likelihood = 0.0;  // per interval [nats]
+  /// The fitted wheel model's normalised estimation error squared, mean over the intervals
+  /// (3 when the model's covariance matches the errors).
+  double k_mean_nees = 0.0;
+  std::optional<OdometryModelFit> velocity;  // only from velocity readings
+  std::size_t velocity_intervals = 0;
+};
+
+struct Calibration {
+  std::vector<std::string> sources;  // "LOG (robot, robot)"
+  std::optional<MotionCalibration> motion;
+  std::vector<DetectionCalibration> cameras;  // those with landmark detections
+  /// Everything, with the bins for plots (calibration.json).
+  nlohmann::ordered_json to_json() const;
+  /// The parameter file for localizers (`localizer_params:`, for --params) and the sensor
+  /// settings for a world (`sensors:`), with a header saying what was measured on what.
+  std::string to_yaml() const;
+};
+
+/// Reads every log (each with its own world) and fits the noise over the chosen robots together.
+/// Throws InputError for unreadable logs, unknown robot names, or logs without ground truth, and
+/// when nothing could be measured.
+Calibration calibrate(const std::vector<std::filesystem::path>& logs,
+                      const CalibrationOptions& options);
+
+/// A few lines for the command line: what was measured, and the main numbers.
+std::string describe(const Calibration& calibration);
+
+}  // namespace locsim

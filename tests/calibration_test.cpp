@@ -1,0 +1,240 @@
+// `locsim calibrate`: on logs whose noise is known (a simulated run with configured sensor noise,
+// and a generated dataset whose odometry follows the odometry model with chosen alphas), the
+// fitted values come back within 15 %.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <locsim/models.hpp>
+#include <locsim/particles.hpp>
+#include <string>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/random.hpp"
+#include "sim/metrics/calibration.hpp"
+#include "sim/producers/import_log.hpp"
+#include "sim/run/runner.hpp"
+#include "tests/test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Every noise the calibration measures, configured (docs/sensors.md).
+constexpr const char* kNoisyWorld = R"(name: calibration_test
+walls:
+  - points: [[0, 0], [10, 0], [10, 8], [0, 8]]
+    closed: true
+landmarks:  # beside the path (0.6 to 0.8 m off it) and in the corners: ranges from 0.5 to 7 m
+  - {id: 1, position: [5.0, 1.4], color: red}
+  - {id: 2, position: [8.7, 4.0], color: green}
+  - {id: 3, position: [1.3, 4.0], color: blue}
+  - {id: 4, position: [5.0, 3.2], color: red}
+  - {id: 5, position: [3.5, 5.7], color: yellow}
+  - {id: 6, position: [6.5, 5.7], color: magenta}
+  - {id: 7, position: [0.5, 7.5], color: cyan}
+  - {id: 8, position: [9.5, 0.5], color: green}
+robots:
+  - name: robot
+    footprint: {radius_m: 0.2}
+    wheel_base_m: 0.33
+    wheel_radius_m: 0.05
+    start: {x: 2, y: 2, theta_deg: 0}
+    sensors:
+      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}
+      range_bearing:
+        rate_hz: 10
+        fov_deg: 120
+        min_range_m: 0.3
+        max_range_m: 7
+        sigma_range_m: 0.05
+        sigma_range_per_m: 0.02
+        range_bias_m: 0.1
+        range_bias_per_m: -0.05
+        sigma_bearing_deg: 1.5
+        bearing_bias_deg: 2
+        miss_probability: 0.2
+        false_detections: 0.3
+scenario:
+  duration_s: 300
+  drive:
+    mode: waypoints
+    path: [[8, 2], [8, 6], [5, 4], [2, 6], [2, 2]]
+    loop: true
+    speed_mps: 0.5
+)";
+
+fs::path record_noisy_run(const fs::path& dir, std::uint64_t seed) {
+  const fs::path world = dir / "world.yaml";
+  std::ofstream(world) << kNoisyWorld;
+  RunOptions options;
+  options.world_file = world;
+  options.seed = seed;
+  options.out_dir = dir / "run";
+  options.readings = false;
+  options.log_file = dir / "noisy.locsimlog";
+  run_simulation(options);
+  return *options.log_file;
+}
+
+void expect_within(double fitted, double configured, const char* what) {
+  EXPECT_NEAR(fitted, configured, 0.15 * std::abs(configured))
+      << what << ": fitted " << fitted << ", configured " << configured;
+}
+
+class SimulatedNoise : public ::testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
+  const fs::path dir = testing::temp_dir("calibrate_sim");
+  const Calibration c = calibrate({record_noisy_run(dir, GetParam())}, {});
+  ASSERT_TRUE(c.motion);
+  expect_within(c.motion->k_left, 0.01, "k_left");
+  expect_within(c.motion->k_right, 0.02, "k_right");
+  // Below 1 when the wheel model's covariance, with the fitted k, covers the errors it should.
+  EXPECT_NEAR(c.motion->k_mean_nees, 3.0, 0.45);
+  ASSERT_EQ(c.cameras.size(), 1u);
+  const DetectionCalibration& rb = c.cameras[0];
+  EXPECT_EQ(rb.camera, "range_bearing");
+  expect_within(rb.range_spread_m.at_zero, 0.05, "sigma_range_m");
+  expect_within(rb.range_spread_m.per_unit, 0.02, "sigma_range_per_m");
+  expect_within(rb.range_bias_m.at_zero, 0.1, "range_bias_m");
+  expect_within(rb.range_bias_m.per_unit, -0.05, "range_bias_per_m");
+  expect_within(rb.bearing_spread_rad, deg_to_rad(1.5), "sigma_bearing");
+  expect_within(rb.bearing_bias_rad, deg_to_rad(2.0), "bearing_bias");
+  ASSERT_TRUE(rb.miss_probability);
+  expect_within(*rb.miss_probability, 0.2, "miss_probability");
+  expect_within(rb.false_per_reading, 0.3, "false_detections");
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));
+
+/// A robot whose odometry reports designed motions (drives, turns on the spot, arcs) while its
+/// true path follows them with the odometry model's noise, alphas `noise` (standard-deviation
+/// form): what a landmark particle filter assumes. Detections (exact) of every landmark in 6 m
+/// make each instant a perception step.
+ImportedDataset odometry_model_dataset(const sdk::OdometryNoise& noise, std::size_t steps) {
+  ImportedDataset d;
+  d.name = "odometry_model";
+  d.source = {{"format", "test"}};
+  for (int i = 0; i < 4; ++i)
+    d.landmarks.push_back({i + 1, {i % 2 == 0 ? -3.0 : 3.0, i < 2 ? -3.0 : 3.0}});
+  ImportedRobot robot;
+  robot.name = "robot";
+  RandomStream rng = make_stream(7, "test/odometry_model");
+  sdk::Pose odometry(0, 0, 0), truth(0, 0, 0);
+  for (std::size_t k = 0; k <= steps; ++k) {
+    const double t_s = 0.2 * static_cast<double>(k);
+    ImportedRobot::Odometry o;
+    o.t_s = t_s;
+    o.reading.fields = kOdometryPose;
+    o.reading.odometry = {odometry(0), odometry(1), odometry(2)};
+    robot.odometry.push_back(o);
+    robot.truth.push_back({t_s, {truth(0), truth(1), truth(2)}});
+    ImportedRobot::Detections seen;
+    seen.t_s = t_s;
+    for (const ImportedLandmark& l : d.landmarks) {
+      const Eigen::Vector2d z =
+          sdk::range_bearing(truth, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
+      if (z(0) > 6.0) continue;
+      Detection detection;
+      detection.id = l.id;
+      detection.range_m = z(0);
+      detection.bearing_rad = z(1);
+      seen.detections.push_back(detection);
+    }
+    robot.detections.push_back(seen);
+    // The next commanded motion: straight, on the spot, or an arc; back towards the middle when
+    // far out, so that landmarks stay in sight.
+    sdk::OdometryDelta step;
+    const double pick = rng.uniform();
+    if (pick < 0.3) {
+      step = {0.0, rng.uniform(0.05, 0.15), 0.0};
+    } else if (pick < 0.55) {
+      step = {0.0, 0.0, rng.uniform(-0.5, 0.5)};
+    } else {
+      const double turn = rng.uniform(-0.3, 0.3);
+      step = {0.5 * turn, rng.uniform(0.03, 0.1), 0.5 * turn};
+    }
+    if (std::hypot(odometry(0), odometry(1)) > 2.0) {
+      const double home = sdk::wrap(std::atan2(-odometry(1), -odometry(0)) - odometry(2));
+      step = {home, 0.05, 0.0};
+    }
+    const auto apply = [](const sdk::Pose& from, const sdk::OdometryDelta& delta) {
+      const double heading = from(2) + delta.rot1;
+      return sdk::Pose(from(0) + delta.trans * std::cos(heading),
+                       from(1) + delta.trans * std::sin(heading),
+                       sdk::wrap(heading + delta.rot2));
+    };
+    const sdk::OdometryDelta spread = sdk::motion_spread(step, noise);
+    const sdk::OdometryDelta actual{step.rot1 + rng.normal(0.0, spread.rot1),
+                                    step.trans + rng.normal(0.0, spread.trans),
+                                    step.rot2 + rng.normal(0.0, spread.rot2)};
+    odometry = apply(odometry, step);
+    truth = apply(truth, actual);
+  }
+  d.robots.push_back(std::move(robot));
+  return d;
+}
+
+TEST(Calibrate, RecoversTheOdometryModelsAlphasWithin15Percent) {
+  const fs::path dir = testing::temp_dir("calibrate_alphas");
+  const sdk::OdometryNoise noise{0.1, 0.05, 0.05, 0.03, false};
+  write_import(odometry_model_dataset(noise, 4000), {}, dir / "alphas.locsimlog");
+  const Calibration c = calibrate({dir / "alphas.locsimlog"}, {});
+  ASSERT_TRUE(c.motion);
+  EXPECT_FALSE(c.motion->variance_form);  // the form the data were made with explains them better
+  expect_within(c.motion->odometry_std.alpha1, noise.alpha1, "alpha1");
+  expect_within(c.motion->odometry_std.alpha2, noise.alpha2, "alpha2");
+  expect_within(c.motion->odometry_std.alpha3, noise.alpha3, "alpha3");
+  expect_within(c.motion->odometry_std.alpha4, noise.alpha4, "alpha4");
+  // The detections are exact: no false ones, no bias.
+  ASSERT_EQ(c.cameras.size(), 1u);
+  EXPECT_EQ(c.cameras[0].false_detections, 0u);
+  EXPECT_LT(std::abs(c.cameras[0].range_bias_m.at_zero), 1e-9);
+}
+
+TEST(Calibrate, CommandLineWritesAParameterFileAndSensorSettingsAndRefusesBadInput) {
+  const fs::path dir = testing::temp_dir("calibrate_cli");
+  write_import(odometry_model_dataset({0.1, 0.05, 0.05, 0.03, false}, 300), {},
+               dir / "small.locsimlog");
+  const auto ok = testing::locsim("calibrate " + (dir / "small.locsimlog").string() + " --out " +
+                                  (dir / "cal").string());
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("motion: "), std::string::npos) << ok.output;
+  const YAML::Node yaml = YAML::LoadFile((dir / "cal/calibration.yaml").string());
+  for (const char* key : {"alpha1", "alpha2", "alpha3", "alpha4", "variance_form", "k_left",
+                          "k_right", "sigma_range_m", "sigma_bearing_deg"}) {
+    EXPECT_TRUE(yaml["localizer_params"][key]) << key;
+  }
+  EXPECT_TRUE(yaml["sensors"]["encoders"]["k_left"]);
+  const std::string first = testing::read_file(dir / "cal/calibration.yaml");
+  const std::string first_json = testing::read_file(dir / "cal/calibration.json");
+  EXPECT_NE(first_json.find("\"bins\""), std::string::npos);
+
+  // The same log again: byte-identical files (with --overwrite; refused without).
+  const auto again = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
+                                     " --out " + (dir / "cal").string() + " -q");
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_NE(again.output.find("calibration.yaml exists"), std::string::npos) << again.output;
+  const auto overwrite = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
+                                         " --out " + (dir / "cal").string() + " -q --overwrite");
+  ASSERT_EQ(overwrite.exit_code, 0) << overwrite.output;
+  EXPECT_EQ(testing::read_file(dir / "cal/calibration.yaml"), first);
+  EXPECT_EQ(testing::read_file(dir / "cal/calibration.json"), first_json);
+
+  const auto nobody = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
+                                      " --out " + (dir / "x").string() + " --robots nobody");
+  EXPECT_EQ(nobody.exit_code, 2);
+  EXPECT_NE(nobody.output.find("no robot named 'nobody'"), std::string::npos) << nobody.output;
+  const auto missing = testing::locsim("calibrate " + (dir / "none.locsimlog").string() +
+                                       " --out " + (dir / "y").string());
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.output.find("none.locsimlog"), std::string::npos) << missing.output;
+  EXPECT_FALSE(fs::exists(dir / "x/calibration.yaml"));
+}
+
+}  // namespace
+}  // namespace locsim
