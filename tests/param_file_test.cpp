@@ -233,7 +233,7 @@ TEST(ParamFile, AKeyNoLocalizerDeclaresWarnsOnceAndAPluginsUnknownKeyFailsTheRun
 
 TEST(ParamFile, AnExperimentsParamsFileReachesItsRunsAndItsFingerprint) {
   const fs::path dir = testing::temp_dir("params");
-  write(dir / "common.yaml", "localizer_params:\n  gain: 0.25\n  count: 20\n");
+  write(dir / "common.yaml", "localizer_params:\n  gain: 0.25\n  count: 20\n  gian: 1\n");
   write(dir / "own.yaml", "localizer_params:\n  test_probe: {gain: 0.75}\n");
   const fs::path experiment =
       write(dir / "experiment.yaml",
@@ -251,8 +251,16 @@ TEST(ParamFile, AnExperimentsParamsFileReachesItsRunsAndItsFingerprint) {
   options.experiment_file = experiment;
   options.out_dir = dir / "out";
   options.locsim_binary = LOCSIM_BINARY;
+  ::testing::internal::CaptureStderr();
   const SweepSummary summary = run_sweep(options);
+  const std::string warnings = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(summary.not_ok, 0u);
+  // Once for the sweep, before it runs (each run's log.txt says it again for its localizer).
+  const std::string gian = "locsim sweep: warning: " + (dir / "common.yaml").string() +
+                           ":4:9: 'localizer_params.gian' is declared by none of the localizers "
+                           "(test_probe): ignored";
+  EXPECT_EQ(warnings.find(gian), 0u) << warnings;
+  EXPECT_EQ(warnings.find(gian, 1), std::string::npos) << warnings;
   // The entry's params over the experiment's file; an entry's own file instead of it.
   const json common = params_in(dir / "out/runs/common/seed-1");
   EXPECT_EQ(common["gain"], 0.25);
