@@ -33,9 +33,7 @@ std::string load_error(const fs::path& file) {
   return "loaded";
 }
 
-void expect_contains(const std::string& text, const std::string& part) {
-  EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;
-}
+using testing::expect_contains;
 
 TEST(PluginLoading, EachFailureHasItsOwnMessage) {
   expect_contains(load_error("/nonexistent/locsim_x.so"),

@@ -54,6 +54,11 @@ inline std::string read_file(const std::filesystem::path& path) {
   return out.str();
 }
 
+/// `text` (a message) holds `part`; says both when not.
+inline void expect_contains(const std::string& text, const std::string& part) {
+  EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;
+}
+
 /// A fresh, empty temporary folder named after the running test and `name`.
 inline std::filesystem::path temp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();

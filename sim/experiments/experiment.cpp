@@ -39,7 +39,7 @@ ExperimentDef load_experiment(const fs::path& file) {
   const Activity reading("reading the experiment " + file.string());
   const YamlNode root = YamlNode::load_file(file);
   root.allow_keys({"name", "world", "scenario", "duration_s", "seeds", "localizers", "convergence",
-                   "timeout_s"});
+                   "timeout_s", "params_file"});
   ExperimentDef e;
   e.source = file;
   const fs::path base = file.parent_path();
@@ -59,6 +59,10 @@ ExperimentDef load_experiment(const fs::path& file) {
   if (const auto duration = root.find("duration_s"))
     e.duration_s = duration->as_double(ScenarioDef::kDurationRange);
   e.timeout_s = root.get_double("timeout_s", e.timeout_s, ExperimentDef::kTimeoutRange);
+  // The parameter file every localizer entry gets unless it names its own.
+  std::optional<std::pair<fs::path, InputPlace>> params_file;
+  if (const auto node = root.find("params_file"))
+    params_file = std::pair{input_file(*node), node->place()};
 
   const YamlNode seeds = root["seeds"];
   if (seeds.is_sequence()) {
@@ -82,11 +86,14 @@ ExperimentDef load_experiment(const fs::path& file) {
   std::set<std::string> labels;
   const YamlNode localizers = root["localizers"];
   for (const YamlNode& item : localizers.items()) {
-    item.allow_keys({"plugin", "label", "params", "grid"});
+    item.allow_keys({"plugin", "label", "params", "params_file", "grid"});
     const YamlNode plugin_node = item["plugin"];
     const std::string plugin = plugin_node.as_string();
     const std::string label = item.get_string("label", fs::path(plugin).stem().string());
     const auto place = [](const YamlNode& node) { return InputPlace{node.where(), node.path()}; };
+    auto item_params_file = params_file;
+    if (const auto node = item.find("params_file"))
+      item_params_file = std::pair{input_file(*node), node->place()};
     std::vector<std::pair<std::string, std::string>> fixed;
     std::vector<InputPlace> fixed_places;
     // Grid axes in file order: each value with its place.
@@ -134,7 +141,14 @@ ExperimentDef load_experiment(const fs::path& file) {
     // Cartesian product, the last axis varying fastest.
     std::vector<std::size_t> digit(axes.size(), 0);
     while (true) {
-      LocalizerConfig config{label, plugin, fixed, place(plugin_node), fixed_places};
+      LocalizerConfig config{
+          label,
+          plugin,
+          fixed,
+          place(plugin_node),
+          fixed_places,
+          item_params_file ? std::optional(item_params_file->first) : std::nullopt,
+          item_params_file ? item_params_file->second : InputPlace{}};
       for (std::size_t a = 0; a < axes.size(); ++a) {
         const auto& [text, value_place] = axes[a].second[digit[a]];
         config.params.emplace_back(axes[a].first, text);
@@ -165,6 +179,13 @@ ExperimentDef load_experiment(const fs::path& file) {
   // The world and scenario must load now, not in every run.
   e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;
   e.files.insert(e.files.begin(), file);
+  // The parameter files too: a resume must see them change like the world.
+  for (const LocalizerConfig& config : e.localizers) {
+    if (config.params_file &&
+        std::find(e.files.begin(), e.files.end(), *config.params_file) == e.files.end()) {
+      e.files.push_back(*config.params_file);
+    }
+  }
   return e;
 }
 

@@ -23,6 +23,10 @@ struct LocalizerConfig {
   std::string spec() const;                                 // NAME:key=value,...@label
   InputPlace plugin_place;                                  // of the `plugin:` value
   std::vector<InputPlace> param_places;  // of each parameter's value, parallel to `params`
+  /// The parameter file its runs get (`--params`): the entry's `params_file`, else the
+  /// experiment's; resolved against the experiment file. Its values rank below `params`.
+  std::optional<std::filesystem::path> params_file;
+  InputPlace params_file_place;  // of the `params_file:` value that gives it
 };
 
 struct ExperimentDef {
@@ -43,7 +47,7 @@ struct ExperimentDef {
   double timeout_s = 600.0;  // per run, wall clock [s]
   static constexpr Range kTimeoutRange{0.01, kSimulatedTimeRange.max, "s"};
   /// Every file the experiment was read from: this one, then its world's and scenario's
-  /// (RunInputs::files).
+  /// (RunInputs::files), then its parameter files.
   std::vector<std::filesystem::path> files;
 };
 

@@ -383,10 +383,12 @@ void write_tables(const fs::path& out_dir) {
 
 namespace {
 
-/// Finds and loads every configuration's plugin (each file once) and checks its parameters
-/// exactly as `locsim run` does (parse_localizer_spec, find_plugin, PluginLibrary, ParamSet), so
-/// that a misspelt plugin or parameter fails the sweep at once, with run's own message prefixed
-/// by where the experiment file gives it, rather than every run of it after the simulation.
+/// Finds and loads every configuration's plugin (each file once) and checks its parameters, with
+/// its params file, exactly as `locsim run` does (parse_localizer_spec, find_plugin,
+/// PluginLibrary, load_param_file, ParamSet), so that a misspelt plugin or parameter fails the
+/// sweep at once, with run's own message prefixed by where the experiment file gives it (a
+/// problem in a params file: where that file has it), rather than every run of it after the
+/// simulation.
 /// Creating the filters needs the world's simulation; a plugin whose create call fails is still
 /// found by its runs.
 json check_localizers(const ExperimentDef& experiment) {
@@ -395,6 +397,9 @@ json check_localizers(const ExperimentDef& experiment) {
     return place.where.str() + ": '" + place.key + "': " + message;
   };
   std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;  // by file
+  std::map<std::string, std::shared_ptr<const ParamFile>> files;          // by path
+  // Each params file, in the order of first use, with the plugins given it.
+  std::vector<std::pair<const ParamFile*, std::vector<const locsim_localizer*>>> users;
   for (const LocalizerConfig& config : experiment.localizers) {
     LocalizerSpec spec;
     try {
@@ -436,6 +441,24 @@ json check_localizers(const ExperimentDef& experiment) {
       }
       throw InputError(at(place, e.what()));
     }
+    if (config.params_file) {
+      // As `replay --params` reads it; a problem in the file is named where the file has it.
+      auto& file = files[config.params_file->string()];
+      if (!file) {
+        file = std::make_shared<const ParamFile>(load_param_file(*config.params_file));
+        users.emplace_back(file.get(), std::vector<const locsim_localizer*>{});
+      }
+      spec.params_file = file;
+      const ParamSet params(library->table(), spec);
+      std::find_if(users.begin(), users.end(), [&](const auto& u) {
+        return u.first == file.get();
+      })->second.push_back(&library->table());
+    }
+  }
+  // Once for the sweep (each run's log.txt has them again, for its one localizer).
+  for (const auto& [file, tables] : users) {
+    for (const std::string& warning : param_file_warnings(*file, tables))
+      std::fprintf(stderr, "locsim sweep: warning: %s\n", warning.c_str());
   }
   return stamps;
 }
@@ -628,6 +651,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                  fixed(experiment.convergence.position_m, 9), "--converged-within-deg",
                  fixed(rad_to_deg(experiment.convergence.heading_rad), 9), "--converged-hold",
                  std::to_string(experiment.convergence.hold_samples)};
+    if (run.config->params_file)
+      task.args.insert(task.args.end(), {"--params", run.config->params_file->string()});
     return task;
   };
   for (const RunUnit* run : pending) {

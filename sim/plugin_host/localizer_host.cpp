@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <set>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/format.hpp"
@@ -64,6 +65,18 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
     if (!library) library = std::make_shared<const PluginLibrary>(file);
     const ParamSet params(library->table(), spec);
     resolved.push_back({library, params.to_json().dump()});
+  }
+  // A params file's value that none of the localizers it is given to declares: said once.
+  std::set<const ParamFile*> warned;
+  for (const LocalizerSpec& spec : specs) {
+    const ParamFile* file = spec.params_file.get();
+    if (file == nullptr || !warned.insert(file).second) continue;
+    std::vector<const locsim_localizer*> tables;
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      if (specs[k].params_file.get() == file) tables.push_back(&resolved[k].library->table());
+    }
+    for (const std::string& warning : param_file_warnings(*file, tables))
+      std::fprintf(stderr, "locsim: warning: %s\n", warning.c_str());
   }
   for (const RobotDef& robot : world.robots) {
     // One initial guess per robot, shared by all its filters so that they start alike.

@@ -30,8 +30,9 @@ struct HostOptions {
 class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
  public:
   /// Resolves every spec's plugin and checks its parameters (InputError, exit 2; PluginError,
-  /// exit 3), then creates each localizer of each robot (PluginError when a create fails or
-  /// crashes). Nothing is written before this returns.
+  /// exit 3; what of a params file no localizer declares is a warning on stderr), then creates each
+  /// localizer of each robot (PluginError when a create fails or crashes). Nothing is written
+  /// before this returns.
   LocalizerHost(const std::vector<LocalizerSpec>& specs, const WorldDef& world,
                 const LocalizationDef& localization, const OccupancyGrid& grid,
                 std::uint64_t run_seed, const HostOptions& options = {});

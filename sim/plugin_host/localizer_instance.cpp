@@ -68,25 +68,47 @@ LocalizerSpec parse_localizer_spec(const std::string& text) {
 }
 
 // ---------------------------------------------------------------------------------------------
+namespace {
+/// "--localizer LABEL: plugin 'NAME' has no parameter 'KEY'; did you mean ...? (parameters: ...)"
+std::string undeclared(const locsim_localizer& table, const LocalizerSpec& spec,
+                       const std::string& key) {
+  std::string best, known;
+  std::size_t best_distance = 4;
+  for (std::size_t i = 0; i < table.param_count; ++i) {
+    const std::string name = table.params[i].name;
+    known += (known.empty() ? "" : ", ") + name;
+    if (const std::size_t d = edit_distance(key, name); d < best_distance)
+      best_distance = d, best = name;
+  }
+  return "--localizer " + spec.label + ": plugin '" + table.name + "' has no parameter '" + key +
+         "'" + (best.empty() ? "" : "; did you mean '" + best + "'?") +
+         " (parameters: " + (known.empty() ? "none" : known) + ")";
+}
+
+/// A parameter's value as text, and where it came from: the spec (no place) or the params file.
+struct GivenValue {
+  std::string text;
+  std::optional<InputPlace> place;
+};
+}  // namespace
+
 ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
-  std::map<std::string, std::string> given(spec.params.begin(), spec.params.end());
+  // Lowest precedence first: each later source replaces what an earlier one gave.
+  std::map<std::string, GivenValue> given;
+  if (const ParamFile* file = spec.params_file.get()) {
+    for (const ParamFileValue& v : file->common) {
+      if (declares(table, v.key)) given[v.key] = {v.text, v.place};
+    }
+    if (const ParamFileSection* section = file->section(table.name)) {
+      for (const ParamFileValue& v : section->values) {
+        if (!declares(table, v.key)) throw InputError(v.place, undeclared(table, spec, v.key));
+        given[v.key] = {v.text, v.place};
+      }
+    }
+  }
   for (const auto& [key, value] : spec.params) {
-    bool declared = false;
-    std::string best, known;
-    std::size_t best_distance = 4;
-    for (std::size_t i = 0; i < table.param_count; ++i) {
-      const std::string name = table.params[i].name;
-      declared = declared || name == key;
-      known += (known.empty() ? "" : ", ") + name;
-      if (const std::size_t d = edit_distance(key, name); d < best_distance)
-        best_distance = d, best = name;
-    }
-    if (!declared) {
-      throw InputError("--localizer " + spec.label + ": plugin '" + table.name +
-                       "' has no parameter '" + key + "'" +
-                       (best.empty() ? "" : "; did you mean '" + best + "'?") +
-                       " (parameters: " + (known.empty() ? "none" : known) + ")");
-    }
+    if (!declares(table, key)) throw InputError(undeclared(table, spec, key));
+    given[key] = {value, std::nullopt};
   }
   for (std::size_t i = 0; i < table.param_count; ++i) {
     const locsim_param_decl& decl = table.params[i];
@@ -96,8 +118,13 @@ ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
     }
     const auto it = given.find(decl.name);
     if (it != given.end()) {
-      const std::string& text = it->second;
-      const std::string where = "--localizer " + spec.label + ": parameter '" + decl.name + "'";
+      const std::string& text = it->second.text;
+      const auto fail = [&](const std::string& problem) {
+        const std::string message =
+            "--localizer " + spec.label + ": parameter '" + decl.name + "': " + problem;
+        if (it->second.place) throw InputError(*it->second.place, message);
+        throw InputError(message);
+      };
       switch (decl.type) {
         case LOCSIM_PARAM_DOUBLE:
         case LOCSIM_PARAM_INT: {
@@ -109,15 +136,14 @@ ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
             used = 0;
           }
           if (used != text.size() || !std::isfinite(number)) {
-            throw InputError(where + ": expected a number, got '" + text + "'");
+            fail("expected a number, got '" + text + "'");
           }
           if (decl.type == LOCSIM_PARAM_INT && number != std::floor(number)) {
-            throw InputError(where + ": expected an integer, got '" + text + "'");
+            fail("expected an integer, got '" + text + "'");
           }
           if (number < decl.min_number || number > decl.max_number) {
-            throw InputError(where + ": " + text + " is outside [" +
-                             std::to_string(decl.min_number) + ", " +
-                             std::to_string(decl.max_number) + "]");
+            fail(text + " is outside [" + std::to_string(decl.min_number) + ", " +
+                 std::to_string(decl.max_number) + "]");
           }
           value.number = number;
           break;
@@ -128,7 +154,7 @@ ParamSet::ParamSet(const locsim_localizer& table, const LocalizerSpec& spec) {
           } else if (text == "false" || text == "0") {
             value.number = 0.0;
           } else {
-            throw InputError(where + ": expected true or false, got '" + text + "'");
+            fail("expected true or false, got '" + text + "'");
           }
           break;
         case LOCSIM_PARAM_STRING:

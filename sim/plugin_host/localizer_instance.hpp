@@ -18,6 +18,7 @@
 #include "locsim/models.hpp"
 #include "sim/common/random.hpp"
 #include "sim/metrics/error_metrics.hpp"
+#include "sim/plugin_host/param_file.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/robot/robot_def.hpp"
 #include "sim/scenario/scenario_def.hpp"
@@ -32,10 +33,16 @@ struct LocalizerSpec {
   std::string plugin;  // name or .so path
   std::vector<std::pair<std::string, std::string>> params;
   std::string label;  // default: the plugin's name
+  /// `--params FILE`: values for the parameters the spec does not give (may be null).
+  std::shared_ptr<const ParamFile> params_file;
 };
 LocalizerSpec parse_localizer_spec(const std::string& text);  // throws InputError
 
-/// Parameter values checked against a plugin's declarations, defaults filled in.
+/// Parameter values checked against a plugin's declarations, defaults filled in. Each value from,
+/// in order of precedence: the spec, its params file's section of this plugin, the file's common
+/// values, the plugin's default. A value from the file is checked like one from the command line
+/// and a problem with it names the file's line and key; a key of the file's section of this
+/// plugin that the plugin does not declare is an error, a common one is left to others.
 class ParamSet {
  public:
   ParamSet(const locsim_localizer& table, const LocalizerSpec& spec);  // throws InputError

@@ -60,6 +60,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   run["seed"] = source.seed();
   run["world_file"] = header.value("world_file", "");
   run["scenario_file"] = source.scenario().source.string();
+  if (options.params_file) run["params_file"] = options.params_file->string();
   run["simulated_s"] = result.replayed_s;
   run["records"] = result.records;
   // Where each robot's files are, as a run says it (tools/report.py reads it).

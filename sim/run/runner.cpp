@@ -191,6 +191,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   run["seed"] = options.seed;
   run["world_file"] = options.world_file.string();
   run["scenario_file"] = inputs.scenario.source.string();
+  if (options.params_file) run["params_file"] = options.params_file->string();
   run["simulated_s"] = result.simulated_s;
   run["steps"] = sim.step_index();
   char hash[24];

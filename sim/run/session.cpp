@@ -11,8 +11,14 @@ namespace locsim {
 Session::Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
                  std::uint64_t seed, const std::atomic<bool>* interrupt)
     : world_(world), options_(options) {
+  std::shared_ptr<const ParamFile> params_file;
+  if (options.params_file)
+    params_file = std::make_shared<const ParamFile>(load_param_file(*options.params_file));
   std::vector<LocalizerSpec> specs;
-  for (const std::string& text : options.localizers) specs.push_back(parse_localizer_spec(text));
+  for (const std::string& text : options.localizers) {
+    specs.push_back(parse_localizer_spec(text));
+    specs.back().params_file = params_file;
+  }
   OccupancyGrid grid;
   if (!specs.empty()) {
     // The static world only, rasterized as the localizers see it (no robot moves in it).

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,8 @@ struct SessionOptions {
   double plugin_timeout_s = 60.0;       // longest one plugin call may take [s]; 0: no limit
   bool readings = true;                 // write readings/ (one CSV per sensor)
   bool overwrite = false;               // allow writing into a non-empty folder
+  /// --params: values for every localizer's parameters, below its spec's (plugin_host/param_file)
+  std::optional<std::filesystem::path> params_file;
 };
 
 /// How a run or replay ended: completed, interrupted (Ctrl-C) or failed (with the first error,
@@ -45,8 +48,8 @@ struct RunEnd {
 
 class Session {
  public:
-  /// Parses the specs, loads the plugins, checks their parameters and creates every localizer
-  /// (InputError, PluginError); writes nothing.
+  /// Parses the specs and the params file, loads the plugins, checks their parameters and creates
+  /// every localizer (InputError, PluginError); writes nothing.
   Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
           std::uint64_t seed, const std::atomic<bool>* interrupt);
 

@@ -381,6 +381,11 @@ int main(int argc, char** argv) {
         "--localizer", session.localizers,
         "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
         "several (all get the same readings)");
+    command->add_option(
+        "--params", session.params_file,
+        "Parameter file (YAML, e.g. `locsim calibrate`'s): its localizer_params give every "
+        "localizer the values of the parameters it declares (a map under a plugin's name: that "
+        "plugin's only, first); a --localizer key=value wins over the file");
     command
         ->add_option("--isolation", isolation,
                      "process: each localizer in its own process, so that a crash or hang fails "

@@ -1,0 +1,98 @@
+#include "sim/plugin_host/param_file.hpp"
+
+#include <algorithm>
+#include <set>
+
+#include "sim/common/yaml_node.hpp"
+#include "sim/plugin_host/plugin_library.hpp"
+
+namespace locsim {
+
+namespace {
+
+constexpr const char* kScalar = "a number, true/false or a string, as on the command line";
+
+ParamFileValue value_of(const std::string& key, const YamlNode& node) {
+  if (node.is_null()) node.fail(std::string("no value; expected ") + kScalar);
+  if (!node.is_scalar()) node.fail(std::string("expected ") + kScalar + ", got a list or a map");
+  return {key, node.as_string(), node.place()};
+}
+
+std::string names_of(const std::vector<const locsim_localizer*>& tables) {
+  std::set<std::string> names;
+  for (const locsim_localizer* table : tables) names.insert(table->name);
+  std::string out;
+  for (const std::string& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out.empty() ? "none given" : out;
+}
+
+std::string at(const InputPlace& place) {
+  return place.where.str() + ": '" + place.key + "'";
+}
+
+}  // namespace
+
+bool declares(const locsim_localizer& table, const std::string& key) {
+  for (std::size_t i = 0; i < table.param_count; ++i) {
+    if (key == table.params[i].name) return true;
+  }
+  return false;
+}
+
+const ParamFileSection* ParamFile::section(const std::string& plugin) const {
+  const auto it = std::find_if(sections.begin(), sections.end(),
+                               [&](const ParamFileSection& s) { return s.plugin == plugin; });
+  return it == sections.end() ? nullptr : &*it;
+}
+
+ParamFile load_param_file(const std::filesystem::path& file) {
+  const YamlNode root = YamlNode::load_file(file);
+  if (!root.is_map()) root.fail("expected a map with a 'localizer_params' key");
+  const YamlNode params = root["localizer_params"];
+  if (!params.is_map()) {
+    params.fail(
+        "expected a map of parameter values (and of plugins' names to maps of their values)");
+  }
+  ParamFile out;
+  out.path = file;
+  for (const auto& [key, node] : params.entries()) {
+    if (!node.is_map()) {
+      out.common.push_back(value_of(key, node));
+      continue;
+    }
+    ParamFileSection section{key, node.place(), {}};
+    for (const auto& [name, value] : node.entries())
+      section.values.push_back(value_of(name, value));
+    out.sections.push_back(std::move(section));
+  }
+  return out;
+}
+
+std::vector<std::string> param_file_warnings(const ParamFile& file,
+                                             const std::vector<const locsim_localizer*>& tables) {
+  std::vector<std::string> warnings;
+  for (const ParamFileValue& value : file.common) {
+    const bool used = std::any_of(tables.begin(), tables.end(), [&](const locsim_localizer* t) {
+      return declares(*t, value.key);
+    });
+    if (!used) {
+      warnings.push_back(at(value.place) + " is declared by none of the localizers (" +
+                         names_of(tables) + "): ignored");
+    }
+  }
+  for (const ParamFileSection& section : file.sections) {
+    const bool ran = std::any_of(tables.begin(), tables.end(), [&](const locsim_localizer* t) {
+      return section.plugin == t->name;
+    });
+    if (ran) continue;
+    try {
+      find_plugin(section.plugin);  // a plugin not run here, but there is one of that name
+    } catch (const PluginError&) {
+      warnings.push_back(at(section.place) + " names no plugin found (`locsim plugins` lists " +
+                         "them; this run's: " + names_of(tables) + "): ignored");
+    }
+  }
+  return warnings;
+}
+
+}  // namespace locsim
