@@ -1,6 +1,8 @@
 // `locsim calibrate`: on logs whose noise is known (a simulated run with configured sensor noise,
 // and a generated dataset whose odometry follows the odometry model with chosen alphas), the
 // fitted values come back within 15 %.
+#include "sim/metrics/calibration.hpp"
+
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -9,11 +11,11 @@
 #include <fstream>
 #include <locsim/models.hpp>
 #include <locsim/particles.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/random.hpp"
-#include "sim/metrics/calibration.hpp"
 #include "sim/producers/import_log.hpp"
 #include "sim/run/runner.hpp"
 #include "tests/test_support.hpp"
@@ -165,8 +167,7 @@ ImportedDataset odometry_model_dataset(const sdk::OdometryNoise& noise, std::siz
     const auto apply = [](const sdk::Pose& from, const sdk::OdometryDelta& delta) {
       const double heading = from(2) + delta.rot1;
       return sdk::Pose(from(0) + delta.trans * std::cos(heading),
-                       from(1) + delta.trans * std::sin(heading),
-                       sdk::wrap(heading + delta.rot2));
+                       from(1) + delta.trans * std::sin(heading), sdk::wrap(heading + delta.rot2));
     };
     const sdk::OdometryDelta spread = sdk::motion_spread(step, noise);
     const sdk::OdometryDelta actual{step.rot1 + rng.normal(0.0, spread.rot1),
@@ -215,8 +216,8 @@ TEST(Calibrate, CommandLineWritesAParameterFileAndSensorSettingsAndRefusesBadInp
   EXPECT_NE(first_json.find("\"bins\""), std::string::npos);
 
   // The same log again: byte-identical files (with --overwrite; refused without).
-  const auto again = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
-                                     " --out " + (dir / "cal").string() + " -q");
+  const auto again = testing::locsim("calibrate " + (dir / "small.locsimlog").string() + " --out " +
+                                     (dir / "cal").string() + " -q");
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.output.find("calibration.yaml exists"), std::string::npos) << again.output;
   const auto overwrite = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
@@ -224,6 +225,32 @@ TEST(Calibrate, CommandLineWritesAParameterFileAndSensorSettingsAndRefusesBadInp
   ASSERT_EQ(overwrite.exit_code, 0) << overwrite.output;
   EXPECT_EQ(testing::read_file(dir / "cal/calibration.yaml"), first);
   EXPECT_EQ(testing::read_file(dir / "cal/calibration.json"), first_json);
+
+  // The file is a parameter file every landmark localizer takes (each the keys it declares).
+  const auto replay = testing::locsim(
+      "replay " + (dir / "small.locsimlog").string() + " --out " + (dir / "replay").string() +
+      " --params " + (dir / "cal/calibration.yaml").string() +
+      " --localizer ekf_landmarks --localizer mcl --localizer srl --localizer asrl"
+      " --localizer augmented_mcl --localizer fastslam -q");
+  ASSERT_EQ(replay.exit_code, 0) << replay.output;
+  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "replay/metrics.json"));
+  for (const auto& localizer : metrics.at("localizers")) {
+    const auto& params = localizer.at("params");
+    const std::string label = localizer.at("label");
+    EXPECT_EQ(localizer.at("status"), "ok") << label;
+    if (label == "ekf_landmarks") {
+      EXPECT_DOUBLE_EQ(params.at("k_left").get<double>(),
+                       yaml["localizer_params"]["k_left"].as<double>());
+    } else {
+      EXPECT_DOUBLE_EQ(params.at("alpha1").get<double>(),
+                       yaml["localizer_params"]["alpha1"].as<double>())
+          << label;
+    }
+    if (label == "fastslam") {
+      EXPECT_DOUBLE_EQ(params.at("sigma_range_m").get<double>(),
+                       yaml["localizer_params"]["fastslam"]["sigma_range_m"].as<double>());
+    }
+  }
 
   const auto nobody = testing::locsim("calibrate " + (dir / "small.locsimlog").string() +
                                       " --out " + (dir / "x").string() + " --robots nobody");

@@ -45,6 +45,32 @@ TEST(ParticleFilters, TrackFromAKnownStartToCentimetres) {
   }
 }
 
+TEST(ParticleFilters, WheelMotionAtEveryOdometryReadingTracksToCentimetres) {
+  // The wheel model with k a few times the encoders' (0.0013, 0.0012; the 0.2 % wheel radius
+  // error is systematic) instead of the per-step alphas.
+  const auto metrics =
+      run_field("", 2, 30.0,
+                {"mcl:motion_model=wheels,k_left=0.005,k_right=0.005@wheels", "mcl:" + kCalibrated},
+                testing::temp_dir("pf-wheels"));
+  ASSERT_EQ(metrics["localizers"].size(), 2u);
+  const auto& wheels = metrics["localizers"][0];
+  ASSERT_EQ(wheels["status"], "ok");
+  EXPECT_LT(wheels["position_error_m"]["rms"].get<double>(), 0.04);
+  EXPECT_LT(wheels["heading_error_deg"]["rms"].get<double>(), 2.0);
+  // A different motion model: not the same estimates as the per-step one.
+  EXPECT_NE(wheels["position_error_m"]["rms"], metrics["localizers"][1]["position_error_m"]["rms"]);
+}
+
+TEST(ParticleFilters, ResettingWaitsForAsManyDetectionsAsAsked) {
+  const auto metrics =
+      run_field("kidnap.yaml", 1, 30.0,
+                {"asrl:" + kCalibrated, "asrl:reset_min_detections=1000," + kCalibrated + "@never"},
+                testing::temp_dir("pf-min-detections"));
+  ASSERT_EQ(metrics["localizers"].size(), 2u);
+  EXPECT_GT(metrics["localizers"][0]["diagnostics_mean"]["resets"].get<double>(), 0.0);
+  EXPECT_EQ(metrics["localizers"][1]["diagnostics_mean"]["resets"].get<double>(), 0.0);
+}
+
 TEST(ParticleFilters, AsrlRecoversFromKidnapsWhereMclCannot) {
   int mcl_recovered = 0, asrl_recovered = 0, kidnaps = 0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {

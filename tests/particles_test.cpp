@@ -52,6 +52,39 @@ TEST(Particles, MotionNoiseHasThePapersSpreadAndThrunsVarianceForm) {
   }
 }
 
+TEST(Particles, WheelMotionSpreadsAsTheEkfPredictsAndTheFloorAddsItsOwn) {
+  // Many readings of wheel travel (an arc): the cloud's covariance is the EKF's prediction with
+  // the same k (predict_by_wheels), to first order; then the floor adds its variance.
+  constexpr std::size_t kParticles = 40000;
+  ParticleSet p;
+  p.resize(kParticles);
+  Random random(11);
+  Pose x(0, 0, 0);
+  Eigen::Matrix3d P = Eigen::Matrix3d::Zero();
+  const double base_m = 0.3, k_left = 0.02, k_right = 0.03;
+  for (int step = 0; step < 50; ++step) {
+    sample_wheel_motion(p, 0.019, 0.021, base_m, k_left, k_right, random);
+    predict_by_wheels(x, P, 0.019, 0.021, base_m, k_left, k_right);
+  }
+  Pose mean;
+  Eigen::Matrix3d covariance;
+  mean_and_covariance(p, mean, covariance);
+  // The mean lags the noiseless pose a little (the heading spread bends the paths inwards).
+  EXPECT_LT((mean - x).head<2>().norm(), 0.01);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(covariance(i, i), P(i, i), 0.05 * P(i, i)) << i;
+  }
+  OdometryNoise floor;
+  floor.floor_position_m = 0.05;
+  floor.floor_heading_rad = 0.1;
+  add_motion_floor(p, floor, random);
+  Eigen::Matrix3d widened;
+  mean_and_covariance(p, mean, widened);
+  EXPECT_NEAR(widened(0, 0) - covariance(0, 0), 0.0025, 0.0002);
+  EXPECT_NEAR(widened(1, 1) - covariance(1, 1), 0.0025, 0.0002);
+  EXPECT_NEAR(widened(2, 2) - covariance(2, 2), 0.01, 0.0008);
+}
+
 TEST(Particles, ReversingIsAsNoisyAsDrivingForwards) {
   // 5 cm straight back decomposes as a half turn, 5 cm, and a half turn back: the noise must be
   // that of 5 cm forwards, not of two half turns (alpha1 pi: 100x the rotation noise).

@@ -7,6 +7,8 @@ Sweep folder: the summary table, error vs time per configuration (mean over seed
 band, kidnaps marked), each grid parameter's effect on the position error, and the CDFs of the
 convergence and recovery steps. Run folder (of `run` or `replay`): its localizers' metrics and
 error vs time; with several robots, each robot's and the localizers' error over all robots.
+Calibration folder (of `calibrate`): the fitted noise models, with the detection errors per range
+bin against the fitted bias and spread lines.
 Uses Debian's python3-matplotlib; writes DIR/report.md and DIR/report/*.png.
 """
 import argparse
@@ -340,6 +342,76 @@ def run_report(root, out_dir):
     return lines + ["", "![position error over time, per robot](report/error_vs_time.png)", ""]
 
 
+def calibration_report(root, out_dir):
+    with open(os.path.join(root, "calibration.json")) as f:
+        cal = json.load(f)
+    lines = ["# Calibration report", "", "Measured against the ground truth of:", ""]
+    lines += [f"- `{source}`" for source in cal["sources"]]
+    motion = cal.get("motion")
+    if motion:
+        lines += ["", f"## Motion ({motion['intervals']} intervals between perception steps, mean "
+                  f"{motion['mean_interval_s']:.3f} s and {motion['mean_travel_m']:.3f} m)", "",
+                  "| model | alpha1 | alpha2 | alpha3 | alpha4 | floor [m] | floor [deg] | log-likelihood per interval |",
+                  "|---|---|---|---|---|---|---|---|"]
+        models = motion["odometry_model"]
+        for name in ("standard_deviation_form", "variance_form"):
+            m = models[name]
+            chosen = " (chosen)" if models["chosen"] == name else ""
+            lines.append(f"| odometry, {name.replace('_', ' ')}{chosen} | {m['alpha1']:.4g} | {m['alpha2']:.4g} | "
+                         f"{m['alpha3']:.4g} | {m['alpha4']:.4g} | {m['floor_position_m']:.3g} | "
+                         f"{math.degrees(m['floor_heading_rad']):.3g} | {m['log_likelihood']:.3f} |")
+        w = motion["wheel_model"]
+        lines += ["", f"Wheel model (ekf_landmarks): k_left {w['k_left']:.4g}, k_right {w['k_right']:.4g} m^1/2, "
+                  f"floor {w['floor_position_m']:.3g} m and {math.degrees(w['floor_heading_rad']):.3g} deg; "
+                  f"mean NEES {w['mean_nees']:.2f} (3 when the covariance fits the errors)."]
+        if "velocity_model" in motion:
+            v = motion["velocity_model"]
+            lines += ["", f"Velocity model (Thrun table 5.3, {v['intervals']} intervals): variance of v = "
+                      f"{v['alpha1']:.4g} v² + {v['alpha2']:.4g} ω², of ω = {v['alpha3']:.4g} v² + {v['alpha4']:.4g} ω²."]
+    for camera in cal.get("cameras", []):
+        name = camera["camera"]
+        rb, rs, rr = camera["range_bias"], camera["range_spread"], camera["range_rms"]
+        lines += ["", f"## {name}", "",
+                  f"{camera['detections']} detections of landmarks in {camera['readings']} readings; "
+                  f"{camera['false_detections']} false ({camera['false_per_reading']:.3f} per reading)"
+                  + (f"; missed {camera['missed']} of {camera['visible']} visible ({camera['miss_probability']:.3f})"
+                     if "miss_probability" in camera else "") + ".",
+                  "", f"Range bias {rb['m']:.4g} m + {rb['per_m']:.4g} r, spread {rs['m']:.4g} m + {rs['per_m']:.4g} r "
+                  f"(about zero: {rr['m']:.4g} m + {rr['per_m']:.4g} r); bearing bias "
+                  f"{math.degrees(camera['bearing_bias_rad']):.3f} deg, spread {math.degrees(camera['bearing_spread_rad']):.3f} deg."]
+        bins = camera["bins"]
+        if not bins:
+            continue
+        r = [b["range_m"] for b in bins]
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.8))
+        ax1.errorbar(r, [b["range_error_mean_m"] for b in bins], yerr=[b["range_error_std_m"] for b in bins],
+                     fmt="o", color=COLORS[0], label="bins: mean ± std")
+        grid = [min(r) * i / 50 + max(r) * (50 - i) / 50 for i in range(51)]
+        bias = [rb["m"] + rb["per_m"] * x for x in grid]
+        ax1.plot(grid, bias, color=COLORS[1], label="fitted bias")
+        ax1.plot(grid, [b + rs["m"] + rs["per_m"] * x for b, x in zip(bias, grid)], "--", color=COLORS[1],
+                 label="bias ± fitted spread")
+        ax1.plot(grid, [b - rs["m"] - rs["per_m"] * x for b, x in zip(bias, grid)], "--", color=COLORS[1])
+        ax1.plot(grid, [rr["m"] + rr["per_m"] * x for x in grid], ":", color=COLORS[2], label="± spread about zero")
+        ax1.plot(grid, [-rr["m"] - rr["per_m"] * x for x in grid], ":", color=COLORS[2])
+        ax1.set_xlabel("true range [m]")
+        ax1.set_ylabel("measured − true range [m]")
+        ax1.legend(fontsize=7)
+        ax2.errorbar(r, [math.degrees(b["bearing_error_mean_rad"]) for b in bins],
+                     yerr=[math.degrees(b["bearing_error_std_rad"]) for b in bins], fmt="o", color=COLORS[0])
+        bb, bs = math.degrees(camera["bearing_bias_rad"]), math.degrees(camera["bearing_spread_rad"])
+        for y, style in ((bb, "-"), (bb + bs, "--"), (bb - bs, "--")):
+            ax2.axhline(y, linestyle=style, color=COLORS[1])
+        ax2.set_xlabel("true range [m]")
+        ax2.set_ylabel("measured − true bearing [deg]")
+        fig.suptitle(f"{name}: detection errors per range bin (inliers) and the fits", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out_dir, f"{name}_errors.png"), dpi=100)
+        plt.close(fig)
+        lines += ["", f"![{name} errors against range](report/{name}_errors.png)"]
+    return lines + [""]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("dir")
@@ -352,8 +424,10 @@ def main():
             lines = sweep_report(root, out_dir)
         elif os.path.exists(os.path.join(root, "run.json")):
             lines = run_report(root, out_dir)
+        elif os.path.exists(os.path.join(root, "calibration.json")):
+            lines = calibration_report(root, out_dir)
         else:
-            print(f"report: {root} is neither a sweep nor a run folder", file=sys.stderr)
+            print(f"report: {root} is neither a sweep, a run nor a calibration folder", file=sys.stderr)
             return 2
     except (OSError, ValueError, KeyError) as error:
         print(f"report: cannot read {root}: {error}", file=sys.stderr)

@@ -9,14 +9,29 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
     : recovery_(recovery), random_(init.seed) {
   const sdk::Params params(init);
   const auto n = static_cast<std::size_t>(params.integer("particles"));
-  noise_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
-            params.number("alpha4"), params.flag("variance_form")};
+  noise_ = {params.number("alpha1"),
+            params.number("alpha2"),
+            params.number("alpha3"),
+            params.number("alpha4"),
+            params.flag("variance_form"),
+            params.number("motion_floor_m"),
+            params.number("motion_floor_deg") * std::numbers::pi / 180.0};
   sigma_range_m_ = params.number("sigma_range_m");
   sigma_range_per_m_ = params.number("sigma_range_per_m");
   sigma_range_per_m2_ = params.number("sigma_range_per_m2");
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
+  const std::string motion_model = params.string("motion_model");
+  if (motion_model != "odometry" && motion_model != "wheels")
+    throw std::invalid_argument("motion_model must be odometry or wheels, not '" + motion_model +
+                                "'");
+  wheel_motion_ = motion_model == "wheels";
+  k_left_ = params.number("k_left");
+  k_right_ = params.number("k_right");
+  wheel_base_m_ = init.robot->wheel_base_m;
+  if (wheel_motion_) wheels_.emplace(wheel_base_m_);
   reset_after_steps_ = params.integer("reset_after_steps");
+  reset_min_detections_ = static_cast<std::size_t>(params.integer("reset_min_detections"));
   sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
   const std::string resampler = params.string("resampler");
   if (resampler != "roulette" && resampler != "low_variance") {
@@ -220,13 +235,24 @@ bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& t
   return true;
 }
 
-void LandmarkParticleFilter::on_odometry(double, const locsim_odometry& odometry) {
+void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& odometry) {
   odometry_now_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
   if (!odometry_applied_) odometry_applied_ = odometry_now_;
+  if (wheel_motion_) {
+    if (const auto step = wheels_->update(t_s, odometry)) {
+      sdk::sample_wheel_motion(particles_, step->d_left_m, step->d_right_m, wheel_base_m_, k_left_,
+                               k_right_, random_);
+    }
+    odometry_applied_ = odometry_now_;
+  }
 }
 
 void LandmarkParticleFilter::apply_pending_motion() {
   if (!odometry_now_ || !odometry_applied_) return;
+  if (wheel_motion_) {  // moved at each odometry reading: only the step's floor is left
+    sdk::add_motion_floor(particles_, noise_, random_);
+    return;
+  }
   sdk::sample_motion(particles_, sdk::decompose(*odometry_applied_, *odometry_now_), noise_,
                      random_);
   odometry_applied_ = odometry_now_;
@@ -290,7 +316,7 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   }
   // A lone false detection looks, for one frame, like a kidnapping; a kidnapping lasts.
   low_steps_ = fraction > 0.0 ? low_steps_ + 1 : 0;
-  if (low_steps_ < reset_after_steps_) fraction = 0.0;
+  if (low_steps_ < reset_after_steps_ || step_count_ < reset_min_detections_) fraction = 0.0;
   const auto resets =
       static_cast<std::size_t>(std::floor(static_cast<double>(n) * std::clamp(fraction, 0.0, 1.0)));
   resets_ = static_cast<double>(resets);

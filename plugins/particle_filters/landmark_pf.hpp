@@ -33,6 +33,18 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
   {"alpha4", LOCSIM_PARAM_DOUBLE, 0.26, 0, 10, nullptr, "translation noise from rotation [m/rad]"}, \
   {"variance_form", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                          \
    "Thrun's variance form of the motion noise"},                                                   \
+  {"motion_model", LOCSIM_PARAM_STRING, 0, 0, 0, "odometry",                                       \
+   "odometry: the paper's alpha1..alpha4 on the odometry's motion since the last step; wheels: "  \
+   "each odometry reading's wheel travel with variance k^2 |d| per wheel (k_left, k_right), "     \
+   "as ekf_landmarks predicts"},                                                                  \
+  {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr,                                      \
+   "motion_model wheels: left wheel random error [m^1/2]"},                                       \
+  {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr,                                     \
+   "motion_model wheels: right wheel random error [m^1/2]"},                                      \
+  {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                     \
+   "position noise of every step whatever its motion, per axis (locsim calibrate) [m]"},          \
+  {"motion_floor_deg", LOCSIM_PARAM_DOUBLE, 0.0, 0, 180, nullptr,                                  \
+   "heading noise of every step whatever its motion (locsim calibrate) [deg]"},                   \
   {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 100, nullptr,                                 \
    "range noise of a detection at zero range [m]"},                                                \
   {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                  \
@@ -53,7 +65,10 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
   {"consistency_level", LOCSIM_PARAM_DOUBLE, 0.05, 0, 1, nullptr,                                  \
    "mean per-detection likelihood (1 = perfect match) under which a detection is inconsistent [-]"}, \
   {"reset_after_steps", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,                                     \
-   "resetting starts when the likelihood has been low this many steps in a row (1: the paper)"}
+   "resetting starts when the likelihood has been low this many steps in a row (1: the paper)"}, \
+  {"reset_min_detections", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,                                  \
+   "reset only in a step with at least this many detections (1: the paper; one detection puts "  \
+   "the robot anywhere on a ring around its landmark)"}
 // clang-format on
 
 class LandmarkParticleFilter : public sdk::Localizer {
@@ -98,6 +113,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   bool low_variance_, use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   long reset_after_steps_ = 1, low_steps_ = 0;
+  std::size_t reset_min_detections_ = 1;
   // Recovery parameters.
   double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
   double w_slow_ = 0.0, w_fast_ = 0.0;
@@ -109,6 +125,10 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// steps the estimate is the particles' mean moved by the odometry since.
   void apply_pending_motion();
   std::optional<sdk::Pose> odometry_now_, odometry_applied_;
+  // motion_model wheels: the particles move at every odometry reading.
+  bool wheel_motion_ = false;
+  double k_left_ = 0.0, k_right_ = 0.0, wheel_base_m_ = 0.0;
+  std::optional<sdk::OdometryTracker> wheels_;
   std::vector<std::size_t> chosen_;
   std::vector<double> spacings_, log_weights_, candidate_match_;
   std::vector<std::vector<double>> detection_match_;  // per detection of the step, per particle

@@ -24,8 +24,7 @@ struct MinimizeResult {
 /// not NaN, outside the domain).
 template <class F>
 MinimizeResult minimize_nelder_mead(F&& f, const std::vector<double>& x0, double step,
-                                    std::size_t max_evaluations = 2000,
-                                    double tolerance = 1e-10) {
+                                    std::size_t max_evaluations = 2000, double tolerance = 1e-10) {
   const std::size_t n = x0.size();
   std::vector<std::vector<double>> points(n + 1, x0);
   std::vector<double> values(n + 1);

@@ -246,8 +246,8 @@ void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled
   }
 }
 
-void collect_detections(const RobotLog& robot, const WorldDef& world,
-                        const StaticRaycaster& walls, Pooled& pooled) {
+void collect_detections(const RobotLog& robot, const WorldDef& world, const StaticRaycaster& walls,
+                        Pooled& pooled) {
   const std::optional<RangeBearingDef>& fov_sensor = robot.def->sensors.range_bearing;
   for (const RobotLog::Seen& seen : robot.seen) {
     const auto pose = robot.truth.at(seen.t_s);
@@ -267,9 +267,8 @@ void collect_detections(const RobotLog& robot, const WorldDef& world,
       const LandmarkDef& l = world.landmarks[*landmark];
       const Eigen::Vector2d predicted =
           sdk::range_bearing(*pose, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
-      camera.residuals.push_back(
-          {predicted(0), d.range_m - predicted(0), sdk::wrap(d.bearing_rad - predicted(1)),
-           *landmark});
+      camera.residuals.push_back({predicted(0), d.range_m - predicted(0),
+                                  sdk::wrap(d.bearing_rad - predicted(1)), *landmark});
     }
     visibility.count = camera.residuals.size() - visibility.first;
     if (seen.kind == SensorKind::kRangeBearing && fov_sensor) {
@@ -325,7 +324,8 @@ LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e);
 std::vector<std::pair<std::size_t, std::size_t>> equal_bins(std::size_t n, std::size_t bins) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
   bins = std::max<std::size_t>(1, std::min(bins, n / 50));
-  for (std::size_t b = 0; b < bins && n > 0; ++b) out.emplace_back(b * n / bins, (b + 1) * n / bins);
+  for (std::size_t b = 0; b < bins && n > 0; ++b)
+    out.emplace_back(b * n / bins, (b + 1) * n / bins);
   return out;
 }
 
@@ -382,8 +382,9 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     if (r[i].inlier) kept.push_back(i);
   c.inliers = kept.size();
   c.false_detections = data.unmatched + (r.size() - kept.size());
-  c.false_per_reading =
-      data.readings > 0 ? static_cast<double>(c.false_detections) / static_cast<double>(data.readings) : 0.0;
+  c.false_per_reading = data.readings > 0 ? static_cast<double>(c.false_detections) /
+                                                static_cast<double>(data.readings)
+                                          : 0.0;
   if (kept.empty()) return c;
   {
     std::vector<double> x, y;
@@ -396,8 +397,9 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     const double n = static_cast<double>(kept.size());
     c.bearing_bias_rad = sb / n;
     c.bearing_rms_rad = std::sqrt(sbb / n);
-    c.bearing_spread_rad = std::sqrt(std::max(0.0, sbb / n - c.bearing_bias_rad * c.bearing_bias_rad) *
-                                     (n > 1 ? n / (n - 1) : 1.0));
+    c.bearing_spread_rad =
+        std::sqrt(std::max(0.0, sbb / n - c.bearing_bias_rad * c.bearing_bias_rad) *
+                  (n > 1 ? n / (n - 1) : 1.0));
   }
   for (const auto& [begin, end] : equal_bins(kept.size(), options.range_bins)) {
     RangeBin bin;
@@ -441,7 +443,8 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     }
     c.visible = visible;
     c.missed = missed;
-    if (visible > 0) c.miss_probability = static_cast<double>(missed) / static_cast<double>(visible);
+    if (visible > 0)
+      c.miss_probability = static_cast<double>(missed) / static_cast<double>(visible);
   }
   return c;
 }
@@ -467,7 +470,9 @@ double gaussian_nll(const Eigen::Vector3d& e, const Eigen::Matrix3d& P) {
 
 // log(parameter) kept in a box: a fit may drive a noise term to zero, which is its answer.
 constexpr double kMinLog = -25.0, kMaxLog = 2.3;  // 1.4e-11 .. 10
-double bounded_exp(double p) { return std::exp(std::clamp(p, kMinLog, kMaxLog)); }
+double bounded_exp(double p) {
+  return std::exp(std::clamp(p, kMinLog, kMaxLog));
+}
 
 /// The error every interval has whatever its motion (truth noise, timing, a robot that creeps
 /// while its odometry says it stands): fitted beside each model as standard deviations in
@@ -489,9 +494,9 @@ OdometryModelFit fit_odometry_model(const std::vector<MotionSample>& samples, bo
     const Eigen::Matrix3d floor = floor_covariance(bounded_exp(p[4]), bounded_exp(p[5]));
     double sum = 0.0;
     for (const MotionSample& s : samples) {
-      sum += gaussian_nll(
-          s.local_error,
-          delta_covariance(s.measured, sdk::motion_spread(s.measured, noise)) + floor);
+      sum +=
+          gaussian_nll(s.local_error,
+                       delta_covariance(s.measured, sdk::motion_spread(s.measured, noise)) + floor);
     }
     return sum / static_cast<double>(samples.size());
   };
@@ -522,9 +527,8 @@ std::optional<OdometryModelFit> fit_velocity_model(const std::vector<MotionSampl
     }
     Eigen::Vector2d c = A.ldlt().solve(b);
     if (!(c(0) >= 0.0) || !(c(1) >= 0.0)) {
-      const int keep = A(0, 0) > 0 && b(0) / A(0, 0) * b(0) >= (A(1, 1) > 0 ? b(1) / A(1, 1) * b(1) : 0)
-                           ? 0
-                           : 1;
+      const int keep =
+          A(0, 0) > 0 && b(0) / A(0, 0) * b(0) >= (A(1, 1) > 0 ? b(1) / A(1, 1) * b(1) : 0) ? 0 : 1;
       c.setZero();
       if (A(keep, keep) > 0.0) c(keep) = std::max(0.0, b(keep) / A(keep, keep));
     }
@@ -594,7 +598,9 @@ json model_json(const OdometryModelFit& f) {
           {"log_likelihood", f.log_likelihood}};
 }
 
-std::string num(double value) { return rounded_number(value, 4); }
+std::string num(double value) {
+  return rounded_number(value, 4);
+}
 
 }  // namespace
 
@@ -614,9 +620,8 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
     for (std::size_t i = 0; i < world.robots.size(); ++i) {
       const RobotDef& def = world.robots[i];
       robots[i].def = &def;
-      if (options.robots.empty() ||
-          std::find(options.robots.begin(), options.robots.end(), def.name) !=
-              options.robots.end()) {
+      if (options.robots.empty() || std::find(options.robots.begin(), options.robots.end(),
+                                              def.name) != options.robots.end()) {
         translators[i].emplace(def);
         names.push_back(def.name);
         unused.erase(def.name);
@@ -690,10 +695,10 @@ json Calibration::to_json() const {
     j["motion"] = {{"intervals", m.intervals},
                    {"mean_interval_s", m.mean_interval_s},
                    {"mean_travel_m", m.mean_travel_m},
-                   {"odometry_model", {{"standard_deviation_form", model_json(m.odometry_std)},
-                                       {"variance_form", model_json(m.odometry_variance)},
-                                       {"chosen", m.variance_form ? "variance_form"
-                                                                  : "standard_deviation_form"}}},
+                   {"odometry_model",
+                    {{"standard_deviation_form", model_json(m.odometry_std)},
+                     {"variance_form", model_json(m.odometry_variance)},
+                     {"chosen", m.variance_form ? "variance_form" : "standard_deviation_form"}}},
                    {"wheel_model",
                     {{"k_left", m.k_left},
                      {"k_right", m.k_right},
@@ -755,16 +760,28 @@ std::string Calibration::to_yaml() const {
   }
   y += "localizer_params:  # each localizer takes the keys it declares\n";
   if (motion) {
-    const OdometryModelFit& f = motion->variance_form ? motion->odometry_variance : motion->odometry_std;
+    // The wheel model's noise adds up the same whatever the step length; the per-step alphas'
+    // does not (they hold for steps as long as the intervals measured here), so the particle
+    // filters get the wheel model (docs/real_data.md measures both on MRCLAM).
+    y += "  # motion: the wheel model at every odometry reading (ekf_landmarks; the particle "
+         "filters with motion_model wheels)\n";
+    y += "  motion_model: wheels\n  k_left: " + num(motion->k_left) +
+         "\n  k_right: " + num(motion->k_right) +
+         "\n  motion_floor_m: " + num(motion->k_floor_position_m) +
+         "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
+         num(rad_to_deg(motion->k_floor_heading_rad)) + "\n";
+    const OdometryModelFit& f =
+        motion->variance_form ? motion->odometry_variance : motion->odometry_std;
+    y += "  # the odometry model per perception step (fastslam; motion_model odometry)\n";
     y += "  alpha1: " + num(f.alpha1) + "\n  alpha2: " + num(f.alpha2) +
          "\n  alpha3: " + num(f.alpha3) + "\n  alpha4: " + num(f.alpha4) +
          "\n  variance_form: " + (motion->variance_form ? "true" : "false") +
          "  # the form that explains the odometry better\n";
-    y += "  k_left: " + num(motion->k_left) + "\n  k_right: " + num(motion->k_right) + "\n";
   }
   if (camera != nullptr) {
     // Localizers do not model a bias: they get the spread about zero (root mean square).
-    y += "  # from the " + camera->camera + "'s detections; the spread about zero (bias included)\n";
+    y +=
+        "  # from the " + camera->camera + "'s detections; the spread about zero (bias included)\n";
     y += "  sigma_range_m: " + num(std::max(camera->range_rms_m.at_zero, 1e-6)) +
          "\n  sigma_range_per_m: " + num(camera->range_rms_m.per_unit) +
          "\n  sigma_range_per_m2: 0\n  sigma_bearing_deg: " +
@@ -816,8 +833,8 @@ std::string describe(const Calibration& c) {
     text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
             std::to_string(d.false_detections) + " false (" + num(d.false_per_reading) +
             " per reading): range bias " + num(d.range_bias_m.at_zero) + " m + " +
-            num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) +
-            " m + " + num(d.range_spread_m.per_unit) + " r; bearing bias " +
+            num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) + " m + " +
+            num(d.range_spread_m.per_unit) + " r; bearing bias " +
             num(rad_to_deg(d.bearing_bias_rad)) + " deg, spread " +
             num(rad_to_deg(d.bearing_spread_rad)) + " deg" +
             (d.miss_probability ? "; missed " + num(*d.miss_probability) : std::string()) + "\n";

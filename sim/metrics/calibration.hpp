@@ -47,10 +47,10 @@ struct LineFit {
 
 struct RangeBin {
   std::size_t count = 0;
-  double range_m = 0.0;              // mean true range of the bin [m]
-  double range_error_mean_m = 0.0;   // measured - true [m]
-  double range_error_std_m = 0.0;    // about the fitted bias line [m]
-  double range_error_rms_m = 0.0;    // about zero [m]
+  double range_m = 0.0;             // mean true range of the bin [m]
+  double range_error_mean_m = 0.0;  // measured - true [m]
+  double range_error_std_m = 0.0;   // about the fitted bias line [m]
+  double range_error_rms_m = 0.0;   // about zero [m]
   double bearing_error_mean_rad = 0.0;
   double bearing_error_std_rad = 0.0;
 };
@@ -58,14 +58,14 @@ struct RangeBin {
 /// One camera kind's detections (range_bearing, ptz_camera, omni_camera).
 struct DetectionCalibration {
   std::string camera;
-  std::size_t readings = 0;        // readings of this camera with a true pose
-  std::size_t detections = 0;      // of landmarks (detections of robots are not used)
+  std::size_t readings = 0;    // readings of this camera with a true pose
+  std::size_t detections = 0;  // of landmarks (detections of robots are not used)
   std::size_t inliers = 0;
   std::size_t false_detections = 0;  // outliers, and ids or colours not on the map
-  double false_per_reading = 0.0;  // Poisson mean, as the simulated sensor takes it [-]
-  LineFit range_bias_m;            // measured - true range against true range
-  LineFit range_spread_m;          // standard deviation about the bias line
-  LineFit range_rms_m;             // about zero: the noise a filter that ignores bias must allow
+  double false_per_reading = 0.0;    // Poisson mean, as the simulated sensor takes it [-]
+  LineFit range_bias_m;              // measured - true range against true range
+  LineFit range_spread_m;            // standard deviation about the bias line
+  LineFit range_rms_m;               // about zero: the noise a filter that ignores bias must allow
   double bearing_bias_rad = 0.0, bearing_spread_rad = 0.0, bearing_rms_rad = 0.0;
   std::vector<RangeBin> bins;
   // A range_bearing sensor's field of view decides what it should have seen.
@@ -82,15 +82,15 @@ struct OdometryModelFit {
 };
 
 struct MotionCalibration {
-  std::size_t intervals = 0;     // perception-step intervals used
-  double mean_interval_s = 0.0;  // their mean length
-  double mean_travel_m = 0.0;    // and the odometry's mean travel over one
+  std::size_t intervals = 0;           // perception-step intervals used
+  double mean_interval_s = 0.0;        // their mean length
+  double mean_travel_m = 0.0;          // and the odometry's mean travel over one
   OdometryModelFit odometry_std;       // standard-deviation form (variance_form false)
   OdometryModelFit odometry_variance;  // Thrun's variance form
   bool variance_form = false;          // the form with the higher likelihood
   double k_left = 0.0, k_right = 0.0;  // wheel model [m^1/2]
   double k_floor_position_m = 0.0, k_floor_heading_rad = 0.0;  // as OdometryModelFit's
-  double k_log_likelihood = 0.0;  // per interval [nats]
+  double k_log_likelihood = 0.0;                               // per interval [nats]
   /// The fitted wheel model's normalised estimation error squared, mean over the intervals
   /// (3 when the model's covariance matches the errors).
   double k_mean_nees = 0.0;

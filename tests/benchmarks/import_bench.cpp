@@ -1,6 +1,8 @@
 // `locsim import mrclam` on generated MRCLAM-format files of one robot and 300 s (odometry at
 // 67 Hz, Vicon at 100 Hz, 3 barcode readings a second, as the real dataset): parsing, merging and
-// writing the log. Counter: dataset lines read per second.
+// writing the log. Counter: dataset lines read per second. And `locsim calibrate` on the imported
+// log: reading it, pairing readings with the truth, and the likelihood fits (counter: log records
+// per second).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -8,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "sim/metrics/calibration.hpp"
 #include "sim/producers/mrclam_import.hpp"
 
 namespace {
@@ -53,5 +56,21 @@ void BM_ImportMrclam(benchmark::State& state) {
       static_cast<double>(lines * state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ImportMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_CalibrateMrclam(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write_dataset(dir);
+  const locsim::ImportSummary summary =
+      locsim::write_import(locsim::read_mrclam({dir, {1}}), {}, dir / "out.locsimlog");
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(locsim::calibrate({dir / "out.locsimlog"}, {}).to_yaml());
+  }
+  fs::remove_all(dir);
+  state.counters["records_per_s"] = benchmark::Counter(
+      static_cast<double>(summary.records * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CalibrateMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

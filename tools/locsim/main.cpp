@@ -18,11 +18,11 @@
 #include "plugin_template.hpp"
 #include "render/loader.hpp"
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/experiments/sweep.hpp"
+#include "sim/metrics/calibration.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
-#include "sim/common/files.hpp"
-#include "sim/metrics/calibration.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/producers/simulation.hpp"
@@ -598,8 +598,8 @@ int main(int argc, char** argv) {
         std::istringstream list(calibrate_robots);
         std::string item;
         while (std::getline(list, item, ',')) {
-          if (item.empty()) throw locsim::InputError("--robots: an empty name in '" +
-                                                     calibrate_robots + "'");
+          if (item.empty())
+            throw locsim::InputError("--robots: an empty name in '" + calibrate_robots + "'");
           calibration.robots.push_back(item);
         }
       }

@@ -53,6 +53,12 @@ struct OdometryNoise {
   /// false: the paper's form, sample(b) with standard deviation b = alpha_i |.| + alpha_j |.|;
   /// true: Thrun's (Probabilistic Robotics table 5.6), variance b = alpha_i (.)^2 + alpha_j (.)^2.
   bool variance_form = false;
+  /// Noise a step has whatever its motion (on real data: a robot that creeps while its odometry
+  /// stands still, timing; `locsim calibrate` measures it): standard deviations added to the
+  /// position along each axis [m] and to the heading [rad] after the motion. 0: none, and no
+  /// random draws for it, so that a filter without it keeps its random stream.
+  double floor_position_m = 0.0;
+  double floor_heading_rad = 0.0;
 };
 
 /// The standard deviations of the noise on each part of `d` (the paper's b):
@@ -81,6 +87,20 @@ inline OdometryDelta sample_delta(const OdometryDelta& d, const OdometryNoise& n
   return {rot1, trans, d.rot2 + random.normal(s.rot2)};
 }
 
+/// Adds the noise every step has whatever its motion (OdometryNoise::floor_*) to every particle.
+inline void add_motion_floor(ParticleSet& p, const OdometryNoise& n, Random& random) {
+  if (n.floor_position_m > 0.0) {
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      p.x[i] += random.normal(n.floor_position_m);
+      p.y[i] += random.normal(n.floor_position_m);
+    }
+  }
+  if (n.floor_heading_rad > 0.0) {
+    for (std::size_t i = 0; i < p.size(); ++i)
+      p.theta[i] = wrap(p.theta[i] + random.normal(n.floor_heading_rad));
+  }
+}
+
 /// Moves every particle by its own noisy sample of `d` (the spreads are the same for all).
 inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const OdometryNoise& n,
                           Random& random) {
@@ -93,6 +113,24 @@ inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const Odometry
     p.x[i] += trans * std::cos(heading);
     p.y[i] += trans * std::sin(heading);
     p.theta[i] = wrap(heading + rot2);
+  }
+  add_motion_floor(p, n, random);
+}
+
+/// Moves every particle by its own noisy sample of one step of wheel travel (dl, dr) [m]:
+/// paper 002's wheel model, each wheel's travel drawn with variance k^2 |d| (k [m^1/2]), then
+/// diff_drive_motion. Unlike the per-step alphas its noise adds up the same whatever the step
+/// length, so a filter may apply it at every odometry reading.
+inline void sample_wheel_motion(ParticleSet& p, double d_left_m, double d_right_m,
+                                double wheel_base_m, double k_left, double k_right,
+                                Random& random) {
+  const double spread_left = k_left * std::sqrt(std::abs(d_left_m));
+  const double spread_right = k_right * std::sqrt(std::abs(d_right_m));
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double dl = d_left_m + random.normal(spread_left);
+    const double dr = d_right_m + random.normal(spread_right);
+    const Pose moved = diff_drive_motion(Pose(p.x[i], p.y[i], p.theta[i]), dl, dr, wheel_base_m);
+    p.x[i] = moved(0), p.y[i] = moved(1), p.theta[i] = moved(2);
   }
 }
 
