@@ -130,6 +130,9 @@ struct CameraData {
   std::size_t readings = 0, detections = 0, unmatched = 0;
   std::vector<Residual> residuals;
   std::vector<Visibility> visibility;  // range_bearing only
+  // Readings with detections of landmarks on the map (a particle filter's steps): their
+  // residuals, [first, first + count).
+  std::vector<std::pair<std::size_t, std::size_t>> steps;
 };
 
 struct Pooled {
@@ -271,6 +274,7 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
                                   sdk::wrap(d.bearing_rad - predicted(1)), *landmark});
     }
     visibility.count = camera.residuals.size() - visibility.first;
+    if (visibility.count > 0) camera.steps.emplace_back(visibility.first, visibility.count);
     if (seen.kind == SensorKind::kRangeBearing && fov_sensor) {
       // What the simulated sensor would report: in range and field of view of the mount, and not
       // behind a wall (other robots and moving obstacles are not in the log: their occlusions
@@ -348,6 +352,40 @@ LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e) {
   const MinimizeResult best = minimize_restarted(nll, {-1.0, -2.0}, 1.0, 2000);
   return {rms * std::exp(std::clamp(best.x[0], -30.0, 5.0)),
           rms * std::exp(std::clamp(best.x[1], -30.0, 5.0))};
+}
+
+/// The likelihood a landmark particle filter gives the true pose at each step (its own match,
+/// sdk::landmark_log_match, with the noise written for it: the spread about zero), and from its
+/// low quantile the resetting levels: a reset is meant for a step that the truth would explain
+/// worse than it almost ever does. With calibrated noise a single detection's match is about
+/// uniform on (0, 1] at the truth, so a fixed level of 0.1 resets on one step in ten.
+void reset_levels(const CameraData& data, DetectionCalibration& c) {
+  constexpr double kQuantile = 0.01;
+  const double sigma_bearing = std::max(c.bearing_rms_rad, 1e-9);
+  std::vector<double> step_likelihood, per_detection;
+  for (const auto& [first, count] : data.steps) {
+    double log_p = 0.0;
+    for (std::size_t i = first; i < first + count; ++i) {
+      const Residual& r = data.residuals[i];
+      const double measured_m = r.range_m + r.range_error_m;
+      const double sigma_range = std::max(c.range_rms_m.at(measured_m), 1e-9);
+      log_p += -0.5 * r.range_error_m * r.range_error_m / (sigma_range * sigma_range) -
+               (1.0 - std::cos(r.bearing_error_rad)) / (sigma_bearing * sigma_bearing);
+    }
+    step_likelihood.push_back(std::exp(log_p));
+    per_detection.push_back(std::exp(log_p / static_cast<double>(count)));
+  }
+  if (step_likelihood.size() < 10) return;
+  const auto quantile = [](std::vector<double> v, double q) {
+    const auto at = v.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), at, v.end());
+    return *at;
+  };
+  c.reset_quantile = kQuantile;
+  c.step_likelihood_median = quantile(step_likelihood, 0.5);
+  // SRL resets below `threshold` (its p~); ASRL below mu p_t^(2m), p_t^2 per detection (mu 1).
+  c.srl_threshold = std::clamp(quantile(step_likelihood, kQuantile), 1e-300, 1.0);
+  c.asrl_p_t = std::clamp(std::sqrt(quantile(per_detection, kQuantile)), 1e-12, 1.0);
 }
 
 DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
@@ -432,6 +470,7 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     c.range_spread_m = fit_spread(x, about_bias);
     c.range_rms_m = fit_spread(x, about_zero);
   }
+  reset_levels(data, c);
   if (!data.visibility.empty()) {
     std::size_t visible = 0, missed = 0;
     for (const Visibility& v : data.visibility) {
@@ -730,6 +769,12 @@ json Calibration::to_json() const {
       cj["missed"] = *c.missed;
       cj["miss_probability"] = *c.miss_probability;
     }
+    if (c.srl_threshold) {
+      cj["true_pose_step_likelihood"] = {{"median", *c.step_likelihood_median},
+                                         {"quantile", *c.reset_quantile},
+                                         {"srl_threshold", *c.srl_threshold},
+                                         {"asrl_p_t", *c.asrl_p_t}};
+    }
     cj["bins"] = json::array();
     for (const RangeBin& b : c.bins) {
       cj["bins"].push_back({{"count", b.count},
@@ -795,6 +840,15 @@ std::string Calibration::to_yaml() const {
              " m\n";
       }
     }
+  }
+  if (camera != nullptr && camera->srl_threshold) {
+    y += "  # resetting levels: the true pose's likelihood falls below them in " +
+         num(100.0 * *camera->reset_quantile) + " % of the steps\n";
+    // One detection puts a reset pose anywhere on a ring around its landmark, which later
+    // detections of that landmark cannot tell from the truth (docs/real_data.md).
+    y += "  # and a reset from two detections or more: one puts the robot on a ring\n";
+    y += "  srl: {threshold: " + num(*camera->srl_threshold) + ", reset_min_detections: 2}\n";
+    y += "  asrl: {p_t: " + num(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
   }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
   if (motion) {

@@ -71,6 +71,10 @@ struct DetectionCalibration {
   // A range_bearing sensor's field of view decides what it should have seen.
   std::optional<std::size_t> visible, missed;
   std::optional<double> miss_probability;
+  // The likelihood (a landmark particle filter's, with the noise written for it) of the true pose
+  // at each step: its median, and the resetting levels at its `reset_quantile` (srl's
+  // `threshold`, asrl's `p_t` with mu 1). Unset with fewer than 10 steps.
+  std::optional<double> reset_quantile, step_likelihood_median, srl_threshold, asrl_p_t;
 };
 
 struct OdometryModelFit {
