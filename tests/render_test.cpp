@@ -9,6 +9,7 @@
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <sstream>
 
 #include "render/gl_context.hpp"
 #include "render/top_down.hpp"
@@ -209,12 +210,8 @@ TEST(Render, RunWithAVideoKeepsEveryOtherOutputAndLocksFramesToSimulatedTime) {
             without_costs(dir / "with_video/metrics.json"));
 }
 
-TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
-  // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
-  // both are marked from where the robot was picked up to where it landed, and the true path
-  // breaks at each.
-  const fs::path dir = testing::temp_dir("kidnap_marks");
-  std::ofstream(dir / "world.yaml") << kRoom << R"(
+// A robot driving north, carried for 1 s at 1 s, teleported at 2.5 s.
+const char* kTwoKidnaps = R"(
 scenario:
   duration_s: 3
   drive: {mode: waypoints, path: [[3.0, 2.5]], speed_mps: 0.3}
@@ -224,6 +221,13 @@ scenario:
     - at_s: 2.5
       kidnap: {to: {x: 2.0, y: 1.0, theta_deg: 180}}
 )";
+
+TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
+  // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
+  // both are marked from where the robot was picked up to where it landed, and the true path
+  // breaks at each.
+  const fs::path dir = testing::temp_dir("kidnap_marks");
+  std::ofstream(dir / "world.yaml") << kRoom << kTwoKidnaps;
   const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
   Simulation sim(inputs.world, inputs.scenario, 1);
   testing::KeepFrames sink;
@@ -313,23 +317,12 @@ scenario: {duration_s: 0.5}
   EXPECT_NEAR(robot.at_m.y(), 1.5, 1e-3);
 }
 
-// The room's walls and landmark, a robot that drives 0.5 m north and stops there, seeing the
-// landmark with a noiseless range-bearing sensor; no people (a log has none).
-const char* kRangedRoom = R"(
-name: ranged
-walls:
-  - {points: [[0, 0], [4, 0], [4, 3], [0, 3]], closed: true, thickness_m: 0.1}
-landmarks:
-  - {id: 1, position: [1.0, 1.0], color: red, radius_m: 0.15}
-robots:
-  - name: r
-    start: {x: 3.0, y: 1.5, theta_deg: 90}
-    footprint: {radius_m: 0.2}
-    sensors:
+// The room, its robot driving where the test says, seeing the landmark with a noiseless
+// range-bearing sensor; no people (a log has none).
+const std::string kRangedRoom = std::string(kRoom) + R"(    sensors:
       encoders: {}
       range_bearing: {rate_hz: 10, fov_deg: 360, sigma_range_m: 0, sigma_bearing: 0}
 )";
-
 TEST(Render, ReplayDrawsTheRunsFramesFromItsLogWithDetectionRays) {
   const fs::path dir = testing::temp_dir("replay");
   std::ofstream(dir / "world.yaml") << kRangedRoom << R"(
@@ -379,8 +372,17 @@ scenario:
     EXPECT_EQ(testing::read_file(dir / "replay_frames" / name), run_frame) << name;
     EXPECT_EQ(testing::read_file(dir / "replay_frames_again" / name), run_frame) << name;
   }
-  // The last frame: the robot stands at (3, 2); the ray to the landmark it detects is drawn in
-  // the range-bearing colour halfway along, where nothing else is.
+  // The last frame: the ray from the robot, where it stopped (the last ground truth), to the
+  // landmark it detects at (1, 1) is drawn in the range-bearing colour halfway along, where
+  // nothing else is.
+  std::istringstream truth(testing::read_file(dir / "replay_of_replay_frames/groundtruth.tum"));
+  std::string line, last_line;
+  while (std::getline(truth, line)) {
+    if (!line.empty() && line[0] != '#') last_line = line;
+  }
+  double t_s = 0.0, x = 0.0, y = 0.0;
+  ASSERT_EQ(std::sscanf(last_line.c_str(), "%lf %lf %lf", &t_s, &x, &y), 3) << last_line;
+  EXPECT_NEAR(t_s, 2.0, 1e-9);
   const WorldDef world = testing::world_from_yaml(kRangedRoom);
   const auto context = render::make_gl_context("osmesa", 320, 240);
   const render::TopDownRenderer renderer(world, 320, 240);
@@ -401,7 +403,7 @@ scenario:
     return worst;
   };
   // The line is 1.5 px wide: the best of the pixel and its neighbours is on it.
-  const cv::Point2d on_ray = renderer.view().to_pixel(2.0, 1.5);
+  const cv::Point2d on_ray = renderer.view().to_pixel(0.5 * (x + 1.0), 0.5 * (y + 1.0));
   int best = 255;
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
@@ -411,7 +413,7 @@ scenario:
   }
   EXPECT_LE(best, 12) << "no detection ray at " << on_ray;
   // Away from the ray, the floor.
-  expect_color(pixel_at(last, renderer.view(), 2.0, 2.6), palette.floor, 3, "floor off the ray");
+  expect_color(pixel_at(last, renderer.view(), 2.0, 0.5), palette.floor, 3, "floor off the ray");
 }
 
 TEST(Render, ReplayTakesTruthAndKidnapsFromTheStream) {
@@ -419,16 +421,7 @@ TEST(Render, ReplayTakesTruthAndKidnapsFromTheStream) {
   // fall on ground-truth times), a kidnap is marked from where the robot was picked up to where
   // the ground truth next finds it, and the true path breaks at each.
   const fs::path dir = testing::temp_dir("replay_kidnap");
-  std::ofstream(dir / "world.yaml") << kRangedRoom << R"(
-scenario:
-  duration_s: 3
-  drive: {mode: waypoints, path: [[3.0, 2.5]], speed_mps: 0.3}
-  events:
-    - at_s: 1
-      kidnap: {to: {x: 1.0, y: 2.0, theta_deg: 0}, carry_s: 1.0}
-    - at_s: 2.5
-      kidnap: {to: {x: 2.0, y: 1.0, theta_deg: 180}}
-)";
+  std::ofstream(dir / "world.yaml") << kRangedRoom << kTwoKidnaps;
   VideoOptions video;
   video.fps = 10.0;
   testing::KeepFrames run_frames, replay_frames;
