@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "test_support.hpp"
 
@@ -214,6 +215,42 @@ TEST(Cli, RunRendersAVideoWithNoDisplayAndReportsBadVideoOptions) {
   // opened before the run folder is made: none is.
   const Outcome format = locsim("run " + kDemo + " --duration 1 --out " + (dir / "b").string() +
                                 " --video " + (dir / "b.txt").string());
+  EXPECT_EQ(format.exit_code, 4) << format.output;
+  EXPECT_NE(format.output.find("b.txt"), std::string::npos) << format.output;
+  EXPECT_FALSE(fs::exists(dir / "b"));
+}
+
+TEST(Cli, ReplayRendersAVideoOfALogWithRunsVideoOptions) {
+  unsetenv("DISPLAY");  // offscreen: no X server needed
+  unsetenv("WAYLAND_DISPLAY");
+  const fs::path dir = testing::temp_dir("cli-replay-video");
+  const Outcome help = locsim("replay --help");
+  EXPECT_NE(help.output.find("--video-speed"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("--no-camera-view"), std::string::npos) << help.output;
+  const std::string log = (dir / "demo.locsimlog").string();
+  const Outcome run =
+      locsim("run " + kDemo + " --duration 1 -q --out " + (dir / "run").string() + " --log " + log);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+
+  const Outcome o = locsim("replay " + log + " --out " + (dir / "out").string() +
+                           " --localizer ekf_landmarks --video " + (dir / "replay.mp4").string() +
+                           " --video-size 320x240 --video-fps 10 --video-speed 0.5");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  // 1 s of log at half speed, 10 frames a second: a frame every 0.05 s, 21 frames.
+  EXPECT_NE(o.output.find("video: 21 frames of 320x240"), std::string::npos) << o.output;
+  cv::VideoCapture video((dir / "replay.mp4").string(), cv::CAP_FFMPEG);
+  ASSERT_TRUE(video.isOpened());
+  int decoded = 0;
+  for (cv::Mat image; video.read(image);) ++decoded;
+  EXPECT_EQ(decoded, 21);
+
+  // Refused as a run's: a bad size is bad input, a video the encoder cannot write is exit 4
+  // before the replay's folder is made.
+  const Outcome size = locsim("replay " + log + " --out " + (dir / "a").string() + " --video " +
+                              (dir / "a.mp4").string() + " --video-size 65x64");
+  EXPECT_EQ(size.exit_code, 2) << size.output;
+  const Outcome format = locsim("replay " + log + " --out " + (dir / "b").string() + " --video " +
+                                (dir / "b.txt").string());
   EXPECT_EQ(format.exit_code, 4) << format.output;
   EXPECT_NE(format.output.find("b.txt"), std::string::npos) << format.output;
   EXPECT_FALSE(fs::exists(dir / "b"));

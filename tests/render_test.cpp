@@ -1,18 +1,22 @@
 // Offscreen rendering: a known scene has the expected colours at the expected pixels; a video
 // decodes with the expected frame count and size; a run with a video keeps every other output
-// byte-identical; `locsim run --video` works headless and reports bad video options.
+// byte-identical; `locsim run --video` works headless and reports bad video options; a replay
+// draws a log's frames as its run did, with the detections' rays, from the stream alone.
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <sstream>
 
 #include "render/gl_context.hpp"
 #include "render/top_down.hpp"
 #include "render/video_recorder.hpp"
 #include "sim/consumers/frame_capture.hpp"
 #include "sim/producers/simulation_source.hpp"
+#include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
 
@@ -206,12 +210,8 @@ TEST(Render, RunWithAVideoKeepsEveryOtherOutputAndLocksFramesToSimulatedTime) {
             without_costs(dir / "with_video/metrics.json"));
 }
 
-TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
-  // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
-  // both are marked from where the robot was picked up to where it landed, and the true path
-  // breaks at each.
-  const fs::path dir = testing::temp_dir("kidnap_marks");
-  std::ofstream(dir / "world.yaml") << kRoom << R"(
+// A robot driving north, carried for 1 s at 1 s, teleported at 2.5 s.
+const char* kTwoKidnaps = R"(
 scenario:
   duration_s: 3
   drive: {mode: waypoints, path: [[3.0, 2.5]], speed_mps: 0.3}
@@ -221,6 +221,13 @@ scenario:
     - at_s: 2.5
       kidnap: {to: {x: 2.0, y: 1.0, theta_deg: 180}}
 )";
+
+TEST(Render, BothKindsOfKidnapAreMarkedWhereTheyHappen) {
+  // One carry (1 s in the air) and one instant teleport, which the robot is never seen carried in:
+  // both are marked from where the robot was picked up to where it landed, and the true path
+  // breaks at each.
+  const fs::path dir = testing::temp_dir("kidnap_marks");
+  std::ofstream(dir / "world.yaml") << kRoom << kTwoKidnaps;
   const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
   Simulation sim(inputs.world, inputs.scenario, 1);
   testing::KeepFrames sink;
@@ -260,7 +267,7 @@ scenario:
   EXPECT_EQ(end.robots[0].kidnaps, 2);
 }
 
-TEST(Render, RangeBearingDetectionsAreCapturedWithRobotsTold) {
+TEST(Render, RangeBearingAndOmniDetectionsAreCapturedWithRobotsTold) {
   const fs::path dir = testing::temp_dir("sightings");
   std::ofstream(dir / "world.yaml") << R"(
 walls:
@@ -274,6 +281,8 @@ robots:
       range_bearing: {fov_deg: 360, sees_robots: true, sigma_range_m: 0, sigma_bearing: 0}
   - name: s
     start: {x: 3, y: 1.5, theta: 0}
+    sensors:
+      omni_camera: {sigma_major_m: 0, sigma_minor_m: 0}
 scenario: {duration_s: 0.5}
 )";
   const RunInputs inputs = load_run_inputs(dir / "world.yaml", std::nullopt, std::nullopt);
@@ -291,8 +300,12 @@ scenario: {duration_s: 0.5}
   ASSERT_FALSE(sink.kept.empty());
   const FrameState& last = sink.kept.back();
   EXPECT_TRUE(last.robots[0].range_bearing);
-  EXPECT_FALSE(last.robots[1].range_bearing);
-  EXPECT_TRUE(last.robots[1].sightings.empty());
+  // The omnidirectional camera's detections are drawn alike (it sees landmarks only).
+  EXPECT_TRUE(last.robots[1].range_bearing);
+  ASSERT_EQ(last.robots[1].sightings.size(), 1u);
+  EXPECT_FALSE(last.robots[1].sightings[0].robot);
+  EXPECT_NEAR(last.robots[1].sightings[0].at_m.x(), 2.0, 1e-3);
+  EXPECT_NEAR(last.robots[1].sightings[0].at_m.y(), 2.5, 1e-3);
   ASSERT_EQ(last.robots[0].sightings.size(), 2u);
   const FrameRobot::Sighting& landmark = last.robots[0].sightings[0];
   const FrameRobot::Sighting& robot = last.robots[0].sightings[1];
@@ -302,6 +315,196 @@ scenario: {duration_s: 0.5}
   EXPECT_TRUE(robot.robot);
   EXPECT_NEAR(robot.at_m.x(), 3.0, 1e-3);
   EXPECT_NEAR(robot.at_m.y(), 1.5, 1e-3);
+}
+
+// The room, its robot driving where the test says, seeing the landmark with a noiseless
+// range-bearing sensor; no people (a log has none).
+const std::string kRangedRoom = std::string(kRoom) + R"(    sensors:
+      encoders: {}
+      range_bearing: {rate_hz: 10, fov_deg: 360, sigma_range_m: 0, sigma_bearing: 0}
+)";
+TEST(Render, ReplayDrawsTheRunsFramesFromItsLogWithDetectionRays) {
+  const fs::path dir = testing::temp_dir("replay");
+  std::ofstream(dir / "world.yaml") << kRangedRoom << R"(
+scenario:
+  duration_s: 2
+  drive: {mode: waypoints, path: [[3.0, 2.0]], speed_mps: 0.5}
+)";
+  VideoOptions video;
+  video.width_px = 320;
+  video.height_px = 240;
+  video.fps = 10.0;  // a frame every 0.1 s, on the ground truth's 50 Hz
+  const auto frames_into = [&](const std::string& name) {
+    VideoOptions options = video;
+    options.frames_dir = dir / name;
+    return options;
+  };
+  RunOptions run;
+  run.world_file = dir / "world.yaml";
+  run.localizers = {"odometry", "ekf_landmarks"};
+  run.log_file = dir / "run.locsimlog";
+  run.out_dir = dir / "run";
+  run.video_options = frames_into("run_frames");
+  render::VideoRecorder run_recorder(run.video_options);
+  run.video = &run_recorder;
+  run_simulation(run);
+  ASSERT_EQ(run_recorder.frames(), 21);
+
+  for (const std::string name : {"replay_frames", "replay_frames_again"}) {
+    ReplayOptions replay;
+    replay.log_file = *run.log_file;
+    replay.localizers = run.localizers;
+    replay.out_dir = dir / ("replay_of_" + name);
+    replay.video_options = frames_into(name);
+    render::VideoRecorder recorder(replay.video_options);
+    replay.video = &recorder;
+    EXPECT_EQ(replay_log(replay).status, "completed");
+    EXPECT_EQ(recorder.frames(), 21) << name;
+  }
+  // Frame k of the replay holds the same records as the run's (truth from the log's ground
+  // truth, the same readings, the localizers at the same point of the stream): with no people
+  // to leave out, the pictures are the same, byte for byte, and so are two replays'.
+  for (int k = 0; k <= 20; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%06d.png", k);
+    const std::string run_frame = testing::read_file(dir / "run_frames" / name);
+    ASSERT_FALSE(run_frame.empty()) << name;
+    EXPECT_EQ(testing::read_file(dir / "replay_frames" / name), run_frame) << name;
+    EXPECT_EQ(testing::read_file(dir / "replay_frames_again" / name), run_frame) << name;
+  }
+  // The last frame: the ray from the robot, where it stopped (the last ground truth), to the
+  // landmark it detects at (1, 1) is drawn in the range-bearing colour halfway along, where
+  // nothing else is.
+  std::istringstream truth(testing::read_file(dir / "replay_of_replay_frames/groundtruth.tum"));
+  std::string line, last_line;
+  while (std::getline(truth, line)) {
+    if (!line.empty() && line[0] != '#') last_line = line;
+  }
+  double t_s = 0.0, x = 0.0, y = 0.0;
+  ASSERT_EQ(std::sscanf(last_line.c_str(), "%lf %lf %lf", &t_s, &x, &y), 3) << last_line;
+  EXPECT_NEAR(t_s, 2.0, 1e-9);
+  const WorldDef world = testing::world_from_yaml(kRangedRoom);
+  const auto context = render::make_gl_context("osmesa", 320, 240);
+  const render::TopDownRenderer renderer(world, 320, 240);
+  const cv::Mat last = cv::imread((dir / "replay_frames/frame_000020.png").string());
+  ASSERT_EQ(last.size(), cv::Size(320, 240));
+  const render::Palette& palette = renderer.palette();
+  const auto mix = [](const render::Rgb& under, const render::Rgb& over, float alpha) {
+    return render::Rgb{under[0] + alpha * (over[0] - under[0]),
+                       under[1] + alpha * (over[1] - under[1]),
+                       under[2] + alpha * (over[2] - under[2])};
+  };
+  const render::Rgb ray = mix(palette.floor, palette.sighting, 0.9f);
+  const auto distance_to_ray = [&](const cv::Vec3b& got) {
+    int worst = 0;
+    for (int c = 0; c < 3; ++c) {
+      worst = std::max(worst, std::abs(got[c] - static_cast<int>(ray[2 - c] * 255)));
+    }
+    return worst;
+  };
+  // The line is 1.5 px wide: the best of the pixel and its neighbours is on it.
+  const cv::Point2d on_ray = renderer.view().to_pixel(0.5 * (x + 1.0), 0.5 * (y + 1.0));
+  int best = 255;
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      best = std::min(best, distance_to_ray(last.at<cv::Vec3b>(static_cast<int>(on_ray.y) + dy,
+                                                               static_cast<int>(on_ray.x) + dx)));
+    }
+  }
+  EXPECT_LE(best, 12) << "no detection ray at " << on_ray;
+  // Away from the ray, the floor.
+  expect_color(pixel_at(last, renderer.view(), 2.0, 0.5), palette.floor, 3, "floor off the ray");
+}
+
+TEST(Render, ReplayTakesTruthAndKidnapsFromTheStream) {
+  // A carry and an instant kidnap, replayed: the robot's pose at each frame is the run's (frames
+  // fall on ground-truth times), a kidnap is marked from where the robot was picked up to where
+  // the ground truth next finds it, and the true path breaks at each.
+  const fs::path dir = testing::temp_dir("replay_kidnap");
+  std::ofstream(dir / "world.yaml") << kRangedRoom << kTwoKidnaps;
+  VideoOptions video;
+  video.fps = 10.0;
+  testing::KeepFrames run_frames, replay_frames;
+  RunOptions run;
+  run.world_file = dir / "world.yaml";
+  run.log_file = dir / "run.locsimlog";
+  run.out_dir = dir / "run";
+  run.video = &run_frames;
+  run.video_options = video;
+  run_simulation(run);
+  ReplayOptions replay;
+  replay.log_file = *run.log_file;
+  replay.out_dir = dir / "replay";
+  replay.video = &replay_frames;
+  replay.video_options = video;
+  replay_log(replay);
+  ASSERT_EQ(run_frames.kept.size(), 31u);
+  ASSERT_EQ(replay_frames.kept.size(), 31u);
+  for (std::size_t k = 0; k < 31; ++k) {
+    const FrameRobot& want = run_frames.kept[k].robots[0];
+    const FrameRobot& got = replay_frames.kept[k].robots[0];
+    EXPECT_NEAR(replay_frames.kept[k].t_s, run_frames.kept[k].t_s, 1e-12) << k;
+    EXPECT_EQ(got.carried, want.carried) << k;
+    if (!want.carried) {
+      EXPECT_NEAR(got.pose.x, want.pose.x, 1e-9) << k;
+      EXPECT_NEAR(got.pose.y, want.pose.y, 1e-9) << k;
+      EXPECT_NEAR(got.pose.theta, want.pose.theta, 1e-9) << k;
+    }
+    EXPECT_EQ(got.kidnaps, want.kidnaps) << k;
+    ASSERT_TRUE(got.odometry.has_value()) << k;
+    EXPECT_NEAR(got.odometry->x, want.odometry->x, 1e-9) << k;
+    EXPECT_EQ(got.sightings.size(), want.sightings.size()) << k;
+  }
+  const std::vector<KidnapMark>& want = run_frames.kept.back().kidnaps;
+  const std::vector<KidnapMark>& got = replay_frames.kept.back().kidnaps;
+  ASSERT_EQ(got.size(), 2u);
+  ASSERT_EQ(want.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_TRUE(got[k].landed) << k;
+    EXPECT_NEAR(got[k].t_s, want[k].t_s, 1e-9) << k;
+    EXPECT_NEAR(got[k].from.x, want[k].from.x, 0.02) << k;  // ground truth is at 50 Hz
+    EXPECT_NEAR(got[k].from.y, want[k].from.y, 0.02) << k;
+    EXPECT_NEAR(got[k].to.x, want[k].to.x, 1e-6) << k;
+    EXPECT_NEAR(got[k].to.y, want[k].to.y, 1e-6) << k;
+  }
+}
+
+TEST(Render, AReplayDrawsADetectionUntilTheSensorsNextReadingIsDue) {
+  // A dataset's range-bearing readings come only when something was seen: one is drawn for a
+  // period of the sensor's rate (10 Hz here), not until the next sighting, seconds later. The
+  // robot's pose is the stream's latest ground truth.
+  const WorldDef world = testing::world_from_yaml(kRangedRoom);
+  testing::KeepFrames sink;
+  VideoOptions video;
+  video.fps = 20.0;  // a frame every 0.05 s
+  FrameCapture capture(sink, video, world);
+  const auto feed = [&](const Record& record, double t_s) {
+    capture.advance(t_s);
+    capture.consume(record);
+  };
+  Record seen;
+  seen.type = Record::Type::kReading;
+  seen.reading.robot = 0;
+  seen.reading.kind = SensorKind::kRangeBearing;
+  Detection landmark;
+  landmark.range_m = 2.0;
+  seen.reading.data = RangeBearingReading{{landmark}};
+  feed(seen, 0.0);
+  for (int k = 0; k <= 6; ++k) {
+    Record truth;
+    truth.type = Record::Type::kGroundTruth;
+    truth.t_s = 0.05 * k;
+    truth.pose = {3.0, 1.5 + 0.01 * k, 0.5 * std::numbers::pi};
+    truth.robot = 0;
+    feed(truth, truth.t_s);
+  }
+  capture.end_of_stream();
+  ASSERT_EQ(sink.kept.size(), 7u);
+  for (std::size_t k = 0; k < 7; ++k) {
+    EXPECT_EQ(sink.kept[k].robots[0].sightings.size(), k <= 2 ? 1u : 0u) << k;
+    EXPECT_NEAR(sink.kept[k].robots[0].pose.y, 1.5 + 0.01 * static_cast<double>(k), 1e-12) << k;
+  }
+  EXPECT_FALSE(sink.kept[0].robots[0].odometry.has_value());  // no odometry reading yet
 }
 
 TEST(Render, BadBackendAndSizeAreReportedClearly) {

@@ -2,35 +2,96 @@
 
 #include <box2d/box2d.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/sensors/models.hpp"
 
 namespace locsim {
 
+namespace {
+const std::vector<Mover> kNoMovers;
+}  // namespace
+
 FrameCapture::FrameCapture(FrameSink& sink, const VideoOptions& options, const Simulation& sim,
                            LocalizerHost* host)
     : sink_(sink),
+      world_(sim.world_def()),
       host_(host),
+      from_stream_(false),
       frame_interval_s_(options.speed / options.fps),
       latest_(sim.robot_count()) {
-  for (std::size_t i = 0; i < sim.robot_count(); ++i) latest_[i].floor_pose = sim.robot(i).pose();
-  sink_.start(sim.world_def());
+  for (std::size_t i = 0; i < sim.robot_count(); ++i) {
+    latest_[i].pose = latest_[i].floor_pose = sim.robot(i).pose();
+  }
+  sink_.start(world_);
+}
+
+FrameCapture::FrameCapture(FrameSink& sink, const VideoOptions& options, const WorldDef& world,
+                           LocalizerHost* host)
+    : sink_(sink),
+      world_(world),
+      host_(host),
+      from_stream_(true),
+      frame_interval_s_(options.speed / options.fps),
+      latest_(world.robots.size()) {
+  // Until the first ground truth, each robot where the world starts it.
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    latest_[i].pose = latest_[i].floor_pose = world.robots[i].start;
+  }
+  sink_.start(world_);
 }
 
 void FrameCapture::consume(const Record& record) {
-  if (record.type != Record::Type::kReading) return;
+  if (record.type != Record::Type::kReading) {
+    if (from_stream_) consume_truth(record);
+    return;
+  }
   Latest& latest = latest_[static_cast<std::size_t>(record.reading.robot)];
   std::visit(
       [&](const auto& data) {
         using T = std::decay_t<decltype(data)>;
-        if constexpr (std::is_same_v<T, OdometryReading>) latest.odometry = data.odometry;
+        // A real base may report only its velocity: no dead-reckoned pose to draw.
+        if constexpr (std::is_same_v<T, OdometryReading>) {
+          if (data.has(kOdometryPose)) latest.odometry = data.odometry;
+        }
         if constexpr (std::is_same_v<T, LaserScan>) latest.laser = data;
         if constexpr (std::is_same_v<T, UltrasonicReading>) latest.ultrasonic = data;
         if constexpr (std::is_same_v<T, PtzReading>) latest.ptz = data;
-        if constexpr (std::is_same_v<T, RangeBearingReading>) latest.range_bearing = data;
+        if constexpr (std::is_same_v<T, RangeBearingReading>) {
+          latest.range_bearing = data;
+          latest.range_bearing_t_s = record.reading.t_s;
+        }
+        if constexpr (std::is_same_v<T, OmniReading>) {
+          latest.omni = data;
+          latest.omni_t_s = record.reading.t_s;
+        }
       },
       record.reading.data);
+}
+
+void FrameCapture::consume_truth(const Record& record) {
+  if (record.type == Record::Type::kGroundTruth) {
+    if (record.robot < 0 || static_cast<std::size_t>(record.robot) >= latest_.size()) return;
+    const auto i = static_cast<std::size_t>(record.robot);
+    Latest& latest = latest_[i];
+    // No ground truth while a robot is carried: the first after a kidnap is where it landed.
+    if (latest.carried) {
+      for (KidnapMark& k : kidnaps_) {
+        if (k.robot == i && !k.landed) k.to = record.pose, k.landed = true;
+      }
+    }
+    latest.pose = latest.floor_pose = record.pose;
+    latest.carried = false;
+  } else if (record.type == Record::Type::kEvent && record.event.kind == "kidnap") {
+    for (std::size_t i = 0; i < latest_.size(); ++i) {
+      if (world_.robots[i].name != record.event.robot) continue;
+      Latest& latest = latest_[i];
+      ++latest.kidnaps;
+      latest.carried = true;
+      kidnaps_.push_back({i, record.event.t_s, latest.floor_pose, latest.floor_pose, false});
+    }
+  }
 }
 
 void FrameCapture::after_step(const Simulation& sim) {
@@ -48,13 +109,32 @@ void FrameCapture::after_step(const Simulation& sim) {
         if (k.robot == i && !k.landed) k.to = robot.pose(), k.landed = true;
       }
     }
+    latest.pose = robot.pose();
     latest.carried = carried;
     latest.kidnaps = kidnaps;
     if (!carried) latest.floor_pose = robot.pose();
   }
-  // Every frame due by now (more than one only when frames are closer than physics steps).
-  while (static_cast<double>(next_frame_) * frame_interval_s_ <= sim.time_s() + 1e-9) {
-    FrameState frame = capture(sim);
+  emit_due(sim.time_s(), &sim);
+}
+
+void FrameCapture::advance(double t_s) {
+  if (!stream_t_s_) {
+    // A stream that starts late (an imported dataset's window) starts its video there, rather
+    // than with a burst of frames of its first instant.
+    next_frame_ = std::max(0L, static_cast<long>(std::ceil(t_s / frame_interval_s_ - 1e-9)));
+  } else if (t_s > *stream_t_s_) {
+    emit_due(*stream_t_s_, nullptr);
+  }
+  stream_t_s_ = t_s;
+}
+
+void FrameCapture::end_of_stream() {
+  if (stream_t_s_) emit_due(*stream_t_s_, nullptr);
+}
+
+void FrameCapture::emit_due(double t_s, const Simulation* sim) {
+  while (static_cast<double>(next_frame_) * frame_interval_s_ <= t_s + 1e-9) {
+    FrameState frame = capture(t_s, sim);
     frame.t_s = static_cast<double>(next_frame_) * frame_interval_s_;
     sink_.frame(frame);
     ++next_frame_;
@@ -62,17 +142,20 @@ void FrameCapture::after_step(const Simulation& sim) {
 }
 
 FrameState FrameCapture::capture(const Simulation& sim) {
+  return capture(sim.time_s(), &sim);
+}
+
+FrameState FrameCapture::capture(double t_s, const Simulation* sim) {
   FrameState frame;
-  frame.t_s = sim.time_s();
+  frame.t_s = t_s;
   frame.kidnaps = kidnaps_;
-  for (std::size_t i = 0; i < sim.robot_count(); ++i) {
-    const DiffDriveRobot& robot = sim.robot(i);
-    const RobotDef& def = robot.def();
+  for (std::size_t i = 0; i < latest_.size(); ++i) {
+    const RobotDef& def = world_.robots[i];
     const Latest& latest = latest_[i];
     FrameRobot r;
-    r.name = robot.name();
-    r.pose = robot.pose();
-    r.carried = robot.carried();
+    r.name = def.name;
+    r.pose = sim != nullptr ? sim->robot(i).pose() : latest.pose;
+    r.carried = sim != nullptr ? sim->robot(i).carried() : latest.carried;
     r.kidnaps = latest.kidnaps;
     r.height_m = def.height_m;
     r.footprint = def.footprint;
@@ -94,7 +177,7 @@ FrameState FrameCapture::capture(const Simulation& sim) {
       const UltrasonicDef& us = *def.sensors.ultrasonic;
       for (const BeaconRange& range : latest.ultrasonic->ranges) {
         const BeaconDef* beacon = nullptr;
-        for (const BeaconDef& b : sim.world_def().beacons) {
+        for (const BeaconDef& b : world_.beacons) {
           if (b.id == range.beacon_id) beacon = &b;
         }
         if (beacon == nullptr || range.receiver < 0 ||
@@ -132,18 +215,37 @@ FrameState FrameCapture::capture(const Simulation& sim) {
       }
       r.camera = camera;
     }
-    r.range_bearing = def.sensors.range_bearing && def.sensors.range_bearing->common.enabled;
-    if (latest.range_bearing && r.range_bearing) {
-      for (const Detection& d : latest.range_bearing->detections) {
+    // The range-bearing sensor's and the omnidirectional camera's detections alike: a line from
+    // the robot to where each puts its target.
+    const auto sight = [&](const std::vector<Detection>& detections) {
+      for (const Detection& d : detections) {
         const double bearing = r.pose.theta + d.bearing_rad;
         r.sightings.push_back(
             {r.pose.position() + d.range_m * Vec2(std::cos(bearing), std::sin(bearing)),
              d.target == DetectionTarget::kRobot});
       }
+    };
+    const bool range_bearing =
+        def.sensors.range_bearing && def.sensors.range_bearing->common.enabled;
+    const bool omni = def.sensors.omni_camera && def.sensors.omni_camera->common.enabled;
+    r.range_bearing = range_bearing || omni;
+    // A reading is drawn until the next is due. A simulated sensor reads at its rate, seeing
+    // something or not; a dataset's (MRCLAM's) has readings only when it saw something, and one
+    // from seconds ago drawn from where the robot is now would point anywhere.
+    const auto fresh = [&](double read_t_s, const SensorCommon& common) {
+      return t_s - read_t_s <= 1.0 / common.rate_hz + 1e-9;
+    };
+    if (latest.range_bearing && range_bearing &&
+        fresh(latest.range_bearing_t_s, def.sensors.range_bearing->common)) {
+      sight(latest.range_bearing->detections);
+    }
+    if (latest.omni && omni && fresh(latest.omni_t_s, def.sensors.omni_camera->common)) {
+      sight(latest.omni->detections);
     }
     frame.robots.push_back(std::move(r));
   }
-  for (const Mover& mover : sim.world().movers()) {
+  // People and carts: only a simulation knows where they are.
+  for (const Mover& mover : sim != nullptr ? sim->world().movers() : kNoMovers) {
     const b2Vec2 p = mover.body->GetPosition();
     frame.movers.push_back({{p.x, p.y, mover.body->GetAngle()},
                             mover.def.footprint,
@@ -152,7 +254,7 @@ FrameState FrameCapture::capture(const Simulation& sim) {
                             mover.def.name});
   }
   if (host_ != nullptr) {
-    const std::vector<LocalizerSnapshot> snapshots = host_->snapshot(sim.time_s());
+    const std::vector<LocalizerSnapshot> snapshots = host_->snapshot(t_s);
     for (std::size_t k = 0; k < snapshots.size(); ++k) {
       const LocalizerInfo& info = host_->localizers()[k];
       const LocalizerSnapshot& s = snapshots[k];

@@ -5,6 +5,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/consumers/config_json.hpp"
+#include "sim/consumers/frame_capture.hpp"
 #include "sim/producers/log_source.hpp"
 #include "sim/run/runner.hpp"
 
@@ -17,21 +18,36 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   LogSource source(options.log_file);
   RunFolder::check(options.out_dir, options.overwrite);
   Session session(options, source.world(), source.scenario(), source.seed(), interrupt);
-  session.open(options.out_dir);
+  // The video is opened before the folder is made, as a run's: one that cannot be written (exit
+  // 4) leaves no folder.
+  std::optional<FrameCapture> capture;
+  if (options.video != nullptr) {
+    capture.emplace(*options.video, options.video_options, source.world(), &session.host());
+  }
+  std::vector<fs::path> keep;  // --overwrite empties the folder, but not of these
+  for (const auto& file : {options.video_options.video_file, options.video_options.frames_dir}) {
+    if (file && options.video != nullptr) keep.push_back(*file);
+  }
+  session.open(options.out_dir, keep);
   RecordConsumer& input = session.input();
 
   ReplayResult result;
   RunEnd end;
   const auto start = std::chrono::steady_clock::now();
   try {
+    // After the localizers (it snapshots them), so the driver, not the fan-out, tells it first
+    // when the time moves on: a frame then holds every record of its time and none later.
+    if (capture) session.input().add(*capture);
     Record record;
     std::size_t since_flush = 0;
     while (source.next(record)) {
       ++result.records;
+      const double t_s = record.type == Record::Type::kReading ? record.reading.t_s
+                         : record.type == Record::Type::kEvent ? record.event.t_s
+                                                               : record.t_s;
+      if (capture) capture->advance(t_s);
       input.consume(record);
-      result.replayed_s = record.type == Record::Type::kReading ? record.reading.t_s
-                          : record.type == Record::Type::kEvent ? record.event.t_s
-                                                                : record.t_s;
+      result.replayed_s = t_s;
       if (++since_flush == 4096) {
         since_flush = 0;
         input.flush();
@@ -41,10 +57,19 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
         }
       }
     }
+    if (capture && end.completed()) capture->end_of_stream();
   } catch (...) {
     end.caught();
   }
   const json localizers = session.finish(result.replayed_s, end);
+  if (options.video != nullptr) {
+    // Closed whatever the status: the frames so far make a valid video of a failed replay too.
+    try {
+      options.video->finish();
+    } catch (...) {
+      end.caught("video: ");
+    }
+  }
   result.status = end.status;
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.failed_localizers = session.failed_localizers();

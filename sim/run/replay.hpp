@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/consumers/frame_state.hpp"
 #include "sim/run/session.hpp"
 
 namespace locsim {
@@ -16,6 +17,8 @@ namespace locsim {
 struct ReplayOptions : SessionOptions {
   std::filesystem::path log_file;
   std::filesystem::path out_dir;
+  FrameSink* video = nullptr;  // frames of the replay (render/), at video_options' frame times
+  VideoOptions video_options;
 };
 
 struct ReplayResult {
@@ -27,7 +30,8 @@ struct ReplayResult {
 };
 
 /// Throws InputError (bad log, bad parameters, a bad --out) or PluginError (plugins) before
-/// anything is written; a log found corrupt or truncated part-way writes run.json with status
+/// anything is written (and RenderError for a video that cannot be opened, before the folder is
+/// made); a log found corrupt or truncated part-way writes run.json with status
 /// "failed" and throws InputError.
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt = nullptr);
 

@@ -13,7 +13,9 @@
 #include "render/top_down.hpp"
 #include "render/video_recorder.hpp"
 #include "sim/consumers/frame_capture.hpp"
+#include "sim/producers/log_source.hpp"
 #include "sim/producers/simulation_source.hpp"
+#include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
 
 namespace {
@@ -21,13 +23,16 @@ namespace {
 namespace fs = std::filesystem;
 using namespace locsim;
 
-/// Collects nothing: FrameCapture needs a sink, the benchmark takes its own snapshot.
+/// Collects nothing but a count: FrameCapture needs a sink, the benchmark takes its own snapshot.
 class NullSink final : public FrameSink {
  public:
   void start(const WorldDef&) override {}
-  void frame(const FrameState&) override {}
+  void frame(const FrameState&) override { ++frames_; }
   void finish() override {}
-  long frames() const override { return 0; }
+  long frames() const override { return frames_; }
+
+ private:
+  long frames_ = 0;
 };
 
 struct Scene {
@@ -117,6 +122,42 @@ BENCHMARK(BM_RenderAndEncodeFrame)
     ->Arg(10000)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+/// A replay's frames built from a log's records (`locsim replay --video`): the demo world's 10 s,
+/// recorded once, read and captured at 30 frames per second with no localizers, into a sink that
+/// keeps nothing. What a replay adds to the renderer's cost above; it should be small beside it.
+void BM_ReplayFrameCapture(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_replay";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  RunOptions run;
+  run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  run.duration_s = 10.0;
+  run.log_file = dir / "demo.locsimlog";
+  run.out_dir = dir / "run";
+  run.readings = false;
+  run_simulation(run);
+  long frames = 0;
+  for (auto _ : state) {
+    LogSource source(*run.log_file);
+    NullSink sink;
+    FrameCapture capture(sink, VideoOptions{}, source.world());
+    Record record;
+    while (source.next(record)) {
+      capture.advance(record.type == Record::Type::kReading ? record.reading.t_s
+                      : record.type == Record::Type::kEvent ? record.event.t_s
+                                                            : record.t_s);
+      capture.consume(record);
+    }
+    capture.end_of_stream();
+    frames += sink.frames();
+  }
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(frames), benchmark::Counter::kIsRate);
+  fs::remove_all(dir);
+  if (frames != 301 * state.iterations()) state.SkipWithError("not 301 frames a replay");
+}
+BENCHMARK(BM_ReplayFrameCapture)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 /// The PTZ camera's rendered mode: one 160 x 120 image of the demo world (walls, six landmarks,
 /// two people) rendered and segmented, the camera panning 2 degrees per frame so that what is in

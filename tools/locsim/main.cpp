@@ -180,6 +180,57 @@ locsim::LandmarkImagerFactory imager_factory(const std::string& gl_backend) {
   };
 }
 
+/// The video options, as `run` and `replay` both take them: the files as given, the rest parsed
+/// into `video`.
+struct VideoCli {
+  std::string video_file, frames_dir, size = "1280x720";
+};
+void add_video_options(CLI::App* command, VideoCli& cli, locsim::VideoOptions& video) {
+  command
+      ->add_option("--video", cli.video_file,
+                   "Render offscreen into a video (.mp4: H.264, else MPEG-4; .avi, .mkv)")
+      ->group("Video");
+  command
+      ->add_option("--frames", cli.frames_dir, "Also write every frame as a PNG into this folder")
+      ->group("Video");
+  command->add_option("--video-size", cli.size, "Frame size WxH [px] (default 1280x720)")
+      ->check(kFrameSize)
+      ->group("Video");
+  command->add_option("--video-fps", video.fps, "Video frames per second (default 30)")
+      ->check(number_above(0.0, 1000.0))
+      ->group("Video");
+  command
+      ->add_option("--video-speed", video.speed,
+                   "Seconds of the run (or of the log) per second of video (default 1: real time)")
+      ->check(number_above(0.0, 1e6))
+      ->group("Video");
+  command->add_flag("!--no-particles", video.particles, "Do not draw the particle clouds")
+      ->group("Video");
+  command
+      ->add_flag("!--no-camera-view", video.camera_view,
+                 "Do not show the PTZ camera's own view in the video's side panel")
+      ->group("Video");
+  command->add_option("--gl-backend", video.backend, "Offscreen GL: osmesa (software; the default)")
+      ->group("Video");
+}
+
+/// The renderer's recorder for --video/--frames (null when neither is given); completes `video`.
+std::shared_ptr<locsim::FrameSink> video_recorder(const VideoCli& cli,
+                                                  locsim::VideoOptions& video) {
+  if (cli.video_file.empty() && cli.frames_dir.empty()) return nullptr;
+  std::tie(video.width_px, video.height_px) = *parse_frame_size(cli.size);  // checked
+  if (!cli.video_file.empty()) video.video_file = cli.video_file;
+  if (!cli.frames_dir.empty()) video.frames_dir = cli.frames_dir;
+  return renderer()->make_recorder(video);
+}
+
+void print_video_summary(const locsim::FrameSink& recorder, const locsim::VideoOptions& video) {
+  std::printf("video: %ld frames of %dx%d at %.0f fps%s%s\n", recorder.frames(), video.width_px,
+              video.height_px, video.fps,
+              video.video_file ? (" -> " + video.video_file->string()).c_str() : "",
+              video.frames_dir ? (", PNGs in " + video.frames_dir->string()).c_str() : "");
+}
+
 int validate(const std::string& world, const std::optional<std::string>& scenario) {
   const locsim::RunInputs inputs = locsim::load_run_inputs(
       world, scenario ? std::optional<std::filesystem::path>(*scenario) : std::nullopt,
@@ -341,29 +392,8 @@ int main(int argc, char** argv) {
   run->add_option("--log", log_file,
                   "Also record the sensor stream, ground truth and events into one log file, for "
                   "`locsim replay`");
-  std::string video_file, frames_dir, video_size = "1280x720";
-  locsim::VideoOptions& video = options.video_options;
-  run->add_option("--video", video_file,
-                  "Render the run offscreen into a video (.mp4: H.264, else MPEG-4; .avi, .mkv)")
-      ->group("Video");
-  run->add_option("--frames", frames_dir, "Also write every frame as a PNG into this folder")
-      ->group("Video");
-  run->add_option("--video-size", video_size, "Frame size WxH [px] (default 1280x720)")
-      ->check(kFrameSize)
-      ->group("Video");
-  run->add_option("--video-fps", video.fps, "Video frames per second (default 30)")
-      ->check(number_above(0.0, 1000.0))
-      ->group("Video");
-  run->add_option("--video-speed", video.speed,
-                  "Simulated seconds per second of video (default 1: real time)")
-      ->check(number_above(0.0, 1e6))
-      ->group("Video");
-  run->add_flag("!--no-particles", video.particles, "Do not draw the particle clouds")
-      ->group("Video");
-  run->add_flag("!--no-camera-view", video.camera_view,
-                "Do not show the PTZ camera's own view in the video's side panel");
-  run->add_option("--gl-backend", video.backend, "Offscreen GL: osmesa (software; the default)")
-      ->group("Video");
+  VideoCli run_video;
+  add_video_options(run, run_video, options.video_options);
   run->footer(
       "Writes run.json (resolved configuration, seed, version, timing), groundtruth.tum (true\n"
       "pose, TUM format), events.csv (every scenario event), readings/ (one CSV per sensor), and\n"
@@ -482,6 +512,8 @@ int main(int argc, char** argv) {
   bool replay_quiet = false;
   replay->add_flag("-q,--quiet", replay_quiet, "No summary line");
   add_session_options(replay, replay_options);
+  VideoCli replay_video;
+  add_video_options(replay, replay_video, replay_options.video_options);
   std::string import_format, import_source, import_out, import_robots = "all";
   locsim::ImportWindow import_window;
   double import_duration_s = 0.0;
@@ -622,8 +654,12 @@ int main(int argc, char** argv) {
       replay_options.out_dir = replay_out;
       replay_options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
       replay_options.isolate = isolation == "process";
+      const std::shared_ptr<locsim::FrameSink> recorder =
+          video_recorder(replay_video, replay_options.video_options);
+      replay_options.video = recorder.get();
       catch_sigint();
       const locsim::ReplayResult r = locsim::replay_log(replay_options, &g_interrupted);
+      if (recorder && !replay_quiet) print_video_summary(*recorder, replay_options.video_options);
       if (!replay_quiet) {
         std::printf("%s: %s, replayed %.1f s (%zu records) in %.3f s -> %s\n",
                     replay_options.log_file.c_str(), r.status.c_str(), r.replayed_s, r.records,
@@ -678,23 +714,13 @@ int main(int argc, char** argv) {
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
     options.progress = !quiet && isatty(STDERR_FILENO);
-    options.make_landmark_imager = imager_factory(video.backend);
-    std::shared_ptr<locsim::FrameSink> recorder;
-    if (!video_file.empty() || !frames_dir.empty()) {
-      std::tie(video.width_px, video.height_px) = *parse_frame_size(video_size);  // checked
-      if (!video_file.empty()) video.video_file = video_file;
-      if (!frames_dir.empty()) video.frames_dir = frames_dir;
-      recorder = renderer()->make_recorder(video);
-      options.video = recorder.get();
-    }
+    options.make_landmark_imager = imager_factory(options.video_options.backend);
+    const std::shared_ptr<locsim::FrameSink> recorder =
+        video_recorder(run_video, options.video_options);
+    options.video = recorder.get();
     catch_sigint();
     const locsim::RunResult result = locsim::run_simulation(options, &g_interrupted);
-    if (recorder && !quiet) {
-      std::printf("video: %ld frames of %dx%d at %.0f fps%s%s\n", recorder->frames(),
-                  video.width_px, video.height_px, video.fps,
-                  video.video_file ? (" -> " + video.video_file->string()).c_str() : "",
-                  video.frames_dir ? (", PNGs in " + video.frames_dir->string()).c_str() : "");
-    }
+    if (recorder && !quiet) print_video_summary(*recorder, options.video_options);
     if (!quiet) {
       std::printf("%s: %s, %.1f s simulated in %.2f s (%.0fx real time) -> %s\n",
                   world_file.c_str(), result.status.c_str(), result.simulated_s, result.wall_s,
