@@ -5,7 +5,9 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +18,9 @@ namespace locsim {
 struct ReplayOptions : SessionOptions {
   std::filesystem::path log_file;
   std::filesystem::path out_dir;
+  /// The seed the localizers' random streams (their seeds and the initial guess) derive from;
+  /// default: the log's, so that a replay of a run gives that run's estimates byte for byte.
+  std::optional<std::uint64_t> seed;
 };
 
 struct ReplayResult {
