@@ -186,7 +186,9 @@ TEST(LogExperiment, TwoLogsTimesTwoSeedsNameTheirLogAndOnlyTheParticleFilterVari
     EXPECT_EQ(row.at("log"), id.find("/first/") != std::string::npos ? "first" : "second") << id;
     EXPECT_EQ(id.substr(id.size() - 1), row.at("seed")) << id;
     // The EKF follows the circle on these logs: the run scored a real trajectory.
-    if (id.starts_with("ekf")) EXPECT_LT(std::stod(row.at("position_rms_m")), 0.3) << id;
+    if (id.starts_with("ekf")) {
+      EXPECT_LT(std::stod(row.at("position_rms_m")), 0.3) << id;
+    }
   }
   const auto rms = [&](const std::string& id) { return by_id.at(id).at("position_rms_m"); };
   const auto trajectory = [&](const std::string& id, const std::string& label) {
@@ -216,8 +218,8 @@ TEST(LogExperiment, TwoLogsTimesTwoSeedsNameTheirLogAndOnlyTheParticleFilterVari
   try {
     run_sweep(options);
     FAIL() << "a resume over a changed log ran";
-  } catch (const InputError& e) {
-    testing::expect_contains(e.what(), "file data/second.locsimlog changed");
+  } catch (const InputError& error) {
+    testing::expect_contains(error.what(), "file data/second.locsimlog changed");
   }
 }
 
