@@ -5,6 +5,7 @@
 
 #include "sim/common/format.hpp"
 #include "sim/common/yaml_node.hpp"
+#include "sim/producers/log_source.hpp"
 #include "sim/run/runner.hpp"
 
 namespace locsim {
@@ -33,13 +34,34 @@ bool valid_label(const std::string& s) {
   });
 }
 
+/// A `seeds:` list or {from, to} range, checked.
+void read_seeds(const YamlNode& seeds, std::vector<std::uint64_t>& out) {
+  if (seeds.is_sequence()) {
+    for (const YamlNode& s : seeds.items())
+      out.push_back(static_cast<std::uint64_t>(s.as_int(ExperimentDef::kSeedRange)));
+  } else {
+    seeds.allow_keys({"from", "to"});
+    const long long from = seeds["from"].as_int(ExperimentDef::kSeedRange),
+                    to = seeds["to"].as_int(ExperimentDef::kSeedRange);
+    if (to < from) seeds["to"].fail("must be >= from");
+    if (static_cast<std::size_t>(to - from) >= ExperimentDef::kMaxSeedSpan) {
+      seeds.fail("more than " + std::to_string(ExperimentDef::kMaxSeedSpan) + " seeds");
+    }
+    for (long long s = from; s <= to; ++s) out.push_back(static_cast<std::uint64_t>(s));
+  }
+  if (out.empty()) seeds.fail("give at least one seed");
+  if (std::set<std::uint64_t>(out.begin(), out.end()).size() != out.size()) {
+    seeds.fail("a seed is listed twice");
+  }
+}
+
 }  // namespace
 
 ExperimentDef load_experiment(const fs::path& file) {
   const Activity reading("reading the experiment " + file.string());
   const YamlNode root = YamlNode::load_file(file);
-  root.allow_keys({"name", "world", "scenario", "duration_s", "seeds", "localizers", "convergence",
-                   "timeout_s", "params_file"});
+  root.allow_keys({"name", "world", "scenario", "duration_s", "logs", "seeds", "localizers",
+                   "convergence", "timeout_s", "params_file"});
   ExperimentDef e;
   e.source = file;
   const fs::path base = file.parent_path();
@@ -52,35 +74,61 @@ ExperimentDef load_experiment(const fs::path& file) {
     if (fs::is_directory(path, error)) node.fail("'" + path.string() + "' is a directory");
     return path;
   };
-  e.world = input_file(root["world"]);
-  if (const auto scenario = root.find("scenario"); scenario && !scenario->is_null()) {
-    e.scenario = input_file(*scenario);
+  const auto logs = root.find("logs");
+  if (logs) {
+    // A log carries its world, scenario and duration: one given too would be ignored.
+    for (const char* key : {"world", "scenario", "duration_s"}) {
+      if (const auto node = root.find(key)) {
+        node->fail("give either logs (each log holds its world, scenario and duration) or " +
+                   std::string("world, scenario and duration_s, not both"));
+      }
+    }
+    for (const YamlNode& item : logs->items()) {
+      const fs::path path = input_file(item);
+      std::size_t robots = 0;
+      std::uint64_t seed = 0;
+      try {
+        const LogSource source(path);  // reads the header and the end record only
+        robots = source.world().robots.size();
+        seed = source.seed();
+      } catch (const InputError& error) {
+        item.fail(error.what());
+      }
+      // Each run's result is one robot's metrics (its run folder's metrics.json).
+      if (robots != 1) {
+        item.fail("the log has " + std::to_string(robots) +
+                  " robots; an experiment scores one robot per log: import each robot into a log "
+                  "of its own (`locsim import mrclam SOURCE --robots N`)");
+      }
+      const std::string stem = path.stem().string();
+      for (const ExperimentLog& other : e.logs) {
+        if (other.stem == stem) {
+          item.fail("the file name '" + stem + "' is also that of '" + other.file.string() +
+                    "'; the runs are named after it: rename one");
+        }
+      }
+      e.logs.push_back({path, stem, seed});
+    }
+    if (e.logs.empty()) logs->fail("give at least one log");
+  } else {
+    e.world = input_file(root["world"]);
+    if (const auto scenario = root.find("scenario"); scenario && !scenario->is_null()) {
+      e.scenario = input_file(*scenario);
+    }
+    if (const auto duration = root.find("duration_s"))
+      e.duration_s = duration->as_double(ScenarioDef::kDurationRange);
   }
-  if (const auto duration = root.find("duration_s"))
-    e.duration_s = duration->as_double(ScenarioDef::kDurationRange);
   e.timeout_s = root.get_double("timeout_s", e.timeout_s, ExperimentDef::kTimeoutRange);
   // The parameter file every localizer entry gets unless it names its own.
   std::optional<std::pair<fs::path, InputPlace>> params_file;
   if (const auto node = root.find("params_file"))
     params_file = std::pair{input_file(*node), node->place()};
 
-  const YamlNode seeds = root["seeds"];
-  if (seeds.is_sequence()) {
-    for (const YamlNode& s : seeds.items())
-      e.seeds.push_back(static_cast<std::uint64_t>(s.as_int(ExperimentDef::kSeedRange)));
+  // With logs, seeds are optional: each log's own by default.
+  if (logs) {
+    if (const auto seeds = root.find("seeds")) read_seeds(*seeds, e.seeds);
   } else {
-    seeds.allow_keys({"from", "to"});
-    const long long from = seeds["from"].as_int(ExperimentDef::kSeedRange),
-                    to = seeds["to"].as_int(ExperimentDef::kSeedRange);
-    if (to < from) seeds["to"].fail("must be >= from");
-    if (static_cast<std::size_t>(to - from) >= ExperimentDef::kMaxSeedSpan) {
-      seeds.fail("more than " + std::to_string(ExperimentDef::kMaxSeedSpan) + " seeds");
-    }
-    for (long long s = from; s <= to; ++s) e.seeds.push_back(static_cast<std::uint64_t>(s));
-  }
-  if (e.seeds.empty()) seeds.fail("give at least one seed");
-  if (std::set<std::uint64_t>(e.seeds.begin(), e.seeds.end()).size() != e.seeds.size()) {
-    seeds.fail("a seed is listed twice");
+    read_seeds(root["seeds"], e.seeds);
   }
 
   std::set<std::string> labels;
@@ -130,11 +178,18 @@ ExperimentDef load_experiment(const fs::path& file) {
                 " configurations; an experiment has at most " +
                 std::to_string(ExperimentDef::kMaxConfigurations) + " (split it)");
     }
-    if (configurations * static_cast<double>(e.seeds.size()) >
-        static_cast<double>(ExperimentDef::kMaxRuns)) {
-      item.fail(rounded_number(configurations, 12) + " configurations on " +
-                std::to_string(e.seeds.size()) + " seeds make " +
-                rounded_number(configurations * static_cast<double>(e.seeds.size()), 12) +
+    // Runs per configuration: one per seed, on each log (each log's own seed by default).
+    const double inputs =
+        e.logs.empty()
+            ? static_cast<double>(e.seeds.size())
+            : static_cast<double>(e.logs.size() * std::max<std::size_t>(e.seeds.size(), 1));
+    const std::string inputs_text =
+        e.logs.empty() ? std::to_string(e.seeds.size()) + " seeds"
+                       : std::to_string(e.logs.size()) + " logs x " +
+                             std::to_string(std::max<std::size_t>(e.seeds.size(), 1)) + " seeds";
+    if (configurations * inputs > static_cast<double>(ExperimentDef::kMaxRuns)) {
+      item.fail(rounded_number(configurations, 12) + " configurations on " + inputs_text +
+                " make " + rounded_number(configurations * inputs, 12) +
                 " runs; an experiment has at most " + std::to_string(ExperimentDef::kMaxRuns) +
                 " (split it, or shard it with --shard)");
     }
@@ -176,8 +231,8 @@ ExperimentDef load_experiment(const fs::path& file) {
     e.convergence.hold_samples = static_cast<int>(convergence->get_int(
         "hold_samples", e.convergence.hold_samples, ConvergenceCriterion::kHoldRange));
   }
-  // The world and scenario must load now, not in every run.
-  e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;
+  // The world and scenario must load now, not in every run (a log's were checked above).
+  if (e.logs.empty()) e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;
   e.files.insert(e.files.begin(), file);
   // The parameter files too: a resume must see them change like the world.
   for (const LocalizerConfig& config : e.localizers) {
@@ -186,14 +241,29 @@ ExperimentDef load_experiment(const fs::path& file) {
       e.files.push_back(*config.params_file);
     }
   }
+  // The logs are inputs like the world: a resume or merge must see one change.
+  for (const ExperimentLog& log : e.logs) e.files.push_back(log.file);
   return e;
 }
 
 std::vector<RunUnit> expand_runs(const ExperimentDef& experiment) {
   std::vector<RunUnit> runs;
   for (const LocalizerConfig& config : experiment.localizers) {
-    for (const std::uint64_t seed : experiment.seeds) {
-      runs.push_back({runs.size(), config.label + "/seed-" + std::to_string(seed), &config, seed});
+    if (experiment.logs.empty()) {
+      for (const std::uint64_t seed : experiment.seeds) {
+        runs.push_back(
+            {runs.size(), config.label + "/seed-" + std::to_string(seed), &config, nullptr, seed});
+      }
+      continue;
+    }
+    for (const ExperimentLog& log : experiment.logs) {
+      const std::vector<std::uint64_t> seeds =
+          experiment.seeds.empty() ? std::vector{log.recorded_seed} : experiment.seeds;
+      for (const std::uint64_t seed : seeds) {
+        runs.push_back({runs.size(),
+                        config.label + "/" + log.stem + "/seed-" + std::to_string(seed), &config,
+                        &log, seed});
+      }
     }
   }
   return runs;

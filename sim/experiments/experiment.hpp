@@ -1,6 +1,7 @@
-// Experiments: one YAML file naming a world, a scenario, localizers with parameter grids, seeds
-// and what "converged" means; expanded into runs, each one `locsim run` of one localizer
-// configuration on one seed.
+// Experiments: one YAML file naming a world and a scenario (or recorded logs), localizers with
+// parameter grids, seeds and what "converged" means; expanded into runs, each one `locsim replay`
+// of one localizer configuration on one seed's simulated log, or on one recorded log with one seed
+// for the localizers' random streams.
 #pragma once
 
 #include <cstdint>
@@ -29,12 +30,23 @@ struct LocalizerConfig {
   InputPlace params_file_place;  // of the `params_file:` value that gives it
 };
 
+/// A recorded log an experiment replays (`logs:`), e.g. one `locsim import` wrote.
+struct ExperimentLog {
+  std::filesystem::path file;       // resolved against the experiment file
+  std::string stem;                 // its file name without extension: names its runs, unique
+  std::uint64_t recorded_seed = 0;  // the log's own seed: the default of `seeds:`
+};
+
 struct ExperimentDef {
   std::string name = "experiment";
   std::filesystem::path source;
   std::filesystem::path world;  // resolved against the experiment file
   std::optional<std::filesystem::path> scenario;
   std::optional<double> duration_s;  // ScenarioDef::kDurationRange [s]
+  /// With `logs:`: the logs replayed instead of simulating `world` (which is then empty).
+  std::vector<ExperimentLog> logs;
+  /// Without logs: the seeds simulated. With logs: the localizers' seeds each log is replayed
+  /// with (`replay --seed`); empty when not given: each log once, with its own seed.
   std::vector<std::uint64_t> seeds;
   static constexpr Range kSeedRange{0.0, 4611686018427387904.0, ""};  // 0..2^62
   static constexpr std::size_t kMaxSeedSpan = 100000;  // seeds {from, to} lists at most this many
@@ -47,7 +59,7 @@ struct ExperimentDef {
   double timeout_s = 600.0;  // per run, wall clock [s]
   static constexpr Range kTimeoutRange{0.01, kSimulatedTimeRange.max, "s"};
   /// Every file the experiment was read from: this one, then its world's and scenario's
-  /// (RunInputs::files), then its parameter files.
+  /// (RunInputs::files), then its parameter files, then its logs.
   std::vector<std::filesystem::path> files;
 };
 
@@ -55,9 +67,10 @@ struct ExperimentDef {
 ExperimentDef load_experiment(const std::filesystem::path& file);  // throws InputError
 
 struct RunUnit {
-  std::size_t index = 0;  // in the full expansion: localizers outer, seeds inner
-  std::string id;         // "LABEL/seed-N"
+  std::size_t index = 0;  // in the full expansion: localizers outer, then logs, seeds inner
+  std::string id;         // "LABEL/seed-N", or "LABEL/LOGSTEM/seed-N": also its folder in runs/
   const LocalizerConfig* config = nullptr;
+  const ExperimentLog* log = nullptr;  // the recorded log it replays; null: the seed's simulation
   std::uint64_t seed = 0;
 };
 

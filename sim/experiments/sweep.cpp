@@ -38,13 +38,21 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-/// FNV-1a of a file's bytes: whether it is the same file as before.
+/// FNV-1a of a file's bytes: whether it is the same file as before. Streamed: a recorded log of
+/// tens of MB costs a read of it, not its size in memory.
 std::string content_hash(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError("cannot read '" + file.string() + "'");
   std::uint64_t hash = 0xcbf29ce484222325ULL;
-  for (const char c : read_text(file)) {
-    hash ^= static_cast<unsigned char>(c);
-    hash *= 0x100000001b3ULL;
+  std::vector<char> chunk(1 << 16);
+  while (in.read(chunk.data(), static_cast<std::streamsize>(chunk.size())) || in.gcount() > 0) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(chunk.data());
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      hash ^= bytes[i];
+      hash *= 0x100000001b3ULL;
+    }
   }
+  if (in.bad()) throw std::runtime_error("cannot read '" + file.string() + "'");
   char text[24];
   std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
   return text;
@@ -214,6 +222,7 @@ json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int
   json params = json::object();
   for (const auto& [k, v] : run.config->params) params[k] = v;
   r["params"] = params;
+  if (run.log != nullptr) r["source_log"] = run.log->stem;  // the recorded log it replayed
   r["seed"] = run.seed;
   r["log"] = log.generic_string();
   json metrics;
@@ -290,7 +299,7 @@ void write_tables(const fs::path& out_dir) {
   });
   {
     std::ofstream csv(out_dir / "results.csv", std::ios::binary);
-    csv << "index,id,config,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
+    csv << "index,id,config,log,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
            "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m\n";
     for (const json& r : results) {
@@ -313,13 +322,13 @@ void write_tables(const fs::path& out_dir) {
       const json landmark_error =
           m.value("landmark_map", json::object()).value("error_m", json::object());
       csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
-          << csv_field(r["config"]) << ',' << r["seed"].get<std::uint64_t>() << ','
-          << r["status"].get<std::string>() << ',' << csv_field(r.value("reason", "")) << ','
-          << number(p.value("rms", json())) << ',' << number(p.value("mean", json())) << ','
-          << number(p.value("max", json())) << ',' << number(p.value("rms_x", json())) << ','
-          << number(p.value("rms_y", json())) << ',' << number(h.value("rms", json())) << ','
-          << number(h.value("mean", json())) << ',' << number(h.value("max", json())) << ','
-          << number(c.value("time_s", json()), 4) << ','
+          << csv_field(r["config"]) << ',' << csv_field(r.value("source_log", "")) << ','
+          << r["seed"].get<std::uint64_t>() << ',' << r["status"].get<std::string>() << ','
+          << csv_field(r.value("reason", "")) << ',' << number(p.value("rms", json())) << ','
+          << number(p.value("mean", json())) << ',' << number(p.value("max", json())) << ','
+          << number(p.value("rms_x", json())) << ',' << number(p.value("rms_y", json())) << ','
+          << number(h.value("rms", json())) << ',' << number(h.value("mean", json())) << ','
+          << number(h.value("max", json())) << ',' << number(c.value("time_s", json()), 4) << ','
           << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
                                                    : std::string())
           << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
@@ -627,9 +636,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   const auto recording_dir = [&](std::uint64_t seed) {
     return out / "logs" / ("seed-" + std::to_string(seed));
   };
-  const auto run_dir_of = [&](const RunUnit& run) {
-    return out / "runs" / run.config->label / ("seed-" + std::to_string(run.seed));
-  };
+  const auto run_dir_of = [&](const RunUnit& run) { return out / "runs" / run.id; };
   const auto recorded = [&](std::uint64_t seed) {
     try {
       return fs::exists(log_of(seed)) &&
@@ -644,19 +651,23 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     Task task;
     task.run = &run;
     task.log = run_dir_of(run) / "log.txt";
-    task.args = {binary.string(), "replay", log_of(run.seed).string(), "--localizer",
-                 run.config->spec(), "--out", run_dir_of(run).string(),
-                 // The seed's recording folder has the readings already.
+    task.args = {binary.string(), "replay",
+                 run.log != nullptr ? run.log->file.string() : log_of(run.seed).string(),
+                 "--localizer", run.config->spec(), "--out", run_dir_of(run).string(),
+                 // The seed's recording folder has the readings already; a recorded log is
+                 // its own readings (`locsim replay` of it writes them as CSV).
                  "--no-readings", "--converged-within-m",
                  fixed(experiment.convergence.position_m, 9), "--converged-within-deg",
                  fixed(rad_to_deg(experiment.convergence.heading_rad), 9), "--converged-hold",
                  std::to_string(experiment.convergence.hold_samples)};
     if (run.config->params_file)
       task.args.insert(task.args.end(), {"--params", run.config->params_file->string()});
+    // A simulated seed's log was recorded with that seed; a recorded log gets the run's.
+    if (run.log != nullptr) task.args.insert(task.args.end(), {"--seed", std::to_string(run.seed)});
     return task;
   };
   for (const RunUnit* run : pending) {
-    if (recorded(run->seed)) {
+    if (run->log != nullptr || recorded(run->seed)) {
       queue.push_back(replay_task(*run));
       continue;
     }

@@ -17,7 +17,8 @@ using json = nlohmann::ordered_json;
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt) {
   LogSource source(options.log_file);
   RunFolder::check(options.out_dir, options.overwrite);
-  Session session(options, source.world(), source.scenario(), source.seed(), interrupt);
+  const std::uint64_t seed = options.seed.value_or(source.seed());
+  Session session(options, source.world(), source.scenario(), seed, interrupt);
   // The video is opened before the folder is made, as a run's: one that cannot be written (exit
   // 4) leaves no folder.
   std::optional<FrameCapture> capture;
@@ -82,7 +83,8 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   run["source"] = "replay";
   run["log_file"] = options.log_file.string();
   run["recorded_with"] = header.value("locsim_version", "");
-  run["seed"] = source.seed();
+  run["seed"] = seed;  // the localizers' (--seed), by default the log's
+  run["recorded_seed"] = source.seed();
   run["world_file"] = header.value("world_file", "");
   run["scenario_file"] = source.scenario().source.string();
   if (options.params_file) run["params_file"] = options.params_file->string();

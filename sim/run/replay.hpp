@@ -5,7 +5,9 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,9 @@ struct ReplayOptions : SessionOptions {
   std::filesystem::path out_dir;
   FrameSink* video = nullptr;  // frames of the replay (render/), at video_options' frame times
   VideoOptions video_options;
+  /// The seed the localizers' random streams (their seeds and the initial guess) derive from;
+  /// default: the log's, so that a replay of a run gives that run's estimates byte for byte.
+  std::optional<std::uint64_t> seed;
 };
 
 struct ReplayResult {

@@ -466,7 +466,9 @@ int main(int argc, char** argv) {
   locsim::SweepOptions sweep_options;
   std::string shard;
   CLI::App* sweep =
-      app.add_subcommand("sweep", "Run an experiment: every localizer configuration on every seed");
+      app.add_subcommand("sweep",
+                         "Run an experiment: every localizer configuration on every seed (or on "
+                         "every recorded log, once per seed: `logs:`, docs/experiments.md)");
   sweep->add_option("experiment", sweep_options.experiment_file, "Experiment file (YAML)")
       ->required();
   sweep->add_option("--out", sweep_options.out_dir, "Sweep folder")->required();
@@ -511,6 +513,12 @@ int main(int argc, char** argv) {
   replay->add_option("--out", replay_out, "Output folder")->required();
   bool replay_quiet = false;
   replay->add_flag("-q,--quiet", replay_quiet, "No summary line");
+  replay
+      ->add_option("--seed", replay_options.seed,
+                   "Seed the localizers' random streams (their seeds, the initial guess) derive "
+                   "from; default: the log's own, so that a replay of a run repeats its estimates "
+                   "exactly. Another seed varies the particle filters, not the deterministic ones")
+      ->transform(whole_number_in(0, std::numeric_limits<std::uint64_t>::max()));
   add_session_options(replay, replay_options);
   VideoCli replay_video;
   add_video_options(replay, replay_video, replay_options.video_options);
