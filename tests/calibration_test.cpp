@@ -60,6 +60,7 @@ robots:
         bearing_bias_deg: 2
         miss_probability: 0.2
         false_detections: 0.3
+        noise_correlation_s: 0.5
 scenario:
   duration_s: 300
   drive:
@@ -109,6 +110,11 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
   ASSERT_TRUE(rb.miss_probability);
   expect_within(*rb.miss_probability, 0.2, "miss_probability");
   expect_within(rb.false_per_reading, 0.3, "false_detections");
+  ASSERT_TRUE(rb.noise_correlation_s);
+  expect_within(*rb.noise_correlation_s, 0.5, "noise_correlation_s");
+  // The false ones among all detections (0.3 per reading of ~3), over the measured span.
+  ASSERT_TRUE(rb.outlier_likelihood);
+  EXPECT_GT(*rb.outlier_likelihood, 0.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));

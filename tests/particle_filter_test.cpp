@@ -133,6 +133,38 @@ TEST(ParticleFilters, FalseDetectionsAreRejectedOrOutwaitedInsteadOfResetOnto) {
   EXPECT_LT(robust_rms, 0.5 * paper_rms);  // the robust one far less
 }
 
+TEST(ParticleFilters, AnOutlierLikelihoodKeepsPhantomsFromDecidingTheWeights) {
+  // The field with a phantom in 10 % of the camera's frames; no consistency test, so that every
+  // phantom is weighed. Without an outlier likelihood a phantom's match (far below any particle's
+  // true match) decides which particles survive; with one (what `locsim calibrate` writes), a
+  // detection no particle explains leaves the weights as they were.
+  const fs::path dir = testing::temp_dir("pf-outliers");
+  std::string world = testing::read_file(fs::path(LOCSIM_SOURCE_DIR) / "worlds/asrl/field.yaml");
+  const std::string no_phantoms = "false_detections_per_frame: 0}";
+  ASSERT_NE(world.find(no_phantoms), std::string::npos);
+  world.replace(world.find(no_phantoms), no_phantoms.size(), "false_detections_per_frame: 0.1}");
+  std::ofstream(dir / "field.yaml") << world;
+  double plain_rms = 0.0, robust_rms = 0.0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    RunOptions options;
+    options.world_file = dir / "field.yaml";
+    options.seed = seed;
+    options.duration_s = 60.0;
+    options.out_dir = dir / ("seed" + std::to_string(seed));
+    options.localizers = {
+        "mcl:reject_inconsistent=0," + kCalibrated + "@plain",
+        "mcl:reject_inconsistent=0,outlier_likelihood=1e-4," + kCalibrated + "@robust"};
+    const auto metrics = testing::run_metrics(options);
+    for (const auto& l : metrics["localizers"]) {
+      ASSERT_EQ(l["status"], "ok");
+      (l["label"] == "plain" ? plain_rms : robust_rms) +=
+          l["position_error_m"]["rms"].get<double>() / 3.0;
+    }
+  }
+  EXPECT_LT(robust_rms, 0.05);
+  EXPECT_LT(robust_rms, 0.5 * plain_rms) << "plain " << plain_rms << ", robust " << robust_rms;
+}
+
 TEST(ParticleFilters, GlobalLocalizationFindsThePoseAndRunsAreReproducible) {
   const std::vector<std::string> localizers = {"asrl:particles=400," + kCalibrated,
                                                "srl:particles=400," + kCalibrated};

@@ -1,6 +1,7 @@
 #include "landmark_pf.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace locsim::particle_filters {
@@ -21,6 +22,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
   sigma_range_per_m2_ = params.number("sigma_range_per_m2");
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
+  log_outlier_likelihood_ = std::log(params.number("outlier_likelihood"));
   const std::string motion_model = params.string("motion_model");
   if (motion_model != "odometry" && motion_model != "wheels")
     throw std::invalid_argument("motion_model must be odometry or wheels, not '" + motion_model +
@@ -126,6 +128,12 @@ void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
   }
 }
 
+double LandmarkParticleFilter::with_outlier(double log_match) const {
+  if (!std::isfinite(log_outlier_likelihood_)) return log_match;
+  const double hi = std::max(log_match, log_outlier_likelihood_);
+  return hi + std::log1p(std::exp(-std::abs(log_match - log_outlier_likelihood_)));
+}
+
 double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) const {
   double total = 0.0;
   for (std::size_t k = 0; k < step_count_; ++k) {
@@ -136,7 +144,7 @@ double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) 
           best, sdk::landmark_log_match(x, y, theta, d.range_m, d.bearing_rad, landmarks_[j].x,
                                         landmarks_[j].y, d.sigma_range_m, sigma_bearing_rad_));
     }
-    total += best;
+    total += with_outlier(best);
   }
   return total;
 }
@@ -196,8 +204,15 @@ void LandmarkParticleFilter::weigh_particles() {
   }
   log_weights_.assign(particles_.size(), 0.0);
   Eigen::Map<Eigen::ArrayXd> log_w(log_weights_.data(), n);
-  for (std::size_t k = 0; k < step_count_; ++k)
-    log_w += Eigen::Map<const Eigen::ArrayXd>(detection_match_[k].data(), n);
+  for (std::size_t k = 0; k < step_count_; ++k) {
+    Eigen::Map<Eigen::ArrayXd> match(detection_match_[k].data(), n);
+    if (std::isfinite(log_outlier_likelihood_)) {
+      // log(p + outlier): the larger of the two plus log1p of the smaller over it.
+      const double floor = log_outlier_likelihood_;
+      match = match.max(floor) + (-(match - floor).abs()).exp().log1p();
+    }
+    log_w += match;
+  }
 }
 
 bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& theta) {

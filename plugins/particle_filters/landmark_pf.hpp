@@ -64,6 +64,10 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "consistency_level while another is above it (a false detection, not a kidnapping)"},          \
   {"consistency_level", LOCSIM_PARAM_DOUBLE, 0.05, 0, 1, nullptr,                                  \
    "mean per-detection likelihood (1 = perfect match) under which a detection is inconsistent [-]"}, \
+  {"outlier_likelihood", LOCSIM_PARAM_DOUBLE, 0.0, 0, 1, nullptr,                                 \
+   "added to every detection's likelihood (1 = perfect match): the chance that it is false, so "  \
+   "that one far off cannot decide the weights (locsim calibrate); 0: every detection is true "    \
+   "(the papers)"},                                                                                \
   {"reset_after_steps", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,                                     \
    "resetting starts when the likelihood has been low this many steps in a row (1: the paper)"}, \
   {"reset_min_detections", LOCSIM_PARAM_INT, 1, 1, 1000, nullptr,                                  \
@@ -97,6 +101,8 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// log of the match of all this step's detections at one pose (sdk::landmark_log_match, 0 =
   /// perfect), each with its best-matching candidate.
   double log_likelihood(double x, double y, double theta) const;
+  /// log(exp(log_match) + outlier_likelihood): a detection's match, false detections allowed.
+  double with_outlier(double log_match) const;
   /// The same for every particle, into log_weights_ (vectorised, the step's inner loop). With
   /// reject_inconsistent, first drops the detections inconsistent with the others (step_ and
   /// step_count_ then hold the kept ones).
@@ -112,6 +118,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   double sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_, sigma_bearing_rad_;
   bool low_variance_, use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
+  double log_outlier_likelihood_;  // log of outlier_likelihood; -inf when 0
   long reset_after_steps_ = 1, low_steps_ = 0;
   std::size_t reset_min_detections_ = 1;
   // Recovery parameters.

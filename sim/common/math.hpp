@@ -38,6 +38,12 @@ struct Pose2 {
   bool operator==(const Pose2&) const = default;
 };
 
+/// A pose at a time: a trajectory's sample (ground truth, a path to follow).
+struct StampedPose {
+  double t_s = 0.0;  // [s]
+  Pose2 pose;
+};
+
 /// 2D cross product (z component of the 3D one).
 inline double cross(const Vec2& a, const Vec2& b) {
   return a.x() * b.y() - a.y() * b.x();

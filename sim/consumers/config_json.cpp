@@ -134,6 +134,7 @@ json sensors(const SensorsDef& s) {
                                  {"bearing_bias", d.bearing_bias_rad},
                                  {"miss_probability", d.miss_probability},
                                  {"false_detections", d.false_detections},
+                                 {"noise_correlation_s", d.noise_correlation_s},
                                  {"report_ids", d.report_ids},
                                  {"sees_robots", d.sees_robots}});
   }
@@ -150,6 +151,8 @@ const char* mode_name(DriveDef::Mode mode) {
       return "velocity";
     case DriveDef::Mode::kWander:
       return "wander";
+    case DriveDef::Mode::kTrajectory:
+      return "trajectory";
   }
   return "?";
 }
@@ -289,6 +292,14 @@ json to_json(const ScenarioDef& s) {
         drive["speed_mps"] = d.speed_mps;
         drive["max_turn_rate_radps"] = d.max_turn_rate_radps;
         drive["clearance_m"] = d.clearance_m;
+        break;
+      case DriveDef::Mode::kTrajectory:
+        // A recorded path has thousands of poses: the world file holds them, run.json their
+        // count and span (every run of a sweep would otherwise carry megabytes of them).
+        drive["poses"] = {{"count", d.trajectory.size()},
+                          {"from_s", d.trajectory.front().t_s},
+                          {"to_s", d.trajectory.back().t_s}};
+        if (!d.poses_file.empty()) drive["poses_file"] = d.poses_file.string();
         break;
     }
     drives.push_back(drive);

@@ -117,6 +117,8 @@ struct Residual {
   double bearing_error_rad = 0.0;
   std::size_t landmark = 0;  // index in its world
   bool inlier = true;
+  double t_s = 0.0;       // of its reading
+  std::size_t track = 0;  // which robot of which log: one target's detections form a sequence
 };
 
 /// A reading of a camera with a field of view: what it should have seen and where its
@@ -133,11 +135,15 @@ struct CameraData {
   // Readings with detections of landmarks on the map (a particle filter's steps): their
   // residuals, [first, first + count).
   std::vector<std::pair<std::size_t, std::size_t>> steps;
+  // The span of the measured values (of landmarks' detections), over which a false one falls.
+  double min_range_m = std::numeric_limits<double>::infinity(), max_range_m = 0.0;
+  double max_abs_bearing_rad = 0.0;
 };
 
 struct Pooled {
   std::vector<MotionSample> motion;
   std::map<SensorKind, CameraData> cameras;
+  std::size_t tracks = 0;  // robots collected so far
 };
 
 struct RobotLog {
@@ -249,9 +255,33 @@ void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled
   }
 }
 
+}  // namespace
+
+std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
+                                           const RangeBearingDef& sensor, const Pose2& pose) {
+  std::vector<std::size_t> visible;
+  const Vec2 origin = pose.transform(sensor.common.mount.position());
+  const double heading = pose.theta + sensor.common.mount.theta;
+  for (std::size_t i = 0; i < world.landmarks.size(); ++i) {
+    const LandmarkDef& l = world.landmarks[i];
+    const Vec2 offset = l.position_m - origin;
+    const double range = offset.norm();
+    if (range < sensor.min_range_m || range > sensor.max_range_m || range < 1e-6) continue;
+    const double bearing = wrap_angle(std::atan2(offset.y(), offset.x()) - heading);
+    if (std::abs(bearing) > 0.5 * sensor.fov_rad) continue;
+    if (walls.cast(origin, offset / range, range - l.radius_m) < range - l.radius_m - 1e-6)
+      continue;
+    visible.push_back(i);
+  }
+  return visible;
+}
+
+namespace {
+
 void collect_detections(const RobotLog& robot, const WorldDef& world, const StaticRaycaster& walls,
                         Pooled& pooled) {
   const std::optional<RangeBearingDef>& fov_sensor = robot.def->sensors.range_bearing;
+  const std::size_t track = pooled.tracks++;
   for (const RobotLog::Seen& seen : robot.seen) {
     const auto pose = robot.truth.at(seen.t_s);
     if (!pose) continue;
@@ -262,6 +292,9 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
     for (const Detection& d : seen.detections) {
       if (d.target != DetectionTarget::kLandmark) continue;
       ++camera.detections;
+      camera.min_range_m = std::min(camera.min_range_m, d.range_m);
+      camera.max_range_m = std::max(camera.max_range_m, d.range_m);
+      camera.max_abs_bearing_rad = std::max(camera.max_abs_bearing_rad, std::abs(d.bearing_rad));
       const auto landmark = landmark_of(d, world, *pose);
       if (!landmark) {
         ++camera.unmatched;
@@ -271,29 +304,14 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
       const Eigen::Vector2d predicted =
           sdk::range_bearing(*pose, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
       camera.residuals.push_back({predicted(0), d.range_m - predicted(0),
-                                  sdk::wrap(d.bearing_rad - predicted(1)), *landmark});
+                                  sdk::wrap(d.bearing_rad - predicted(1)), *landmark, true,
+                                  seen.t_s, track});
     }
     visibility.count = camera.residuals.size() - visibility.first;
     if (visibility.count > 0) camera.steps.emplace_back(visibility.first, visibility.count);
     if (seen.kind == SensorKind::kRangeBearing && fov_sensor) {
-      // What the simulated sensor would report: in range and field of view of the mount, and not
-      // behind a wall (other robots and moving obstacles are not in the log: their occlusions
-      // count as misses).
-      const Pose2 body{(*pose)(0), (*pose)(1), (*pose)(2)};
-      const Vec2 origin = body.transform(fov_sensor->common.mount.position());
-      const double heading = (*pose)(2) + fov_sensor->common.mount.theta;
-      for (std::size_t i = 0; i < world.landmarks.size(); ++i) {
-        const LandmarkDef& l = world.landmarks[i];
-        const Vec2 offset = l.position_m - origin;
-        const double range = offset.norm();
-        if (range < fov_sensor->min_range_m || range > fov_sensor->max_range_m || range < 1e-6)
-          continue;
-        const double bearing = wrap_angle(std::atan2(offset.y(), offset.x()) - heading);
-        if (std::abs(bearing) > 0.5 * fov_sensor->fov_rad) continue;
-        if (walls.cast(origin, offset / range, range - l.radius_m) < range - l.radius_m - 1e-6)
-          continue;
-        visibility.visible.push_back(i);
-      }
+      visibility.visible =
+          landmarks_in_view(world, walls, *fov_sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)});
       camera.visibility.push_back(std::move(visibility));
     }
   }
@@ -354,6 +372,84 @@ LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e) {
           rms * std::exp(std::clamp(best.x[1], -30.0, 5.0))};
 }
 
+/// The landmark particle filters' outlier_likelihood: a detection is false with probability eps
+/// (the false ones among all), and a false one falls anywhere in the measured span of ranges and
+/// bearings. Its mixture with the match (scaled to 1 at a perfect match, a Gaussian of peak
+/// density 1 / (2 pi sigma_r sigma_b)) adds eps / (1 - eps) times the uniform density over the
+/// peak density to every detection's likelihood.
+void outlier_likelihood(const CameraData& data, DetectionCalibration& c) {
+  if (c.detections == 0 || !(data.max_range_m > data.min_range_m)) return;
+  const double eps =
+      std::min(static_cast<double>(c.false_detections) / static_cast<double>(c.detections), 0.5);
+  if (eps <= 0.0) return;
+  const double middle_m = 0.5 * (data.min_range_m + data.max_range_m);
+  const double sigma_range = std::max(c.range_rms_m.at(middle_m), 1e-9);
+  const double sigma_bearing = std::max(c.bearing_rms_rad, 1e-9);
+  const double bearing_span = std::max(2.0 * data.max_abs_bearing_rad, sigma_bearing);
+  const double uniform = 1.0 / ((data.max_range_m - data.min_range_m) * bearing_span);
+  const double peak = 1.0 / (2.0 * std::numbers::pi * sigma_range * sigma_bearing);
+  c.outlier_likelihood = std::min(eps / (1.0 - eps) * uniform / peak, 1.0);
+}
+
+/// The time constant tau of each target's noise, as the simulated sensor's noise_correlation_s
+/// models it (a Gauss-Markov process per target): by maximum likelihood over consecutive inlier
+/// detections of the same landmark by the same robot, their standardised range and bearing errors
+/// z1, z2 a time dt apart being jointly normal with correlation exp(-dt / tau). Scanned on a
+/// logarithmic grid (one parameter; the likelihood is cheap).
+void noise_correlation(const CameraData& data, DetectionCalibration& c) {
+  constexpr double kMaxGapS = 60.0;  // farther apart: unrelated at any tau the scan can find
+  struct Pair {
+    double dt_s, r1, r2, b1, b2;
+  };
+  std::vector<Pair> pairs;
+  std::map<std::pair<std::size_t, std::size_t>, std::size_t> last;  // (track, landmark) -> index
+  const double sigma_b = std::max(c.bearing_spread_rad, 1e-9);
+  const auto z_range = [&](const Residual& x) {
+    return (x.range_error_m - c.range_bias_m.at(x.range_m)) /
+           std::max(c.range_spread_m.at(x.range_m), 1e-9);
+  };
+  for (std::size_t i = 0; i < data.residuals.size(); ++i) {
+    const Residual& x = data.residuals[i];
+    if (!x.inlier) continue;
+    const auto key = std::pair{x.track, x.landmark};
+    if (const auto found = last.find(key); found != last.end()) {
+      const Residual& p = data.residuals[found->second];
+      const double dt = x.t_s - p.t_s;
+      if (dt > 0.0 && dt <= kMaxGapS) {
+        pairs.push_back({dt, z_range(p), z_range(x),
+                         (p.bearing_error_rad - c.bearing_bias_rad) / sigma_b,
+                         (x.bearing_error_rad - c.bearing_bias_rad) / sigma_b});
+      }
+    }
+    last[key] = i;
+  }
+  if (pairs.size() < 20) return;
+  const auto nll = [&](double tau_s) {
+    double sum = 0.0;
+    for (const Pair& p : pairs) {
+      const double rho = std::exp(-p.dt_s / tau_s);
+      const double v = std::max(1.0 - rho * rho, 1e-12);
+      sum += std::log(v) + ((p.r2 - rho * p.r1) * (p.r2 - rho * p.r1) +
+                            (p.b2 - rho * p.b1) * (p.b2 - rho * p.b1)) /
+                               (2.0 * v);
+    }
+    return sum;
+  };
+  // The grid 1 ms .. 1000 s against independent errors (tau -> 0), which stay unless the
+  // correlation explains the pairs significantly better (likelihood ratio, chi-square with one
+  // degree of freedom at 95 %: 3.84 / 2 nats).
+  double independent = 0.0;
+  for (const Pair& p : pairs) independent += 0.5 * (p.r2 * p.r2 + p.b2 * p.b2);
+  double best_tau = 0.0, best = independent;
+  for (int k = 0; k <= 300; ++k) {
+    const double tau_s = std::pow(10.0, -3.0 + 6.0 * k / 300.0);
+    const double value = nll(tau_s);
+    if (value < best) best = value, best_tau = tau_s;
+  }
+  c.noise_correlation_s = independent - best > 1.92 ? best_tau : 0.0;
+  c.noise_correlation_pairs = pairs.size();
+}
+
 /// The likelihood a landmark particle filter gives the true pose at each step (its own match,
 /// sdk::landmark_log_match, with the noise written for it: the spread about zero), and from its
 /// low quantile the resetting levels: a reset is meant for a step that the truth would explain
@@ -369,8 +465,10 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
       const Residual& r = data.residuals[i];
       const double measured_m = r.range_m + r.range_error_m;
       const double sigma_range = std::max(c.range_rms_m.at(measured_m), 1e-9);
-      log_p += -0.5 * r.range_error_m * r.range_error_m / (sigma_range * sigma_range) -
-               (1.0 - std::cos(r.bearing_error_rad)) / (sigma_bearing * sigma_bearing);
+      const double match = -0.5 * r.range_error_m * r.range_error_m / (sigma_range * sigma_range) -
+                           (1.0 - std::cos(r.bearing_error_rad)) / (sigma_bearing * sigma_bearing);
+      // As the filters weigh it, false detections allowed (their outlier_likelihood).
+      log_p += std::log(std::exp(match) + c.outlier_likelihood.value_or(0.0));
     }
     step_likelihood.push_back(std::exp(log_p));
     per_detection.push_back(std::exp(log_p / static_cast<double>(count)));
@@ -470,6 +568,8 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     c.range_spread_m = fit_spread(x, about_bias);
     c.range_rms_m = fit_spread(x, about_zero);
   }
+  outlier_likelihood(data, c);
+  noise_correlation(data, c);
   reset_levels(data, c);
   if (!data.visibility.empty()) {
     std::size_t visible = 0, missed = 0;
@@ -775,6 +875,11 @@ json Calibration::to_json() const {
                                          {"srl_threshold", *c.srl_threshold},
                                          {"asrl_p_t", *c.asrl_p_t}};
     }
+    if (c.outlier_likelihood) cj["outlier_likelihood"] = *c.outlier_likelihood;
+    if (c.noise_correlation_s) {
+      cj["noise_correlation"] = {{"tau_s", *c.noise_correlation_s},
+                                 {"pairs", c.noise_correlation_pairs}};
+    }
     cj["bins"] = json::array();
     for (const RangeBin& b : c.bins) {
       cj["bins"].push_back({{"count", b.count},
@@ -850,6 +955,13 @@ std::string Calibration::to_yaml() const {
     y += "  srl: {threshold: " + num(*camera->srl_threshold) + ", reset_min_detections: 2}\n";
     y += "  asrl: {p_t: " + num(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
   }
+  if (camera != nullptr && camera->outlier_likelihood) {
+    y += "  # the landmark particle filters: a detection may be false (" +
+         num(100.0 * static_cast<double>(camera->false_detections) /
+             static_cast<double>(camera->detections)) +
+         " % of them), anywhere in the measured ranges and bearings\n";
+    y += "  outlier_likelihood: " + num(*camera->outlier_likelihood) + "\n";
+  }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
   if (motion) {
     y += "  encoders: {k_left: " + num(motion->k_left) + ", k_right: " + num(motion->k_right) +
@@ -865,6 +977,8 @@ std::string Calibration::to_yaml() const {
          "\n    bearing_bias_deg: " + num(rad_to_deg(c.bearing_bias_rad)) + "\n";
     if (c.miss_probability) y += "    miss_probability: " + num(*c.miss_probability) + "\n";
     y += "    false_detections: " + num(c.false_per_reading) + "\n";
+    if (c.noise_correlation_s)
+      y += "    noise_correlation_s: " + num(*c.noise_correlation_s) + "\n";
   }
   return y;
 }
@@ -884,14 +998,17 @@ std::string describe(const Calibration& c) {
             num(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
   }
   for (const DetectionCalibration& d : c.cameras) {
-    text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
-            std::to_string(d.false_detections) + " false (" + num(d.false_per_reading) +
-            " per reading): range bias " + num(d.range_bias_m.at_zero) + " m + " +
-            num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) + " m + " +
-            num(d.range_spread_m.per_unit) + " r; bearing bias " +
-            num(rad_to_deg(d.bearing_bias_rad)) + " deg, spread " +
-            num(rad_to_deg(d.bearing_spread_rad)) + " deg" +
-            (d.miss_probability ? "; missed " + num(*d.miss_probability) : std::string()) + "\n";
+    text +=
+        "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
+        std::to_string(d.false_detections) + " false (" + num(d.false_per_reading) +
+        " per reading): range bias " + num(d.range_bias_m.at_zero) + " m + " +
+        num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) + " m + " +
+        num(d.range_spread_m.per_unit) + " r; bearing bias " + num(rad_to_deg(d.bearing_bias_rad)) +
+        " deg, spread " + num(rad_to_deg(d.bearing_spread_rad)) + " deg" +
+        (d.miss_probability ? "; missed " + num(*d.miss_probability) : std::string()) +
+        (d.noise_correlation_s ? "; errors correlated over " + num(*d.noise_correlation_s) + " s"
+                               : std::string()) +
+        "\n";
   }
   return text;
 }

@@ -30,6 +30,17 @@
 
 namespace locsim {
 
+struct WorldDef;
+struct RangeBearingDef;
+struct Pose2;
+class StaticRaycaster;
+
+/// The landmarks (indices into world.landmarks) a range-bearing sensor on a robot at `pose` would
+/// report if it missed none: in its range and field of view, not behind a wall. Other robots and
+/// moving obstacles, which also hide landmarks, are not in a log's world and are ignored.
+std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
+                                           const RangeBearingDef& sensor, const Pose2& pose);
+
 struct CalibrationOptions {
   std::vector<std::string> robots;  // names of the robots to use; empty: all
   double outlier_sigmas = 5.0;      // gate of a false detection, in robust sigmas [-]
@@ -75,6 +86,13 @@ struct DetectionCalibration {
   // at each step: its median, and the resetting levels at its `reset_quantile` (srl's
   // `threshold`, asrl's `p_t` with mu 1). Unset with fewer than 10 steps.
   std::optional<double> reset_quantile, step_likelihood_median, srl_threshold, asrl_p_t;
+  // The landmark particle filters' outlier_likelihood (false detections over the measured span);
+  // unset without false detections.
+  std::optional<double> outlier_likelihood;
+  // Time constant of each landmark's noise (the sensor's noise_correlation_s; 0: independent),
+  // from this many pairs of consecutive detections of a landmark by a robot.
+  std::optional<double> noise_correlation_s;
+  std::size_t noise_correlation_pairs = 0;
 };
 
 struct OdometryModelFit {

@@ -52,19 +52,7 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     robot.odometry.push_back(o);
   }
 
-  const TextTable truth(dir / "groundtruth.tum", Layout::kWhitespace,
-                        {"t", "x", "y", "z", "qx", "qy", "qz", "qw"});
-  truth.check_non_decreasing(0);
-  for (const auto& row : truth.rows()) {
-    const double qx = truth.number(row, 4), qy = truth.number(row, 5);
-    const double qz = truth.number(row, 6), qw = truth.number(row, 7);
-    if (!(std::abs(std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw) - 1.0) < 1e-3))
-      truth.fail(row, 7, "the quaternion (qx qy qz qw) is not of unit length");
-    // The yaw of the rotation (z up): its heading in the plane.
-    const double yaw = std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
-    robot.truth.push_back(
-        {truth.number(row, 0), {truth.number(row, 1), truth.number(row, 2), yaw}});
-  }
+  robot.truth = read_tum(dir / "groundtruth.tum");
 
   if (fs::exists(dir / "detections.csv")) {
     const TextTable detections(dir / "detections.csv", Layout::kCsv,

@@ -32,16 +32,12 @@ struct ImportedRobot {
     double t_s = 0.0;
     OdometryReading reading;
   };
-  struct Truth {
-    double t_s = 0.0;
-    Pose2 pose;
-  };
   struct Detections {
     double t_s = 0.0;
     std::vector<Detection> detections;
   };
   std::vector<Odometry> odometry;  // each in time order
-  std::vector<Truth> truth;
+  std::vector<StampedPose> truth;
   std::vector<Detections> detections;
   std::optional<Pose2> start;  // default: the first true pose in the window
   // The range-bearing sensor's settings; unset ones are taken from the imported detections

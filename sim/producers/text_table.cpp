@@ -182,4 +182,25 @@ void TextTable::check_non_decreasing(int column) const {
   }
 }
 
+std::vector<StampedPose> read_tum(const std::filesystem::path& file, bool strictly_increasing) {
+  const TextTable table(file, TextTable::Layout::kWhitespace,
+                        {"t", "x", "y", "z", "qx", "qy", "qz", "qw"});
+  table.check_non_decreasing(0);
+  std::vector<StampedPose> poses;
+  poses.reserve(table.rows().size());
+  for (const auto& row : table.rows()) {
+    const double qx = table.number(row, 4), qy = table.number(row, 5);
+    const double qz = table.number(row, 6), qw = table.number(row, 7);
+    if (!(std::abs(std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw) - 1.0) < 1e-3))
+      table.fail(row, 7, "the quaternion (qx qy qz qw) is not of unit length");
+    const double t_s = table.number(row, 0);
+    if (strictly_increasing && !poses.empty() && !(t_s > poses.back().t_s))
+      table.fail(row, 0, "the time repeats the previous line's (times must increase)");
+    // The yaw of the rotation (z up): its heading in the plane.
+    const double yaw = std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
+    poses.push_back({t_s, {table.number(row, 1), table.number(row, 2), yaw}});
+  }
+  return poses;
+}
+
 }  // namespace locsim

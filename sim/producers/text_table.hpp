@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/math.hpp"
 
 namespace locsim {
 
@@ -54,5 +55,11 @@ class TextTable {
   std::vector<std::string> names_;
   std::vector<Row> rows_;
 };
+
+/// A TUM trajectory file (`t x y z qx qy qz qw` per line, '#' comments; z ignored): planar poses,
+/// times never decreasing (increasing with `strictly_increasing`). Throws InputError at the line
+/// and column of a bad value, a quaternion not of unit length, or a time that goes back.
+std::vector<StampedPose> read_tum(const std::filesystem::path& file,
+                                  bool strictly_increasing = false);
 
 }  // namespace locsim

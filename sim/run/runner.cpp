@@ -55,6 +55,9 @@ RunInputs load_run_inputs(const fs::path& world_file, const std::optional<fs::pa
     inputs.files.push_back(inputs.world.map->image_file);
   }
   if (scenario_file) inputs.files.push_back(inputs.scenario.source);
+  for (const DriveDef& drive : inputs.scenario.drives) {
+    if (!drive.poses_file.empty()) inputs.files.push_back(drive.poses_file);
+  }
   return inputs;
 }
 

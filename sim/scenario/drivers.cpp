@@ -72,6 +72,60 @@ class VelocityDriver final : public Driver {
   std::size_t next_ = 0;
 };
 
+/// Follows timed poses: the reference pose and velocity interpolated between the samples, fed
+/// forward, plus the nonlinear tracking law of De Luca, Oriolo and Samson ("Feedback control of
+/// a nonholonomic car-like robot", 1998, eq. 4.13) on the error in the robot's frame, so that the
+/// physics (ramps, slip, contacts) cannot make the robot drift off a recorded path. Before the
+/// first sample it holds the first pose, after the last the last one.
+class TrajectoryDriver final : public Driver {
+ public:
+  explicit TrajectoryDriver(DriveDef def) : def_(std::move(def)) {}
+
+  VelocityCommand update(double t_s, const DiffDriveRobot& robot, const PhysicsWorld&) override {
+    const std::vector<StampedPose>& samples = def_.trajectory;
+    while (next_ < samples.size() && samples[next_].t_s <= t_s) ++next_;
+    Pose2 reference = next_ == 0 ? samples.front().pose : samples[next_ - 1].pose;
+    double v_ref = 0.0, w_ref = 0.0;
+    if (next_ > 0 && next_ < samples.size()) {
+      const StampedPose& a = samples[next_ - 1];
+      const StampedPose& b = samples[next_];
+      const double dt_s = b.t_s - a.t_s;
+      const double s = (t_s - a.t_s) / dt_s;
+      const double turn_rad = wrap_angle(b.pose.theta - a.pose.theta);
+      const Vec2 step_m = b.pose.position() - a.pose.position();
+      const double mid_rad = a.pose.theta + 0.5 * turn_rad;
+      reference = {a.pose.x + s * step_m.x(), a.pose.y + s * step_m.y(),
+                   a.pose.theta + s * turn_rad};
+      // The chord along the mid heading: signed, so that a reversing robot reverses.
+      v_ref = (step_m.x() * std::cos(mid_rad) + step_m.y() * std::sin(mid_rad)) / dt_s;
+      w_ref = turn_rad / dt_s;
+    }
+    const Pose2 pose = robot.pose();
+    const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+    const double dx = reference.x - pose.x, dy = reference.y - pose.y;
+    const double e_along = c * dx + s * dy;
+    const double e_across = -s * dx + c * dy;
+    const double e_theta = wrap_angle(reference.theta - pose.theta);
+    // Gains from the reference's speed (critically damped linearisation, damping kDamping); a
+    // floor so that the robot still closes along-track and heading errors while the reference
+    // stands still.
+    const double gain =
+        std::max(2.0 * kDamping * std::sqrt(w_ref * w_ref + kLateralGainPerM2 * v_ref * v_ref),
+                 kMinGainPerS);
+    const double sinc = std::abs(e_theta) < 1e-9 ? 1.0 : std::sin(e_theta) / e_theta;
+    const double v = v_ref * std::cos(e_theta) + gain * e_along;
+    const double w = w_ref + kLateralGainPerM2 * v_ref * sinc * e_across + gain * e_theta;
+    return {t_s, v, w};
+  }
+
+ private:
+  static constexpr double kDamping = 0.7;            // [-]
+  static constexpr double kLateralGainPerM2 = 20.0;  // [1/m^2]
+  static constexpr double kMinGainPerS = 0.5;        // [1/s]
+  DriveDef def_;
+  std::size_t next_ = 0;
+};
+
 /// Drives straight; when something is within the clearance ahead, turns in place toward the
 /// freer side for a random time, then goes on.
 class WanderDriver final : public Driver {
@@ -131,6 +185,8 @@ std::unique_ptr<Driver> make_undelayed_driver(const DriveDef& def, RandomStream 
       return std::make_unique<VelocityDriver>(def);
     case DriveDef::Mode::kWander:
       return std::make_unique<WanderDriver>(def, rng);
+    case DriveDef::Mode::kTrajectory:
+      return std::make_unique<TrajectoryDriver>(def);
   }
   return std::make_unique<IdleDriver>();
 }

@@ -25,7 +25,7 @@ struct VelocityCommand {
 /// The behaviour that drives one robot. It steers by the true pose: the scenario is the
 /// experimenter's hand, not the robot's navigation, so runs are comparable across localizers.
 struct DriveDef {
-  enum class Mode { kIdle, kWaypoints, kVelocity, kWander };
+  enum class Mode { kIdle, kWaypoints, kVelocity, kWander, kTrajectory };
   Mode mode = Mode::kIdle;
   std::string robot;           // which robot; may be empty when the world has one
   double start_after_s = 0.0;  // stands still until then, whatever the mode [s]
@@ -45,8 +45,12 @@ struct DriveDef {
   // kWander
   double clearance_m = 0.6;  // turn away when something is this close ahead [m]
   static constexpr Range kClearanceRange{0.001, 100.0, "m"};
-  SourceLocation where;  // of the drive's entry, for messages
-  std::string key_path;  // e.g. "scenario.drive", for messages
+  // kTrajectory: the poses to be at, times increasing (the twin of a recorded robot, say:
+  // `locsim twin`); tracked by feedback, so the robot stays on the path whatever the physics.
+  std::vector<StampedPose> trajectory;
+  std::filesystem::path poses_file;  // where they came from ("" when given inline)
+  SourceLocation where;              // of the drive's entry, for messages
+  std::string key_path;              // e.g. "scenario.drive", for messages
 };
 
 /// How the scenario points a PTZ camera.

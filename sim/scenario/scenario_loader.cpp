@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "sim/common/format.hpp"
+#include "sim/producers/text_table.hpp"
 #include "sim/sensors/sensor_loader.hpp"
 #include "sim/world/world_budget.hpp"
 #include "sim/world/world_def.hpp"
@@ -28,9 +30,10 @@ InputPlace place_of(const YamlNode& node, const std::string& key) {
   return InputPlace{at->where(), node.path().empty() ? key : node.path() + "." + key};
 }
 
-DriveDef parse_drive(const YamlNode& node) {
+DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir) {
   node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
-                   "tolerance_m", "heading_gain", "commands", "clearance_m", "start_after_s"});
+                   "tolerance_m", "heading_gain", "commands", "clearance_m", "start_after_s",
+                   "poses", "poses_file"});
   DriveDef drive;
   drive.where = node.where();
   drive.key_path = node.path();
@@ -39,8 +42,9 @@ DriveDef parse_drive(const YamlNode& node) {
   const YamlNode mode = node["mode"];
   const std::string mode_name = mode.as_string();
   const auto only = [&](std::initializer_list<std::string_view> keys) {
-    for (const std::string_view key : {"path", "loop", "tolerance_m", "heading_gain", "commands",
-                                       "clearance_m", "speed_mps", "max_turn_rate_radps"}) {
+    for (const std::string_view key :
+         {"path", "loop", "tolerance_m", "heading_gain", "commands", "clearance_m", "speed_mps",
+          "max_turn_rate_radps", "poses", "poses_file"}) {
       if (node.has(key) && std::find(keys.begin(), keys.end(), key) == keys.end()) {
         node[key].fail("not used by mode '" + mode_name + "'");
       }
@@ -80,8 +84,43 @@ DriveDef parse_drive(const YamlNode& node) {
     only({"speed_mps", "max_turn_rate_radps", "clearance_m"});
     drive.clearance_m =
         node.get_double("clearance_m", drive.clearance_m, DriveDef::kClearanceRange);
+  } else if (mode_name == "trajectory") {
+    drive.mode = DriveDef::Mode::kTrajectory;
+    only({"poses", "poses_file"});
+    if (node.has("poses") == node.has("poses_file"))
+      node["mode"].fail("a trajectory takes either 'poses' or 'poses_file'");
+    if (const auto file = node.find("poses_file")) {
+      // A recorded path is long (a robot's 15 minutes at 10 Hz: 9000 poses): a TUM file beside
+      // the scenario, as trajectory tools write them, keeps it out of the YAML.
+      const std::filesystem::path tum = base_dir / file->as_string();
+      drive.trajectory = read_tum(tum, true);
+      drive.poses_file = tum;
+      for (const StampedPose& sample : drive.trajectory) {
+        if (!kSimulatedTimeRange.contains(sample.t_s) ||
+            !kWorldCoordinateRange.contains(sample.pose.x) ||
+            !kWorldCoordinateRange.contains(sample.pose.y)) {
+          file->fail(tum.string() + ": the pose at " + short_number(sample.t_s) +
+                     " s is outside the simulated time or world coordinate range");
+        }
+      }
+    } else {
+      double previous_t = -1.0;
+      for (const YamlNode& item : node["poses"].items()) {
+        const std::vector<YamlNode> values = item.items();
+        if (values.size() != 4) item.fail("a pose is [t_s, x_m, y_m, theta_rad]");
+        StampedPose sample;
+        sample.t_s = values[0].as_double(kSimulatedTimeRange);
+        if (sample.t_s <= previous_t) values[0].fail("pose times must increase");
+        previous_t = sample.t_s;
+        sample.pose = {values[1].as_double(kWorldCoordinateRange),
+                       values[2].as_double(kWorldCoordinateRange),
+                       values[3].as_double(kHeadingRange)};
+        drive.trajectory.push_back(sample);
+      }
+    }
+    if (drive.trajectory.empty()) node["mode"].fail("a trajectory needs at least one pose");
   } else {
-    mode.fail("unknown mode (known: idle, waypoints, velocity, wander)");
+    mode.fail("unknown mode (known: idle, waypoints, velocity, wander, trajectory)");
   }
   return drive;
 }
@@ -209,7 +248,7 @@ PanPolicyDef parse_pan_policy(const YamlNode& node) {
 
 }  // namespace
 
-ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*base_dir*/) {
+ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& base_dir) {
   node.allow_keys(
       {"name", "duration_s", "groundtruth_hz", "drive", "ptz", "localization", "events"});
   ScenarioDef scenario;
@@ -222,9 +261,10 @@ ScenarioDef parse_scenario(const YamlNode& node, const std::filesystem::path& /*
   scenario.localization.grid_resolution_place = place_of(node, "localization.grid_resolution_m");
   if (const auto drive = node.find("drive")) {
     if (drive->is_sequence()) {
-      for (const YamlNode& item : drive->items()) scenario.drives.push_back(parse_drive(item));
+      for (const YamlNode& item : drive->items())
+        scenario.drives.push_back(parse_drive(item, base_dir));
     } else {
-      scenario.drives.push_back(parse_drive(*drive));
+      scenario.drives.push_back(parse_drive(*drive, base_dir));
     }
   }
   if (const auto localization = node.find("localization")) {

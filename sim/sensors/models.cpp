@@ -456,9 +456,21 @@ void OmniCameraSensor::apply_bias(ReadingData& data, double bias) const {
 }
 
 // ---------------------------------------------------------------------------------------------
+double RangeBearingSensor::correlated(std::vector<std::pair<double, double>>& state,
+                                      std::size_t target, double t_s, double draw) const {
+  if (def_.noise_correlation_s <= 0.0) return draw;
+  if (state.size() <= target) state.resize(target + 1, {-1.0, 0.0});
+  auto& [last_t, last] = state[target];
+  // The first detection of a target, or one after a long gap, is a fresh draw (rho ~ 0).
+  const double rho = last_t < 0.0 ? 0.0 : std::exp(-(t_s - last_t) / def_.noise_correlation_s);
+  last = rho * last + std::sqrt(1.0 - rho * rho) * draw;
+  last_t = t_s;
+  return last;
+}
+
 std::optional<Detection> RangeBearingSensor::observe(const SensorContext& context,
                                                      const Pose2& sensor, const Vec2& position_m,
-                                                     double radius_m) {
+                                                     double radius_m, std::size_t target) {
   const Vec2 offset = position_m - sensor.position();
   const double range = offset.norm();
   if (range < def_.min_range_m || range > def_.max_range_m || range < 1e-6) return std::nullopt;
@@ -474,9 +486,13 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   // Drawn only when misses are asked for: the other draws of a world without them stay put.
   if (def_.miss_probability > 0.0 && rng().uniform() < def_.miss_probability) return std::nullopt;
   // One draw per statement (see OmniCameraSensor::measure): range first, then bearing.
-  const double range_noise_m =
-      rng().normal(0.0, def_.sigma_range_m + def_.sigma_range_per_m * range);
-  const double bearing_noise_rad = rng().normal(0.0, def_.sigma_bearing_rad);
+  // With noise_correlation_s, the same draws become the innovations of each target's process.
+  const double range_draw = rng().normal(0.0, 1.0);
+  const double bearing_draw = rng().normal(0.0, 1.0);
+  const double range_noise_m = (def_.sigma_range_m + def_.sigma_range_per_m * range) *
+                               correlated(range_noise_, target, context.t_s, range_draw);
+  const double bearing_noise_rad =
+      def_.sigma_bearing_rad * correlated(bearing_noise_, target, context.t_s, bearing_draw);
   // A range is never negative, however large the noise.
   const double measured_range =
       std::max(0.0, range + def_.range_bias_m + def_.range_bias_per_m * range + range_noise_m);
@@ -510,9 +526,11 @@ std::optional<ReadingData> RangeBearingSensor::measure(const SensorContext& cont
   RangeBearingReading reading;
   if (context.robot.carried()) return reading;  // in the air: sees nothing useful
   const Pose2 sensor = sensor_pose(context.robot, def_.common.mount);
-  for (const LandmarkDef& landmark : context.world.landmarks) {
+  const std::size_t landmarks = context.world.landmarks.size();
+  for (std::size_t l = 0; l < landmarks; ++l) {
+    const LandmarkDef& landmark = context.world.landmarks[l];
     std::optional<Detection> detection =
-        observe(context, sensor, landmark.position_m, landmark.radius_m);
+        observe(context, sensor, landmark.position_m, landmark.radius_m, l);
     if (!detection) continue;
     detection->color = color_label(landmark);
     detection->id = def_.report_ids ? landmark.id : -1;
@@ -524,7 +542,8 @@ std::optional<ReadingData> RangeBearingSensor::measure(const SensorContext& cont
       const DiffDriveRobot& other = *(*context.robots)[i];
       if (&other == &context.robot || other.carried()) continue;
       std::optional<Detection> detection =
-          observe(context, sensor, other.pose().position(), bounding_radius(other.def().footprint));
+          observe(context, sensor, other.pose().position(), bounding_radius(other.def().footprint),
+                  landmarks + i);
       if (!detection) continue;
       detection->target = DetectionTarget::kRobot;
       detection->id = def_.report_ids ? static_cast<int>(i) : -1;

@@ -116,10 +116,16 @@ class RangeBearingSensor final : public Sensor {
   /// The target at `position_m` (of radius `radius_m`, on `body`) as measured from `sensor`, or
   /// nothing when it is outside the field of view or range, hidden, or missed.
   std::optional<Detection> observe(const SensorContext& context, const Pose2& sensor,
-                                   const Vec2& position_m, double radius_m);
+                                   const Vec2& position_m, double radius_m, std::size_t target);
   /// A false detection, uniform over the field of view and range interval.
   Detection phantom(const SensorContext& context);
+  /// Standard normal noise of a target's detection at `t_s`, correlated with its previous one
+  /// (noise_correlation_s); `draw` is this detection's fresh N(0, 1).
+  double correlated(std::vector<std::pair<double, double>>& state, std::size_t target, double t_s,
+                    double draw) const;
   RangeBearingDef def_;
+  // Per target (landmarks, then robots): the time and standard normal value of its last noise.
+  std::vector<std::pair<double, double>> range_noise_, bearing_noise_;
 };
 
 /// Time-of-flight ranges from each receiver to each fixed beacon; blocked lines of sight give a

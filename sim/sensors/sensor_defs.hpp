@@ -144,6 +144,12 @@ struct RangeBearingDef {
   // an id drawn from the map's (or -1 without ids). [-]
   double false_detections = 0.0;
   static constexpr Range kFalseDetectionsRange{0.0, 100.0, ""};
+  // Time constant of each target's range and bearing noise (a first-order Gauss-Markov process
+  // per target: correlation exp(-dt / tau) between its detections dt apart; the spreads above
+  // stay the stationary ones). A real detector's error persists while the view of the target
+  // does (MRCLAM: 0.9 from one detection to the next); 0: independent. [s]
+  double noise_correlation_s = 0.0;
+  static constexpr Range kCorrelationRange{0.0, 1e6, "s"};
   bool report_ids = true;
   bool sees_robots = false;  // other robots are detected too (target robot, id = index)
 };

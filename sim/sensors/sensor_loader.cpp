@@ -243,7 +243,8 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
         *n, RangeBearingDef{}, step_hz,
         {"fov", "fov_deg", "min_range_m", "max_range_m", "sigma_range_m", "sigma_range_per_m",
          "range_bias_m", "range_bias_per_m", "sigma_bearing", "sigma_bearing_deg", "bearing_bias",
-         "bearing_bias_deg", "miss_probability", "false_detections", "report_ids", "sees_robots"},
+         "bearing_bias_deg", "miss_probability", "false_detections", "noise_correlation_s",
+         "report_ids", "sees_robots"},
         [&](RangeBearingDef& d) {
           using D = RangeBearingDef;
           d.fov_rad = n->get_angle("fov", d.fov_rad, D::kFovRange);
@@ -264,6 +265,8 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_double("miss_probability", d.miss_probability, kProbabilityRange);
           d.false_detections =
               n->get_double("false_detections", d.false_detections, D::kFalseDetectionsRange);
+          d.noise_correlation_s =
+              n->get_double("noise_correlation_s", d.noise_correlation_s, D::kCorrelationRange);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
           d.sees_robots = n->get_bool("sees_robots", d.sees_robots);
         });

@@ -20,6 +20,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/experiments/sweep.hpp"
+#include "sim/experiments/twin.hpp"
 #include "sim/metrics/calibration.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
@@ -338,6 +339,20 @@ double rad_to_deg_default() {
   return locsim::rad_to_deg(locsim::ConvergenceCriterion{}.heading_rad);
 }
 
+/// `--robots a,b` of calibrate and twin: the names; empty for "all".
+std::vector<std::string> robot_names(const std::string& list) {
+  std::vector<std::string> names;
+  if (list == "all") return names;
+  std::istringstream items(list);
+  std::string item;
+  while (std::getline(items, item, ',')) {
+    if (item.empty()) throw locsim::InputError("--robots: an empty name in '" + list + "'");
+    names.push_back(item);
+  }
+  if (names.empty()) throw locsim::InputError("--robots: no robot given");
+  return names;
+}
+
 /// `locsim report DIR`: tools/report.py (installed to share/locsim), run with Debian's Python.
 int report(const std::string& dir) {
   std::error_code error;
@@ -574,6 +589,35 @@ int main(int argc, char** argv) {
   calibrate_cmd->add_flag("--overwrite", calibrate_overwrite,
                           "Replace calibration.yaml and calibration.json in --out");
   calibrate_cmd->add_flag("-q,--quiet", calibrate_quiet, "No summary");
+  locsim::TwinOptions twin_options;
+  std::string twin_log, twin_out, twin_calibration, twin_robots = "all";
+  bool twin_overwrite = false, twin_quiet = false, twin_keep_camera_rate = false;
+  CLI::App* twin_cmd = app.add_subcommand(
+      "twin",
+      "Write a simulated twin of a log: its world, each robot driven along its true path, the "
+      "calibrated sensor noise (docs/real_data.md)");
+  twin_cmd->add_option("log", twin_log, "A log with ground truth (locsim import, run --log)")
+      ->required();
+  twin_cmd
+      ->add_option("--out", twin_out,
+                   "The world file to write (WORLD.yaml; the paths go beside it as "
+                   "WORLD_ROBOT.tum)")
+      ->required();
+  twin_cmd->add_option("--calibration", twin_calibration,
+                       "A calibration.yaml (locsim calibrate): its sensors: for every robot");
+  twin_cmd->add_option("--robots", twin_robots,
+                       "The robots to keep, by name, as robot1,robot3; or all");
+  twin_cmd
+      ->add_option("--pose-rate-hz", twin_options.pose_rate_hz,
+                   "Samples of each true path per second [Hz]")
+      ->check(number_in(locsim::TwinOptions::kPoseRateRange.min,
+                        locsim::TwinOptions::kPoseRateRange.max))
+      ->capture_default_str();
+  twin_cmd->add_flag("--keep-camera-rate", twin_keep_camera_rate,
+                     "Keep the range_bearing camera's rate and misses (do not match the log's "
+                     "detections per second)");
+  twin_cmd->add_flag("--overwrite", twin_overwrite, "Replace the world and path files");
+  twin_cmd->add_flag("-q,--quiet", twin_quiet, "No summary");
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
@@ -634,15 +678,7 @@ int main(int argc, char** argv) {
       return locsim::kExitOk;
     }
     if (*calibrate_cmd) {
-      if (calibrate_robots != "all") {
-        std::istringstream list(calibrate_robots);
-        std::string item;
-        while (std::getline(list, item, ',')) {
-          if (item.empty())
-            throw locsim::InputError("--robots: an empty name in '" + calibrate_robots + "'");
-          calibration.robots.push_back(item);
-        }
-      }
+      calibration.robots = robot_names(calibrate_robots);
       const std::filesystem::path out(calibrate_out);
       for (const char* name : {"calibration.yaml", "calibration.json"}) {
         if (std::filesystem::exists(out / name) && !calibrate_overwrite) {
@@ -656,6 +692,15 @@ int main(int argc, char** argv) {
       locsim::write_json_atomically(out / "calibration.json", result.to_json());
       locsim::write_file(out / "calibration.yaml", result.to_yaml());
       if (!calibrate_quiet) std::printf("%s", locsim::describe(result).c_str());
+      return locsim::kExitOk;
+    }
+    if (*twin_cmd) {
+      twin_options.log = twin_log;
+      if (!twin_calibration.empty()) twin_options.calibration = twin_calibration;
+      twin_options.robots = robot_names(twin_robots);
+      twin_options.match_detections = !twin_keep_camera_rate;
+      const locsim::Twin twin = locsim::write_twin(twin_options, twin_out, twin_overwrite);
+      if (!twin_quiet) std::printf("%s", locsim::describe(twin).c_str());
       return locsim::kExitOk;
     }
     if (*replay) {

@@ -1,0 +1,374 @@
+#include "sim/experiments/twin.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
+#include "sim/common/yaml_node.hpp"
+#include "sim/metrics/calibration.hpp"
+#include "sim/producers/log_source.hpp"
+#include "sim/run/runner.hpp"
+#include "sim/sensors/scene_rays.hpp"
+#include "sim/world/physics_world.hpp"
+
+namespace locsim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string num(double value) {
+  return rounded_number(value, 7);
+}
+
+/// The true path thinned to one pose per 1/rate_hz (the first and last always kept).
+std::vector<StampedPose> sample_path(const std::vector<StampedPose>& truth, double rate_hz) {
+  std::vector<StampedPose> out;
+  const double period_s = 1.0 / rate_hz;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    // Equal times (a duplicated line) would make the drive's times stand still.
+    if (!out.empty() && !(truth[i].t_s > out.back().t_s)) continue;
+    const bool last = i + 1 == truth.size();
+    if (out.empty() || last || truth[i].t_s >= out.back().t_s + period_s - 1e-9)
+      out.push_back(truth[i]);
+  }
+  return out;
+}
+
+/// The rates a sensor may have: divisors of the physics rate (sim/sensors: rate_hz must divide
+/// it) that a camera could have, whole (1, 2, 4, 5, 10 ... Hz) or one every whole number of
+/// seconds, down to 0.1 Hz.
+std::vector<double> sensor_rates(double step_hz) {
+  std::vector<double> rates;
+  for (int k = 1; step_hz / k >= 0.1 && k <= 100000; ++k) {
+    const double rate = step_hz / k;
+    const auto whole = [](double x) { return std::abs(x - std::round(x)) < 1e-9; };
+    if (whole(rate) || whole(1.0 / rate)) rates.push_back(rate);
+  }
+  return rates;
+}
+
+/// A calibration.yaml's `sensors:` section: sensor name → (key, value text).
+using SensorSettings = std::map<std::string, std::vector<std::pair<std::string, std::string>>>;
+
+SensorSettings read_calibration_sensors(const fs::path& file) {
+  const YamlNode root = YamlNode::load_file(file);
+  const YamlNode sensors = root["sensors"];
+  SensorSettings out;
+  for (const auto& [sensor, settings] : sensors.entries()) {
+    for (const auto& [key, value] : settings.entries()) {
+      if (!value.is_scalar()) value.fail("expected a number (a sensor setting of `calibrate`)");
+      out[sensor].emplace_back(key, value.as_string());
+    }
+  }
+  return out;
+}
+
+double setting(const SensorSettings& settings, const std::string& sensor, const std::string& key,
+               double fallback) {
+  const auto found = settings.find(sensor);
+  if (found == settings.end()) return fallback;
+  for (const auto& [k, v] : found->second) {
+    if (k == key) return std::stod(v);
+  }
+  return fallback;
+}
+
+void write_through_rename(const fs::path& file, const std::string& text) {
+  const fs::path partial = file.string() + ".partial";
+  write_file(partial, text);
+  fs::rename(partial, file);
+}
+
+}  // namespace
+
+Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
+  if (const std::string problem = out_of_range(options.pose_rate_hz, TwinOptions::kPoseRateRange);
+      !problem.empty()) {
+    throw InputError("--pose-rate-hz: " + problem);
+  }
+  LogSource source(options.log);
+  const WorldDef& world = source.world();
+  const ScenarioDef& scenario = source.scenario();
+  const std::string log_name = options.log.string();
+
+  std::vector<bool> chosen(world.robots.size(), options.robots.empty());
+  for (const std::string& name : options.robots) {
+    const auto found = std::find_if(world.robots.begin(), world.robots.end(),
+                                    [&](const RobotDef& r) { return r.name == name; });
+    if (found == world.robots.end()) {
+      std::string names;
+      for (const RobotDef& r : world.robots) names += (names.empty() ? "" : ", ") + r.name;
+      throw InputError("--robots: no robot named '" + name + "' in " + log_name +
+                       " (its robots: " + names + ")");
+    }
+    chosen[static_cast<std::size_t>(found - world.robots.begin())] = true;
+  }
+
+  Twin twin;
+  std::vector<std::vector<StampedPose>> truth(world.robots.size());
+  std::size_t data_readings = 0, data_detections = 0;
+  std::set<std::string> kidnapped;
+  Record record;
+  while (source.next(record)) {
+    switch (record.type) {
+      case Record::Type::kGroundTruth:
+        if (chosen[static_cast<std::size_t>(record.robot)])
+          truth[static_cast<std::size_t>(record.robot)].push_back({record.t_s, record.pose});
+        break;
+      case Record::Type::kReading:
+        if (record.reading.kind == SensorKind::kRangeBearing &&
+            chosen[static_cast<std::size_t>(record.reading.robot)]) {
+          ++data_readings;
+          for (const Detection& d : std::get<RangeBearingReading>(record.reading.data).detections)
+            data_detections += d.target == DetectionTarget::kLandmark ? 1 : 0;
+        }
+        break;
+      case Record::Type::kEvent:
+        if (record.event.kind == "kidnap") kidnapped.insert(record.event.robot);
+        break;
+      case Record::Type::kEnd:
+        break;
+    }
+  }
+  for (const std::string& name : kidnapped) {
+    twin.warnings.push_back("robot '" + name +
+                            "' was kidnapped in the log: the twin drives it from where it was "
+                            "taken to where it was put down (kidnappings are not reproduced)");
+  }
+
+  const SensorSettings calibrated =
+      options.calibration ? read_calibration_sensors(*options.calibration) : SensorSettings{};
+
+  // The paths, and what a range-bearing camera on them would have in view.
+  const PhysicsWorld physics(world);
+  const StaticRaycaster walls = StaticRaycaster::from_world(physics);
+  double robot_seconds = 0.0, in_view_sum = 0.0;
+  std::size_t in_view_samples = 0;
+  std::optional<RangeBearingDef> camera_def;
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    if (!chosen[i]) continue;
+    const RobotDef& robot = world.robots[i];
+    if (truth[i].empty()) {
+      throw InputError(log_name + ": robot '" + robot.name +
+                       "' has no ground truth: a twin drives each robot along its true path");
+    }
+    TwinRobot out;
+    out.name = robot.name;
+    out.poses_file = world_file.stem().string() + "_" + robot.name + ".tum";
+    out.path = sample_path(truth[i], options.pose_rate_hz);
+    out.from_s = out.path.front().t_s;
+    out.to_s = out.path.back().t_s;
+    for (std::size_t k = 1; k < out.path.size(); ++k)
+      out.path_length_m += (out.path[k].pose.position() - out.path[k - 1].pose.position()).norm();
+    if (robot.sensors.range_bearing) {
+      camera_def = robot.sensors.range_bearing;
+      robot_seconds += out.to_s - out.from_s;
+      for (const StampedPose& p : out.path) {
+        in_view_sum += static_cast<double>(
+            landmarks_in_view(world, walls, *robot.sensors.range_bearing, p.pose).size());
+        ++in_view_samples;
+      }
+    }
+    twin.robots.push_back(std::move(out));
+  }
+
+  // The camera: as many landmark detections per second as the log has.
+  if (camera_def && options.match_detections) {
+    TwinCamera c;
+    c.duration_s = robot_seconds;
+    c.data_readings = data_readings;
+    c.data_detections = data_detections;
+    c.in_view_mean = in_view_samples ? in_view_sum / static_cast<double>(in_view_samples) : 0.0;
+    c.calibrated_miss_probability =
+        setting(calibrated, "range_bearing", "miss_probability", camera_def->miss_probability);
+    c.calibrated_false_per_reading =
+        setting(calibrated, "range_bearing", "false_detections", camera_def->false_detections);
+    c.rate_hz = camera_def->common.rate_hz;
+    c.miss_probability = c.calibrated_miss_probability;
+    c.false_per_reading = c.calibrated_false_per_reading;
+    if (robot_seconds > 0.0) {
+      c.data_detections_per_s = static_cast<double>(data_detections) / robot_seconds;
+      const double false_per_s =
+          c.calibrated_false_per_reading * static_cast<double>(data_readings) / robot_seconds;
+      const double true_per_s = c.data_detections_per_s - false_per_s;
+      if (!(c.in_view_mean > 0.0)) {
+        c.note = "no landmark is ever in view along the paths: the camera's settings are kept";
+      } else if (!(true_per_s > 0.0)) {
+        c.note = "the log has no detections of landmarks: the camera's settings are kept";
+      } else {
+        // The rate that keeps the calibrated miss probability, rounded to one the physics allows
+        // (but never one so low that even seeing everything would not give the log's count).
+        const double wanted_hz =
+            true_per_s / ((1.0 - std::min(c.calibrated_miss_probability, 0.999)) * c.in_view_mean);
+        const double least_hz = true_per_s / c.in_view_mean;
+        const std::vector<double> rates = sensor_rates(world.physics.step_hz);
+        double best = rates.front();
+        bool found = false;
+        for (const double r : rates) {
+          if (r + 1e-12 < least_hz) continue;
+          if (!found || std::abs(std::log(r / wanted_hz)) < std::abs(std::log(best / wanted_hz)))
+            best = r;
+          found = true;
+        }
+        if (!found)
+          c.note = "the log sees more than a camera at the physics rate could: rate " + num(best) +
+                   " Hz, nothing missed";
+        c.rate_hz = best;
+        c.miss_probability = std::clamp(1.0 - true_per_s / (best * c.in_view_mean), 0.0, 1.0);
+        c.false_per_reading = false_per_s / best;
+      }
+    }
+    twin.camera = c;
+  }
+
+  // The world: the log's, with the robots chosen, the calibrated noise, and the scenario that
+  // drives them along their paths.
+  YAML::Node doc = YAML::Load(source.header().at("world_yaml").get<std::string>());
+  YAML::Node robots(YAML::NodeType::Sequence);
+  std::set<std::string> used_sensors;
+  std::size_t twin_index = 0;
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    if (!chosen[i]) continue;
+    YAML::Node robot = doc["robots"][i];
+    const TwinRobot& t = twin.robots[twin_index++];
+    const Pose2& start = t.path.front().pose;
+    YAML::Node pose(YAML::NodeType::Map);
+    pose.SetStyle(YAML::EmitterStyle::Flow);
+    pose["x"] = num(start.x);
+    pose["y"] = num(start.y);
+    pose["theta"] = num(start.theta);
+    robot["start"] = pose;
+    YAML::Node sensors = robot["sensors"];
+    for (const auto& [sensor, settings] : calibrated) {
+      if (!sensors[sensor]) continue;
+      used_sensors.insert(sensor);
+      for (const auto& [key, value] : settings) sensors[sensor][key] = value;
+    }
+    if (twin.camera && world.robots[i].sensors.range_bearing && twin.camera->note.empty()) {
+      // Exact: the loader checks that the rate divides the physics rate.
+      sensors["range_bearing"]["rate_hz"] = short_number(twin.camera->rate_hz);
+      sensors["range_bearing"]["miss_probability"] = num(twin.camera->miss_probability);
+      sensors["range_bearing"]["false_detections"] = num(twin.camera->false_per_reading);
+    }
+    robots.push_back(YAML::Clone(robot));
+  }
+  for (const auto& [sensor, settings] : calibrated) {
+    if (!used_sensors.contains(sensor))
+      twin.warnings.push_back("the calibration's '" + sensor +
+                              "' settings are not used: no robot of the twin has that sensor");
+  }
+  doc["robots"] = robots;
+
+  YAML::Node s(YAML::NodeType::Map);
+  s["name"] = "twin";
+  s["duration_s"] = num(scenario.duration_s);
+  s["groundtruth_hz"] = num(scenario.groundtruth_hz);
+  YAML::Node localization(YAML::NodeType::Map);
+  localization.SetStyle(YAML::EmitterStyle::Flow);
+  localization["initial_pose"] = scenario.localization.initial_pose_known ? "known" : "unknown";
+  localization["landmarks_known"] = scenario.localization.landmarks_known;
+  localization["sigma_xy_m"] = num(scenario.localization.sigma_xy_m);
+  localization["sigma_theta"] = num(scenario.localization.sigma_theta_rad);
+  s["localization"] = localization;
+  YAML::Node drives(YAML::NodeType::Sequence);
+  for (const TwinRobot& t : twin.robots) {
+    YAML::Node drive(YAML::NodeType::Map);
+    drive.SetStyle(YAML::EmitterStyle::Flow);
+    drive["robot"] = t.name;
+    drive["mode"] = "trajectory";
+    drive["poses_file"] = t.poses_file.string();
+    drives.push_back(drive);
+  }
+  s["drive"] = drives;
+  doc["scenario"] = s;
+
+  std::string text = "# Generated by `locsim twin " + log_name +
+                     "` (docs/real_data.md): a simulated twin of the log.\n"
+                     "# Each robot follows its recorded true path (the .tum files beside this "
+                     "file, " +
+                     num(options.pose_rate_hz) + " poses per second).\n";
+  if (options.calibration)
+    text += "# Sensor noise: the `sensors:` of " + options.calibration->string() + ".\n";
+  if (twin.camera && twin.camera->note.empty()) {
+    const TwinCamera& c = *twin.camera;
+    text += "# range_bearing: rate " + num(c.rate_hz) + " Hz, miss_probability " +
+            rounded_number(c.miss_probability, 3) +
+            " (calibrated: " + rounded_number(c.calibrated_miss_probability, 3) +
+            "), so that the twin sees the " + rounded_number(c.data_detections_per_s, 3) +
+            " landmark detections per second the log has,\n#   with " +
+            rounded_number(c.in_view_mean, 3) + " landmarks in view on average along the paths.\n";
+  }
+  YAML::Emitter emitter;
+  emitter << doc;
+  text += emitter.c_str();
+  text += "\n";
+  twin.world_yaml = std::move(text);
+  return twin;
+}
+
+Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool overwrite) {
+  Twin twin = make_twin(options, world_file);
+  const fs::path dir = world_file.parent_path();
+  std::vector<fs::path> files{world_file};
+  for (const TwinRobot& r : twin.robots) files.push_back(dir / r.poses_file);
+  if (!overwrite) {
+    for (const fs::path& f : files) {
+      if (fs::exists(f))
+        throw InputError("--out: " + f.string() + " exists (pass --overwrite to replace it)");
+    }
+  }
+  if (!dir.empty()) fs::create_directories(dir);
+  // The paths first, then the world that names them: a world file is never left naming paths
+  // that were not written.
+  for (const TwinRobot& r : twin.robots) {
+    std::string tum = "# " + r.name + "'s true path from " + options.log.string() +
+                      " (locsim twin): t x y z qx qy qz qw\n";
+    for (const StampedPose& p : r.path) {
+      append_tum(tum, p.t_s, p.pose.x, p.pose.y, p.pose.theta);
+    }
+    write_through_rename(dir / r.poses_file, tum);
+  }
+  write_through_rename(world_file, twin.world_yaml);
+  try {
+    load_run_inputs(world_file, std::nullopt, std::nullopt);
+  } catch (const InputError& e) {
+    throw InputError(std::string("the twin written to ") + world_file.string() +
+                     " does not load (a bug, or a log whose world names files relative to its "
+                     "own folder): " +
+                     e.what());
+  }
+  return twin;
+}
+
+std::string describe(const Twin& twin) {
+  std::string text;
+  for (const TwinRobot& r : twin.robots) {
+    text += "twin: " + r.name + ": " + std::to_string(r.path.size()) + " poses over " +
+            fixed(r.to_s - r.from_s, 1) + " s, " + fixed(r.path_length_m, 1) + " m (" +
+            r.poses_file.string() + ")\n";
+  }
+  if (twin.camera) {
+    const TwinCamera& c = *twin.camera;
+    if (c.note.empty()) {
+      text += "twin: range_bearing at " + num(c.rate_hz) + " Hz, miss probability " +
+              fixed(c.miss_probability, 3) + " (calibrated " +
+              fixed(c.calibrated_miss_probability, 3) + "), " + fixed(c.false_per_reading, 4) +
+              " false per reading: " + fixed(c.data_detections_per_s, 2) +
+              " landmark detections per second as the log, " + fixed(c.in_view_mean, 2) +
+              " landmarks in view on average\n";
+    } else {
+      text += "twin: range_bearing: " + c.note + "\n";
+    }
+  }
+  for (const std::string& w : twin.warnings) text += "twin: warning: " + w + "\n";
+  return text;
+}
+
+}  // namespace locsim

@@ -1,0 +1,80 @@
+// A simulated twin of a recorded log (`locsim twin`): a world that reproduces the log's world
+// (its landmarks, walls, robots), drives each robot along its recorded true path, and gives the
+// sensors the noise `locsim calibrate` measured, so that the same experiment can run on the real
+// log and on simulated ones, and their results be compared (docs/real_data.md).
+//
+// What the twin matches, and how:
+// - the path: each robot's ground truth, sampled at `pose_rate_hz`, written as a TUM file beside
+//   the world and tracked by a `trajectory` drive (feedback: the robot does not drift off it);
+// - the noise: calibration.yaml's `sensors:` merged into every robot's sensors;
+// - how much the camera sees: the range-bearing sensor's rate and miss probability are set so that
+//   the twin's expected number of landmark detections per second equals the log's. A real camera
+//   that logs only the frames in which it read something has no rate to copy, and the calibrated
+//   miss probability counts only the logged frames; the twin keeps the calibrated miss
+//   probability where a rate that divides the physics rate allows it.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
+
+namespace locsim {
+
+struct TwinOptions {
+  std::filesystem::path log;
+  std::optional<std::filesystem::path> calibration;  // a calibration.yaml: its `sensors:`
+  std::vector<std::string> robots;                   // by name; empty: all of the log's
+  double pose_rate_hz = 10.0;                        // samples of the true path [Hz]
+  static constexpr Range kPoseRateRange{0.1, 1000.0, "Hz"};
+  bool match_detections = true;  // set the camera's rate and misses from the log's detections
+};
+
+/// How the twin's range-bearing camera was set to see as much as the log's.
+struct TwinCamera {
+  double duration_s = 0.0;          // robot-seconds of ground truth the counts are over [s]
+  std::size_t data_detections = 0;  // of landmarks, in the log
+  std::size_t data_readings = 0;    // readings of the camera in the log
+  double data_detections_per_s = 0.0;
+  double in_view_mean = 0.0;  // landmarks in range and field of view along the true paths
+  double calibrated_miss_probability = 0.0;
+  double calibrated_false_per_reading = 0.0;
+  double rate_hz = 0.0;  // the twin's
+  double miss_probability = 0.0;
+  double false_per_reading = 0.0;
+  std::string note;  // why nothing was matched, when it was not
+};
+
+struct TwinRobot {
+  std::string name;
+  std::filesystem::path poses_file;  // the TUM file written beside the world
+  std::vector<StampedPose> path;     // the true path, thinned to the pose rate
+  double from_s = 0.0, to_s = 0.0;
+  double path_length_m = 0.0;
+};
+
+struct Twin {
+  std::string world_yaml;  // the world file's text
+  std::vector<TwinRobot> robots;
+  std::optional<TwinCamera> camera;
+  std::vector<std::string> warnings;
+};
+
+/// Builds the twin of `options.log`: the world file's text for `world_file` (whose folder the TUM
+/// files are named relative to; written by write_twin). Throws InputError naming the file and
+/// problem (no ground truth, an unknown robot, a calibration file that is not calibrate's).
+Twin make_twin(const TwinOptions& options, const std::filesystem::path& world_file);
+
+/// Writes the world file and its TUM files (each through a temporary name and a rename), then
+/// loads the world as `locsim run` would, so that a twin that cannot run is never left behind.
+/// Refuses to replace existing files unless `overwrite`.
+Twin write_twin(const TwinOptions& options, const std::filesystem::path& world_file,
+                bool overwrite);
+
+/// The summary `locsim twin` prints.
+std::string describe(const Twin& twin);
+
+}  // namespace locsim

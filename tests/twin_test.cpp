@@ -1,0 +1,333 @@
+// The `trajectory` drive (a robot follows timed poses) and `locsim twin` (a world that drives a
+// log's robots along their true paths with the calibrated noise): a twin of a simulated run whose
+// noise is known follows its path to centimetres, sees as many landmarks per second, and
+// calibrates back to the same noise.
+#include "sim/experiments/twin.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
+#include "sim/metrics/calibration.hpp"
+#include "sim/producers/log_source.hpp"
+#include "sim/producers/text_table.hpp"
+#include "sim/run/runner.hpp"
+#include "tests/test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A path with everything a recorded robot does: arcs, a stop, a turn in place, reversing; its
+// speeds change over a second, as a real robot's do.
+std::vector<StampedPose> reference_path() {
+  std::vector<StampedPose> path;
+  Pose2 pose{2.0, 2.0, 0.0};
+  const double dt_s = 0.1;
+  double t_s = 0.0, v_mps = 0.0, w_radps = 0.0;
+  const auto move = [&](double seconds, double to_v_mps, double to_w_radps) {
+    const double from_v = v_mps, from_w = w_radps;
+    for (int i = 1; i <= static_cast<int>(std::lround(seconds / dt_s)); ++i) {
+      const double ramp = std::min(1.0, i * dt_s / 1.0);
+      v_mps = from_v + ramp * (to_v_mps - from_v);
+      w_radps = from_w + ramp * (to_w_radps - from_w);
+      const double mid = pose.theta + 0.5 * w_radps * dt_s;
+      pose = {pose.x + v_mps * dt_s * std::cos(mid), pose.y + v_mps * dt_s * std::sin(mid),
+              wrap_angle(pose.theta + w_radps * dt_s)};
+      t_s += dt_s;
+      path.push_back({t_s, pose});
+    }
+  };
+  path.push_back({0.0, pose});
+  move(8.0, 0.3, 0.0);
+  move(6.0, 0.25, 0.4);
+  move(2.0, 0.0, 0.0);
+  move(4.0, 0.0, -0.8);
+  move(5.0, -0.15, 0.1);
+  move(10.0, 0.35, -0.2);
+  move(3.0, 0.0, 0.0);
+  return path;
+}
+
+std::string trajectory_world(const std::string& drive) {
+  return R"(name: trajectory_test
+walls:
+  - points: [[-2, -6], [12, -6], [12, 10], [-2, 10]]
+    closed: true
+robots:
+  - name: robot
+    footprint: {radius_m: 0.165}
+    wheel_base_m: 0.258
+    wheel_radius_m: 0.036
+    start: {x: 2, y: 2, theta: 0}
+scenario:
+  duration_s: 40
+  groundtruth_hz: 50
+  drive: )" +
+         drive + "\n";
+}
+
+std::vector<StampedPose> run_truth(const fs::path& world, const fs::path& out) {
+  RunOptions options;
+  options.world_file = world;
+  options.out_dir = out;
+  options.readings = false;
+  run_simulation(options);
+  return read_tum(out / "groundtruth.tum");
+}
+
+/// Largest position and heading distance of `truth` from `path` (interpolated) [m, rad].
+std::pair<double, double> worst_distance(const std::vector<StampedPose>& truth,
+                                         const std::vector<StampedPose>& path) {
+  double worst_m = 0.0, worst_rad = 0.0;
+  std::size_t k = 1;
+  for (const StampedPose& p : truth) {
+    if (p.t_s > path.back().t_s) break;
+    while (k + 1 < path.size() && path[k].t_s < p.t_s) ++k;
+    const StampedPose& a = path[k - 1];
+    const StampedPose& b = path[k];
+    const double s = std::clamp((p.t_s - a.t_s) / (b.t_s - a.t_s), 0.0, 1.0);
+    const Vec2 ref = a.pose.position() + s * (b.pose.position() - a.pose.position());
+    const double ref_theta = a.pose.theta + s * wrap_angle(b.pose.theta - a.pose.theta);
+    worst_m = std::max(worst_m, (p.pose.position() - ref).norm());
+    worst_rad = std::max(worst_rad, std::abs(wrap_angle(p.pose.theta - ref_theta)));
+  }
+  return {worst_m, worst_rad};
+}
+
+TEST(TrajectoryDrive, FollowsTimedPosesWithinCentimetresInlineOrFromATumFile) {
+  const fs::path dir = testing::temp_dir("trajectory");
+  const std::vector<StampedPose> path = reference_path();
+  // The same poses inline and as a TUM file (the file's precision: write both from its text).
+  std::string tum;
+  for (const StampedPose& p : path) append_tum(tum, p.t_s, p.pose.x, p.pose.y, p.pose.theta);
+  std::ofstream(dir / "path.tum") << "# t x y z qx qy qz qw\n" << tum;
+  std::string inline_poses = "{mode: trajectory, poses: [";
+  std::istringstream rows(tum);
+  double t, x, y, z, qx, qy, qz, qw;
+  while (rows >> t >> x >> y >> z >> qx >> qy >> qz >> qw) {
+    inline_poses += "[" + short_number(t) + ", " + short_number(x) + ", " + short_number(y) + ", " +
+                    short_number(2.0 * std::atan2(qz, qw)) + "], ";
+  }
+  inline_poses += "]}";
+  std::ofstream(dir / "inline.yaml") << trajectory_world(inline_poses);
+  std::ofstream(dir / "file.yaml") << trajectory_world("{mode: trajectory, poses_file: path.tum}");
+
+  const auto from_file = run_truth(dir / "file.yaml", dir / "file");
+  ASSERT_GT(from_file.size(), 1000u);
+  const auto [worst_m, worst_rad] = worst_distance(from_file, path);
+  EXPECT_LT(worst_m, 0.03);
+  EXPECT_LT(worst_rad, deg_to_rad(3.0));
+  // Inline poses drive the same.
+  const auto inline_truth = run_truth(dir / "inline.yaml", dir / "inline");
+  ASSERT_EQ(inline_truth.size(), from_file.size());
+  for (std::size_t i = 0; i < from_file.size(); ++i) {
+    EXPECT_NEAR(inline_truth[i].pose.x, from_file[i].pose.x, 1e-6);
+    EXPECT_NEAR(inline_truth[i].pose.y, from_file[i].pose.y, 1e-6);
+  }
+  // The robot holds the last pose after the last time.
+  EXPECT_LT((from_file.back().pose.position() - path.back().pose.position()).norm(), 0.03);
+
+  // Bad input names the file, line and key.
+  std::ofstream(dir / "both.yaml")
+      << trajectory_world("{mode: trajectory, poses_file: path.tum, poses: [[0, 2, 2, 0]]}");
+  try {
+    load_run_inputs(dir / "both.yaml", std::nullopt, std::nullopt);
+    ADD_FAILURE() << "poses and poses_file together were accepted";
+  } catch (const InputError& e) {
+    testing::expect_contains(e.what(), "either 'poses' or 'poses_file'");
+  }
+  std::ofstream(dir / "short.yaml")
+      << trajectory_world("{mode: trajectory, poses: [[0, 2, 2, 0], [1, 2.5, 2]]}");
+  try {
+    load_run_inputs(dir / "short.yaml", std::nullopt, std::nullopt);
+    ADD_FAILURE() << "a pose of three numbers was accepted";
+  } catch (const InputError& e) {
+    testing::expect_contains(e.what(), "scenario.drive.poses[1]");
+    testing::expect_contains(e.what(), "[t_s, x_m, y_m, theta_rad]");
+  }
+  std::ofstream(dir / "repeat.tum") << "0 2 2 0 0 0 0 1\n1 2.1 2 0 0 0 0 1\n1 2.2 2 0 0 0 0 1\n";
+  std::ofstream(dir / "repeat.yaml")
+      << trajectory_world("{mode: trajectory, poses_file: repeat.tum}");
+  try {
+    load_run_inputs(dir / "repeat.yaml", std::nullopt, std::nullopt);
+    ADD_FAILURE() << "a repeated time was accepted";
+  } catch (const InputError& e) {
+    testing::expect_contains(e.what(), "repeat.tum:3");
+    testing::expect_contains(e.what(), "times must increase");
+  }
+}
+
+// Every noise calibrate measures, configured; walls, so that the twin keeps them too.
+constexpr const char* kRecordedWorld = R"(name: twin_test
+walls:
+  - points: [[0, 0], [10, 0], [10, 8], [0, 8]]
+    closed: true
+landmarks:
+  - {id: 1, position: [5.0, 1.4], color: red}
+  - {id: 2, position: [8.7, 4.0], color: green}
+  - {id: 3, position: [1.3, 4.0], color: blue}
+  - {id: 4, position: [5.0, 3.2], color: red}
+  - {id: 5, position: [3.5, 5.7], color: yellow}
+  - {id: 6, position: [6.5, 5.7], color: magenta}
+robots:
+  - name: robot
+    footprint: {radius_m: 0.2}
+    wheel_base_m: 0.33
+    wheel_radius_m: 0.05
+    start: {x: 2, y: 2, theta_deg: 0}
+    sensors:
+      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}
+      range_bearing:
+        rate_hz: 10
+        fov_deg: 120
+        min_range_m: 0.3
+        max_range_m: 7
+        sigma_range_m: 0.05
+        sigma_range_per_m: 0.02
+        sigma_bearing_deg: 1.5
+        miss_probability: 0.3
+        false_detections: 0.2
+scenario:
+  duration_s: 200
+  drive:
+    mode: waypoints
+    path: [[8, 2], [8, 6], [5, 4], [2, 6], [2, 2]]
+    loop: true
+    speed_mps: 0.5
+)";
+
+struct LogCounts {
+  double duration_s = 0.0;
+  std::size_t landmark_detections = 0;
+  std::vector<StampedPose> truth;
+};
+
+LogCounts count(const fs::path& log) {
+  LogSource source(log);
+  LogCounts c;
+  c.duration_s = source.scenario().duration_s;
+  Record record;
+  while (source.next(record)) {
+    if (record.type == Record::Type::kGroundTruth) c.truth.push_back({record.t_s, record.pose});
+    if (record.type == Record::Type::kReading && record.reading.kind == SensorKind::kRangeBearing) {
+      for (const Detection& d : std::get<RangeBearingReading>(record.reading.data).detections)
+        c.landmark_detections += d.target == DetectionTarget::kLandmark ? 1 : 0;
+    }
+  }
+  return c;
+}
+
+TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
+  const fs::path dir = testing::temp_dir("twin");
+  std::ofstream(dir / "world.yaml") << kRecordedWorld;
+  RunOptions options;
+  options.world_file = dir / "world.yaml";
+  options.seed = 5;
+  options.out_dir = dir / "run";
+  options.readings = false;
+  options.log_file = dir / "recorded.locsimlog";
+  run_simulation(options);
+  const Calibration original = calibrate({dir / "recorded.locsimlog"}, {});
+  // Independent detection noise is measured as such: at most a correlation of 0.05 between
+  // detections a sensor period (0.1 s) apart.
+  ASSERT_EQ(original.cameras.size(), 1u);
+  ASSERT_TRUE(original.cameras[0].noise_correlation_s);
+  EXPECT_LT(std::exp(-0.1 / std::max(*original.cameras[0].noise_correlation_s, 1e-9)), 0.05);
+  write_file(dir / "calibration.yaml", original.to_yaml());
+
+  TwinOptions twin_options;
+  twin_options.log = dir / "recorded.locsimlog";
+  twin_options.calibration = dir / "calibration.yaml";
+  const Twin twin = write_twin(twin_options, dir / "twin" / "twin.yaml", false);
+  ASSERT_EQ(twin.robots.size(), 1u);
+  ASSERT_TRUE(twin.camera);
+  EXPECT_TRUE(twin.camera->note.empty()) << twin.camera->note;
+  // A camera read every frame it had: the matching finds its rate and misses again.
+  EXPECT_DOUBLE_EQ(twin.camera->rate_hz, 10.0);
+  EXPECT_NEAR(twin.camera->miss_probability, 0.3, 0.05);
+
+  // The world carries the calibrated noise and keeps the walls and landmarks.
+  const YAML::Node world = YAML::LoadFile((dir / "twin" / "twin.yaml").string());
+  const YAML::Node sensors = world["robots"][0]["sensors"];
+  const YAML::Node calibrated = YAML::LoadFile((dir / "calibration.yaml").string())["sensors"];
+  EXPECT_EQ(sensors["encoders"]["k_left"].as<std::string>(),
+            calibrated["encoders"]["k_left"].as<std::string>());
+  EXPECT_EQ(sensors["range_bearing"]["sigma_range_per_m"].as<std::string>(),
+            calibrated["range_bearing"]["sigma_range_per_m"].as<std::string>());
+  EXPECT_EQ(world["landmarks"].size(), 6u);
+  EXPECT_EQ(world["walls"].size(), 1u);
+
+  // Run the twin on another seed: the same path, as many detections, the same noise measured.
+  RunOptions twin_run;
+  twin_run.world_file = dir / "twin" / "twin.yaml";
+  twin_run.seed = 9;
+  twin_run.out_dir = dir / "twin_run";
+  twin_run.readings = false;
+  twin_run.log_file = dir / "twin.locsimlog";
+  run_simulation(twin_run);
+  const LogCounts recorded = count(dir / "recorded.locsimlog");
+  const LogCounts simulated = count(dir / "twin.locsimlog");
+  const auto [worst_m, worst_rad] = worst_distance(simulated.truth, recorded.truth);
+  EXPECT_LT(worst_m, 0.05);
+  EXPECT_LT(worst_rad, deg_to_rad(5.0));
+  const double recorded_rate = static_cast<double>(recorded.landmark_detections);
+  EXPECT_NEAR(static_cast<double>(simulated.landmark_detections), recorded_rate,
+              0.1 * recorded_rate);
+  const Calibration again = calibrate({dir / "twin.locsimlog"}, {});
+  ASSERT_TRUE(again.motion && original.motion);
+  EXPECT_NEAR(again.motion->k_left, original.motion->k_left, 0.2 * original.motion->k_left);
+  EXPECT_NEAR(again.motion->k_right, original.motion->k_right, 0.2 * original.motion->k_right);
+  ASSERT_EQ(again.cameras.size(), 1u);
+  EXPECT_NEAR(again.cameras[0].range_spread_m.per_unit, original.cameras[0].range_spread_m.per_unit,
+              0.2 * original.cameras[0].range_spread_m.per_unit);
+  EXPECT_NEAR(again.cameras[0].bearing_spread_rad, original.cameras[0].bearing_spread_rad,
+              0.2 * original.cameras[0].bearing_spread_rad);
+}
+
+TEST(Twin, CommandLineIsDeterministicAndRefusesBadInput) {
+  const fs::path dir = testing::temp_dir("twin_cli");
+  std::ofstream(dir / "world.yaml") << kRecordedWorld;
+  const auto run = testing::locsim("run " + (dir / "world.yaml").string() +
+                                   " --duration 30 --out " + (dir / "run").string() +
+                                   " --no-readings -q --log " + (dir / "rec.locsimlog").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const std::string twin = "twin " + (dir / "rec.locsimlog").string() + " --out ";
+  const auto first = testing::locsim(twin + (dir / "a" / "twin.yaml").string());
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  testing::expect_contains(first.output, "twin: robot: ");
+  testing::expect_contains(first.output, "twin_robot.tum");
+  const std::string world = testing::read_file(dir / "a" / "twin.yaml");
+  const std::string path = testing::read_file(dir / "a" / "twin_robot.tum");
+  EXPECT_FALSE(path.empty());
+
+  const auto exists = testing::locsim(twin + (dir / "a" / "twin.yaml").string());
+  EXPECT_EQ(exists.exit_code, 2);
+  testing::expect_contains(exists.output, "exists (pass --overwrite");
+  const auto again = testing::locsim(twin + (dir / "a" / "twin.yaml").string() + " --overwrite -q");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(testing::read_file(dir / "a" / "twin.yaml"), world);
+  EXPECT_EQ(testing::read_file(dir / "a" / "twin_robot.tum"), path);
+
+  const auto nobody = testing::locsim(twin + (dir / "b.yaml").string() + " --robots nobody");
+  EXPECT_EQ(nobody.exit_code, 2);
+  testing::expect_contains(nobody.output, "no robot named 'nobody'");
+  std::ofstream(dir / "not_calibration.yaml") << "localizer_params: {k_left: 0.1}\n";
+  const auto bad = testing::locsim(twin + (dir / "c.yaml").string() + " --calibration " +
+                                   (dir / "not_calibration.yaml").string());
+  EXPECT_EQ(bad.exit_code, 2);
+  testing::expect_contains(bad.output, "not_calibration.yaml");
+  testing::expect_contains(bad.output, "sensors");
+  EXPECT_FALSE(fs::exists(dir / "c.yaml"));
+}
+
+}  // namespace
+}  // namespace locsim
