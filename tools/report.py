@@ -2,6 +2,7 @@
 """Writes a markdown report with PNG plots for a locsim sweep folder (or a single run folder).
 
     tools/report.py DIR            (also: locsim report DIR)
+    tools/report.py --compare A B --out DIR [--labels NAME_A,NAME_B]   (also: locsim compare)
 
 Sweep folder: the summary table (and, over recorded logs, each configuration on each log), error
 vs time per configuration (mean over seeds with its 95 %
@@ -10,6 +11,9 @@ convergence and recovery steps. Run folder (of `run` or `replay`): its localizer
 error vs time; with several robots, each robot's and the localizers' error over all robots.
 Calibration folder (of `calibrate`): the fitted noise models, with the detection errors per range
 bin against the fitted bias and spread lines.
+Comparison of two sweeps (`--compare`): each configuration's position and heading RMS on both
+side by side, the two rankings and how well they agree (Kendall's tau, Spearman's rho, the pairs
+that flip and whether each flip is significant on both sides); writes DIR/compare.csv too.
 Uses Debian's python3-matplotlib; writes DIR/report.md and DIR/report/*.png.
 """
 import argparse
@@ -17,6 +21,7 @@ import csv
 import json
 import math
 import os
+import statistics
 import sys
 from collections import defaultdict
 
@@ -94,15 +99,26 @@ def table_cell(text, limit=300):
     return text if len(text) <= limit else text[:limit] + " …"
 
 
-def mean_ci(values):
-    """'mean ± 95 % CI' of `values` (Student t), or '—' when there are none."""
+def mean_half_width(values):
+    """(mean, half-width of its 95 % CI, Student t) of `values`; the half-width is None for fewer
+    than two values (no spread to judge), the mean None for none."""
     if not values:
-        return "—"
+        return None, None
     m = sum(values) / len(values)
     if len(values) < 2:
-        return f"{m:.3f}"
+        return m, None
     s = math.sqrt(sum((v - m) ** 2 for v in values) / (len(values) - 1))
-    return f"{m:.3f} ± {t975(len(values) - 1) * s / math.sqrt(len(values)):.3f}"
+    return m, t975(len(values) - 1) * s / math.sqrt(len(values))
+
+
+def mean_ci(values):
+    """'mean ± 95 % CI' of `values` (Student t), or '—' when there are none."""
+    m, half = mean_half_width(values)
+    if m is None:
+        return "—"
+    if half is None:
+        return f"{m:.3f}"
+    return f"{m:.3f} ± {half:.3f}"
 
 
 def per_log_lines(results, configs):
@@ -449,10 +465,467 @@ def calibration_report(root, out_dir):
     return lines + [""]
 
 
+class BadInput(Exception):
+    """Input the user can fix; the message names the folder or file (and the line or key)."""
+
+
+def read_compared_sweep(root):
+    """(sweep.json, results.csv's rows) of the sweep folder `root`, each row with its config,
+    status and position and heading RMS (floats, or None when empty); BadInput names what is
+    wrong."""
+    if not os.path.isdir(root):
+        raise BadInput(f"{root}: no such folder")
+    for name in ("sweep.json", "results.csv"):
+        if not os.path.isfile(os.path.join(root, name)):
+            raise BadInput(f"{root} is not a sweep folder (no {name}; `locsim sweep` writes one)")
+    path = os.path.join(root, "sweep.json")
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = json.load(f)
+    except (OSError, ValueError) as error:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        raise BadInput(f"{path}: {error}") from None
+    if not isinstance(header, dict):
+        raise BadInput(f"{path}: not a JSON object")
+    for key in ("experiment", "file"):
+        if not isinstance(header.get(key), str):
+            raise BadInput(f"{path}: key '{key}' is missing or not a string")
+    path = os.path.join(root, "results.csv")
+    rows = []
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            columns = reader.fieldnames or []
+            missing = [c for c in ("config", "status", "position_rms_m", "heading_rms_deg")
+                       if c not in columns]
+            if missing:
+                raise BadInput(f"{path}:1: no column {', '.join(missing)} (not a sweep's results)")
+            for row in reader:
+                line = reader.line_num
+                # DictReader files surplus fields under None and fills missing ones with None.
+                if None in row or None in row.values():
+                    raise BadInput(f"{path}:{line}: not as many fields as the header's "
+                                   f"{len(columns)}")
+                if not row["config"] or not row["status"]:
+                    raise BadInput(f"{path}:{line}: empty config or status")
+                values = {}
+                for column in ("position_rms_m", "heading_rms_deg"):
+                    # Only a finished run's values are used (and checked): whatever a run that did
+                    # not finish left in them does not stop the comparison.
+                    text = row[column] if row["status"] == "ok" else ""
+                    try:
+                        value = float(text) if text else None
+                    except ValueError:
+                        value = math.nan
+                    if value is not None and not (math.isfinite(value) and value >= 0):
+                        raise BadInput(f"{path}:{line}: {column} '{text}' is not a number >= 0")
+                    values[column] = value
+                rows.append({"config": row["config"], "status": row["status"],
+                             "position": values["position_rms_m"],
+                             "heading": values["heading_rms_deg"]})
+    except (OSError, ValueError, csv.Error) as error:  # unreadable, not UTF-8, a broken quote
+        raise BadInput(f"{path}: {error}") from None
+    if not rows:
+        raise BadInput(f"{path}: no runs")
+    return header, rows
+
+
+def side_stats(rows):
+    """Per configuration, in order of first appearance: its runs, the ok ones, and the ok runs'
+    position and heading RMS (a run that did not finish counts in runs, not in the means, as in
+    sweep_report)."""
+    stats = {}
+    for r in rows:
+        s = stats.setdefault(r["config"], {"runs": 0, "ok": 0, "position": [], "heading": []})
+        s["runs"] += 1
+        if r["status"] == "ok":
+            s["ok"] += 1
+            for key in ("position", "heading"):
+                if r[key] is not None:
+                    s[key].append(r[key])
+    for s in stats.values():
+        for key in ("position", "heading"):
+            values = s[key]
+            s[key + "_mean"], s[key + "_half"] = mean_half_width(values)
+            s[key + "_median"] = statistics.median(values) if values else None
+    return stats
+
+
+def compared_key(mean):
+    """A mean as rankings compare it: rounded well below the CSV's 6 decimals, so that the same
+    values summed in another order tie instead of ranking on float noise."""
+    return round(mean, 9)
+
+
+def competition_ranks(means):
+    """{config: rank} by mean, 1 = smallest; ties share the best of their ranks (1, 2, 2, 4)."""
+    keys = {c: compared_key(m) for c, m in means.items()}
+    return {c: 1 + sum(1 for other in keys.values() if other < k) for c, k in keys.items()}
+
+
+def average_ranks(means):
+    """{config: rank} by mean with ties sharing the mean of their ranks (1, 2.5, 2.5, 4): the ranks
+    Spearman's rho correlates."""
+    keys = {c: compared_key(m) for c, m in means.items()}
+    return {c: rank + (sum(1 for other in keys.values() if other == keys[c]) - 1) / 2
+            for c, rank in competition_ranks(means).items()}
+
+
+def separated(mean1, half1, mean2, half2):
+    """Whether two means' 95 % intervals do not overlap (a conservative test of a difference);
+    never with a single run (no interval)."""
+    return half1 is not None and half2 is not None and abs(mean1 - mean2) > half1 + half2
+
+
+def rank_agreement(configs, a, b, key):
+    """Kendall's tau-b, Spearman's rho and the pairs of `configs` ranked by a[c][key + '_mean']
+    and by b[...]: counts of concordant, discordant and tied pairs, and each discordant pair as
+    (better on A, better on B)."""
+    ma = {c: a[c][key + "_mean"] for c in configs}
+    mb = {c: b[c][key + "_mean"] for c in configs}
+    concordant, discordant, tied_a, tied_b, flips = 0, 0, 0, 0, []
+    for i, first in enumerate(configs):
+        for second in configs[i + 1:]:
+            da = (compared_key(ma[first]) > compared_key(ma[second])) - \
+                (compared_key(ma[first]) < compared_key(ma[second]))
+            db = (compared_key(mb[first]) > compared_key(mb[second])) - \
+                (compared_key(mb[first]) < compared_key(mb[second]))
+            tied_a += da == 0
+            tied_b += db == 0
+            if da * db > 0:
+                concordant += 1
+            elif da * db < 0:
+                discordant += 1
+                flips.append((first, second) if da < 0 else (second, first))
+    pairs = len(configs) * (len(configs) - 1) // 2
+    # tau-b: ties on either side shrink the denominator; undefined when one side ties all pairs.
+    denominator = math.sqrt((pairs - tied_a) * (pairs - tied_b))
+    tau = (concordant - discordant) / denominator if denominator > 0 else None
+    ra, rb = average_ranks(ma), average_ranks(mb)
+    rho = None
+    if len(configs) > 1:
+        mean_rank = (len(configs) + 1) / 2  # the same on both sides, ties or not
+        sa = sum((ra[c] - mean_rank) ** 2 for c in configs)
+        sb = sum((rb[c] - mean_rank) ** 2 for c in configs)
+        if sa > 0 and sb > 0:
+            rho = sum((ra[c] - mean_rank) * (rb[c] - mean_rank) for c in configs) / math.sqrt(sa * sb)
+    return {"pairs": pairs, "concordant": concordant, "discordant": discordant,
+            "tied": pairs - concordant - discordant, "tau": tau, "rho": rho, "flips": flips}
+
+
+def flip_lines(agreement, a, b, labels, key, unit):
+    """Each discordant pair in words, with whether its difference is significant on each side;
+    and the pairs that flip significantly on both."""
+    lines, substantial = [], []
+
+    def side(stats, better, worse, label):
+        s1, s2 = stats[better], stats[worse]
+        m1, h1, m2, h2 = s1[key + "_mean"], s1[key + "_half"], s2[key + "_mean"], s2[key + "_half"]
+        if h1 is None or h2 is None:
+            verdict = "one run: no interval"
+        elif separated(m1, h1, m2, h2):
+            verdict = "significant"
+        else:
+            verdict = "within noise: the 95 % intervals overlap"
+        return f"on {label} {better} < {worse} ({m1:.3f} vs {m2:.3f} {unit}, {verdict})", \
+            verdict == "significant"
+
+    for better_a, better_b in agreement["flips"]:
+        text_a, sig_a = side(a, better_a, better_b, labels[0])
+        text_b, sig_b = side(b, better_b, better_a, labels[1])
+        if sig_a and sig_b:
+            substantial.append(f"{better_a}/{better_b}")
+            verdict = "significant on both sides: a disagreement of substance"
+        else:
+            noisy = [label for label, sig in zip(labels, (sig_a, sig_b)) if not sig]
+            verdict = f"within noise on {' and '.join(noisy)}: not a disagreement of substance"
+        lines.append(f"- {text_a}; {text_b}. {verdict[0].upper() + verdict[1:]}.")
+    return lines, substantial
+
+
+def agreement_sentence(agreement, substantial):
+    """'The rankings agree on N of M pairs (Kendall tau ..., Spearman rho ...); K flips are
+    significant on both sides: ...'."""
+    if agreement["pairs"] == 0:
+        return "One configuration in common: there is no ranking to compare."
+
+    def number(value):
+        return "undefined: one side ties every pair" if value is None else f"{value:.3f}"
+
+    text = (f"agree on {agreement['concordant']} of {agreement['pairs']} pairs (Kendall tau "
+            f"{number(agreement['tau'])}, Spearman rho {number(agreement['rho'])})")
+    if agreement["tied"]:
+        text += f", {agreement['tied']} tied on one side or both"
+    flips = agreement["discordant"]
+    if flips == 0:
+        return text + "; no pair flips."
+    k = len(substantial)
+    if flips == 1:
+        text += f"; the one flip is {'' if k else 'not '}significant on both sides"
+    else:
+        text += f"; {k} of the {flips} flips {'is' if k == 1 else 'are'} significant on both sides"
+    return text + (": " + ", ".join(substantial) + "." if k else ".")
+
+
+def ranking_text(means):
+    """'a < b = c < d': configurations from the smallest mean up, '=' between ties."""
+    order = sorted(means, key=lambda c: (compared_key(means[c]), c))
+    text = table_cell(order[0])
+    for previous, c in zip(order, order[1:]):
+        text += (" = " if compared_key(means[previous]) == compared_key(means[c]) else " < ") + table_cell(c)
+    return text
+
+
+def compare_labels(a, b, labels):
+    """The two sides' names: --labels NAME_A,NAME_B, or the folders' base names (the paths as given
+    when these are the same)."""
+    if labels is not None:
+        parts = labels.split(",")
+        if len(parts) != 2 or not all(p.strip() for p in parts):
+            raise BadInput(f"--labels: expected NAME_A,NAME_B, got '{labels}'")
+        parts = [p.strip() for p in parts]
+        if parts[0] == parts[1]:
+            raise BadInput(f"--labels: the two names are the same ('{parts[0]}')")
+        return parts
+    names = [os.path.basename(os.path.abspath(p)) for p in (a, b)]
+    if names[0] == names[1]:
+        names = [os.path.normpath(p) for p in (a, b)]
+    if names[0] == names[1]:
+        names = [names[0] + " (A)", names[1] + " (B)"]
+    return names
+
+
+def check_compare_out(out_dir):
+    """Refuses an --out whose report.md is not an earlier comparison's: that report would be lost."""
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise BadInput(f"--out {out_dir}: not a folder")
+    for marker, kind in (("sweep.json", "sweep"), ("run.json", "run"), ("calibration.json", "calibration")):
+        if os.path.exists(os.path.join(out_dir, marker)):
+            raise BadInput(f"--out {out_dir}: a {kind} folder (its own report.md would be replaced); "
+                           "choose a new folder")
+    if os.path.exists(os.path.join(out_dir, "report.md")) and \
+            not os.path.exists(os.path.join(out_dir, "compare.csv")):
+        raise BadInput(f"--out {out_dir}: holds a report.md that is not a comparison's; choose a new "
+                       "folder")
+
+
+def replace_with(path, write):
+    """Writes `path` through a temporary file renamed over it: an interrupted write leaves the old
+    file whole."""
+    temporary = path + ".tmp"
+    write(temporary)
+    os.replace(temporary, path)
+
+
+def plot_compare(path, configs, a, b, labels):
+    fig, axes = plt.subplots(1, 2, figsize=(max(8, 1.6 * len(configs) + 4), 4.5))
+    x = list(range(len(configs)))
+    for ax, key, unit in ((axes[0], "position", "m"), (axes[1], "heading", "deg")):
+        means = []
+        for k, (stats, label) in enumerate(((a, labels[0]), (b, labels[1]))):
+            xs, ys, errors = [], [], []
+            for i, c in enumerate(configs):
+                s = stats.get(c)
+                if s is None or s[key + "_mean"] is None:
+                    continue
+                xs.append(i + (k - 0.5) * 0.3)
+                ys.append(s[key + "_mean"])
+                errors.append(s[key + "_half"] or 0.0)
+            means += ys
+            ax.errorbar(xs, ys, yerr=errors, fmt="os"[k], capsize=4, color=COLORS[k], label=label,
+                        linestyle="none")
+        positive = [m for m in means if m > 0]
+        if positive and max(positive) / min(positive) > 10:
+            ax.set_yscale("log")
+        ax.set_xticks(x)
+        ax.set_xticklabels(configs, rotation=30, ha="right", fontsize=8)
+        ax.set_xlim(-0.5, len(configs) - 0.5)
+        ax.set_ylabel(f"{key} RMS [{unit}]")
+        ax.set_title(f"{key.capitalize()} RMS: mean and 95 % CI over the runs", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    replace_with(path, lambda temporary: fig.savefig(temporary, format="png", dpi=100))
+    plt.close(fig)
+
+
+def compare_report(a, b, labels, out_dir):
+    """Writes out_dir/report.md, compare.csv and report/compare.png: the configurations of the
+    sweeps `a` and `b` side by side, their two rankings by mean position (and heading) RMS and how
+    well these agree. Everything is read and checked before anything is written, report.md
+    last."""
+    labels = compare_labels(a, b, labels)
+    check_compare_out(out_dir)
+    header_a, rows_a = read_compared_sweep(a)
+    header_b, rows_b = read_compared_sweep(b)
+    sa, sb = side_stats(rows_a), side_stats(rows_b)
+    common = [c for c in sa if c in sb]
+    if not common:
+        raise BadInput(f"{a} and {b} have no configuration in common ({a}: {', '.join(sa)}; "
+                       f"{b}: {', '.join(sb)})")
+
+    def ranked(key):
+        # The rank statistics take the configurations with a mean on both sides only.
+        configs = [c for c in common if sa[c][key + "_mean"] is not None
+                   and sb[c][key + "_mean"] is not None]
+        return sorted(configs, key=lambda c: (compared_key(sa[c][key + "_mean"]), c))
+
+    position, heading = ranked("position"), ranked("heading")
+    order = position + [c for c in sa if c not in position] + \
+        [c for c in sb if c not in sa and c not in position]
+    ranks = {}
+    for key, configs in (("position", position), ("heading", heading)):
+        for side, stats in (("a", sa), ("b", sb)):
+            ranks[key, side] = competition_ranks({c: stats[c][key + "_mean"] for c in configs})
+    agreements = {"position": rank_agreement(position, sa, sb, "position") if position else None,
+                  "heading": rank_agreement(heading, sa, sb, "heading") if heading else None}
+
+    def number(value, digits=3):
+        return "—" if value is None else f"{value:.{digits}f}"
+
+    def csv_number(value):
+        return "" if value is None else f"{value:.6f}"
+
+    def ratio(key, c):
+        if c not in sa or c not in sb:
+            return None
+        ma, mb = sa[c][key + "_mean"], sb[c][key + "_mean"]
+        return mb / ma if ma and mb is not None else None
+
+    la, lb = (table_cell(label, 60) for label in labels)
+    lines = [f"# Comparison: {la} and {lb}", ""]
+    if agreements["position"] is None:
+        lines += ["No configuration in common has a finished run on both sides: there is no "
+                  "ranking to compare.", ""]
+        position_flips, substantial = [], []
+    else:
+        position_flips, substantial = flip_lines(agreements["position"], sa, sb, labels, "position", "m")
+        lines += ["By mean position RMS, the rankings " +
+                  agreement_sentence(agreements["position"], substantial), ""]
+        for label, stats in ((la, sa), (lb, sb)):
+            lines.append(f"- Ranking on {label}: "
+                         f"{ranking_text({c: stats[c]['position_mean'] for c in position})}.")
+        lines.append("")
+    for label, root, header, rows in ((la, a, header_a, rows_a), (lb, b, header_b, rows_b)):
+        lines.append(f"- {label}: `{root}`, experiment {table_cell(header['experiment'], 100)} "
+                     f"(`{header['file']}`), {len(rows)} runs.")
+    only = [c for c in order if c not in common]
+    lines += ["", f"{len(common)} configurations in common"
+              + (f"; {len(only)} in only one sweep ({', '.join(only)}): listed with '—', left out of "
+                 "the ranks and the rank statistics." if only else "."),
+              "Generated by `tools/report.py --compare` from the two `results.csv`; the numbers are "
+              "in `compare.csv`.", "",
+              "## Position RMS", "",
+              "Per configuration: runs that finished (ok) of all, the position RMS over the finished "
+              "runs as mean ± 95 % confidence interval (Student t) and median, and the rank by mean "
+              "among the configurations with finished runs on both sides (1 = best; ties share a "
+              "rank).", "",
+              f"| config | {la} ok/runs | {la} position RMS [m] | {la} median | {la} rank | "
+              f"{lb} ok/runs | {lb} position RMS [m] | {lb} median | {lb} rank | {lb}/{la} |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for c in order:
+        cells = [table_cell(c)]
+        for side, stats in (("a", sa), ("b", sb)):
+            s = stats.get(c)
+            if s is None:
+                cells += ["—"] * 4
+                continue
+            rank = ranks["position", side].get(c)
+            cells += [f"{s['ok']}/{s['runs']}", mean_ci(s["position"]), number(s["position_median"]),
+                      "—" if rank is None else str(rank)]
+        cells.append(number(ratio("position", c), 2))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    if position_flips:
+        lines += [f"The pairs ranked the other way round on {lb} (significant: the two means' 95 % "
+                  "intervals do not overlap; a flip within noise on either side is not a "
+                  "disagreement of substance):", ""] + position_flips + [""]
+
+    lines += ["## Heading RMS", "",
+              f"| config | {la} heading RMS [deg] | {la} rank | {lb} heading RMS [deg] | {lb} rank | "
+              f"{lb}/{la} |", "|---|---|---|---|---|---|"]
+    for c in order:
+        cells = [table_cell(c)]
+        for side, stats in (("a", sa), ("b", sb)):
+            s = stats.get(c)
+            rank = ranks["heading", side].get(c)
+            cells += ["—" if s is None else mean_ci(s["heading"]), "—" if rank is None else str(rank)]
+        cells.append(number(ratio("heading", c), 2))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    if agreements["heading"] is not None:
+        heading_flips, heading_substantial = flip_lines(agreements["heading"], sa, sb, labels,
+                                                        "heading", "deg")
+        lines += ["By mean heading RMS, the rankings " +
+                  agreement_sentence(agreements["heading"], heading_substantial), ""]
+        lines += heading_flips + ([""] if heading_flips else [])
+    lines += ["## Plot", "", "![position and heading RMS per configuration](report/compare.png)", ""]
+
+    # compare.csv: the table's numbers in full (a_ is the first folder, b_ the second).
+    columns = ["config"]
+    for side in ("a", "b"):
+        columns += [f"{side}_runs", f"{side}_ok"]
+        for key, unit in (("position", "m"), ("heading", "deg")):
+            columns += [f"{side}_{key}_mean_{unit}", f"{side}_{key}_ci_{unit}",
+                        f"{side}_{key}_median_{unit}", f"{side}_{key}_rank"]
+    columns += ["position_ratio_b_over_a", "heading_ratio_b_over_a"]
+    records = []
+    for c in order:
+        record = [c]
+        for side, stats in (("a", sa), ("b", sb)):
+            s = stats.get(c)
+            record += ["", ""] if s is None else [s["runs"], s["ok"]]
+            for key in ("position", "heading"):
+                if s is None:
+                    record += [""] * 4
+                    continue
+                rank = ranks[key, side].get(c)
+                record += [csv_number(s[key + "_mean"]), csv_number(s[key + "_half"]),
+                           csv_number(s[key + "_median"]), "" if rank is None else rank]
+        record += [csv_number(ratio(key, c)) for key in ("position", "heading")]
+        records.append(record)
+
+    def write_csv(path):
+        with open(path, "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f, lineterminator="\n")
+            writer.writerow(columns)
+            writer.writerows(records)
+
+    def write_markdown(path):
+        with open(path, "w", encoding="utf-8") as f:
+            f.write("\n".join(lines) + "\n")
+
+    os.makedirs(os.path.join(out_dir, "report"), exist_ok=True)
+    plot_compare(os.path.join(out_dir, "report", "compare.png"), order, sa, sb, labels)
+    replace_with(os.path.join(out_dir, "compare.csv"), write_csv)
+    replace_with(os.path.join(out_dir, "report.md"), write_markdown)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("dir")
+    parser.add_argument("dir", nargs="?", help="a sweep, run or calibration folder")
+    parser.add_argument("--compare", nargs=2, metavar=("A", "B"),
+                        help="compare two sweep folders' configurations (with --out)")
+    parser.add_argument("--out", help="--compare: the folder for report.md, compare.csv, report/")
+    parser.add_argument("--labels", help="--compare: the two sweeps' names, as NAME_A,NAME_B "
+                        "(default: the folders' base names)")
     args = parser.parse_args()
+    if args.compare:
+        if args.dir is not None or args.out is None:
+            parser.error("--compare A B takes --out DIR and no other folder")
+        try:
+            compare_report(args.compare[0], args.compare[1], args.labels, args.out)
+        except BadInput as error:
+            print(f"compare: {error}", file=sys.stderr)
+            return 2
+        except OSError as error:
+            print(f"compare: cannot write to {args.out}: {error}", file=sys.stderr)
+            return 1
+        print(f"compare: wrote {os.path.join(args.out, 'report.md')}")
+        return 0
+    if args.dir is None:
+        parser.error("give a folder, or --compare A B --out DIR")
+    if args.out is not None or args.labels is not None:
+        parser.error("--out and --labels go with --compare")
     root = args.dir
     out_dir = os.path.join(root, "report")
     os.makedirs(out_dir, exist_ok=True)

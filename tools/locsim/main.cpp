@@ -353,8 +353,9 @@ std::vector<std::string> robot_names(const std::string& list) {
   return names;
 }
 
-/// `locsim report DIR`: tools/report.py (installed to share/locsim), run with Debian's Python.
-int report(const std::string& dir) {
+/// `locsim report DIR` and `locsim compare`: tools/report.py (installed to share/locsim) with
+/// `arguments`, run with Debian's Python (it has matplotlib; a virtualenv's python3 may not).
+int report(const std::vector<std::string>& arguments) {
   std::error_code error;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", error);
   const std::filesystem::path candidates[] = {
@@ -363,7 +364,8 @@ int report(const std::string& dir) {
   for (const auto& script : candidates) {
     if (!std::filesystem::exists(script)) continue;
     const std::string python = "/usr/bin/python3";
-    std::vector<std::string> args = {python, script.string(), dir};
+    std::vector<std::string> args = {python, script.string()};
+    args.insert(args.end(), arguments.begin(), arguments.end());
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -622,6 +624,23 @@ int main(int argc, char** argv) {
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
   report_cmd->add_option("dir", report_dir, "Sweep or run folder")->required();
+  std::string compare_a, compare_b, compare_out;
+  std::optional<std::string> compare_labels;
+  CLI::App* compare_cmd = app.add_subcommand(
+      "compare",
+      "Write DIR/report.md comparing two sweeps: each configuration's error on both, the two "
+      "rankings and whether they agree (docs/experiments.md)");
+  compare_cmd->add_option("A", compare_a, "First sweep folder (e.g. over recorded logs)")
+      ->required();
+  compare_cmd->add_option("B", compare_b, "Second sweep folder (e.g. over a simulated twin)")
+      ->required();
+  compare_cmd
+      ->add_option("--out", compare_out,
+                   "Folder for report.md, compare.csv and report/compare.png (not a sweep folder)")
+      ->required();
+  compare_cmd->add_option("--labels", compare_labels,
+                          "The two sweeps' names in the report, as NAME_A,NAME_B (default: the "
+                          "folders' base names)");
   std::string merge_out;
   std::vector<std::string> merge_parts;
   CLI::App* merge = app.add_subcommand("merge", "Join the folders of sharded sweeps");
@@ -638,7 +657,16 @@ int main(int argc, char** argv) {
   try {
     if (*check) return validate(validate_world, validate_scenario);
     if (*plugins) return list_plugins();
-    if (*report_cmd) return report(report_dir);
+    if (*report_cmd) return report({report_dir});
+    if (*compare_cmd) {
+      std::vector<std::string> arguments = {"--compare", compare_a, compare_b, "--out",
+                                            compare_out};
+      if (compare_labels) {
+        arguments.push_back("--labels");
+        arguments.push_back(*compare_labels);
+      }
+      return report(arguments);
+    }
     if (*import_cmd) {
       if (*import_duration) import_window.duration_s = import_duration_s;
       if (std::filesystem::exists(import_out) && !import_overwrite) {
