@@ -2,7 +2,9 @@
 // 67 Hz, Vicon at 100 Hz, 3 barcode readings a second, as the real dataset): parsing, merging and
 // writing the log. Counter: dataset lines read per second. And `locsim calibrate` on the imported
 // log: reading it, pairing readings with the truth, and the likelihood fits (counter: log records
-// per second).
+// per second). And `locsim twin` of it, with that calibration: reading the log, thinning the true
+// path, the landmarks in view along it, writing and loading the world (counter: log records per
+// second).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -10,6 +12,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "sim/common/files.hpp"
+#include "sim/experiments/twin.hpp"
 #include "sim/metrics/calibration.hpp"
 #include "sim/producers/mrclam_import.hpp"
 
@@ -72,5 +76,26 @@ void BM_CalibrateMrclam(benchmark::State& state) {
       static_cast<double>(summary.records * state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_CalibrateMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_TwinMrclam(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_twin";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write_dataset(dir);
+  const locsim::ImportSummary summary =
+      locsim::write_import(locsim::read_mrclam({dir, {1}}), {}, dir / "out.locsimlog");
+  locsim::write_file(dir / "calibration.yaml",
+                     locsim::calibrate({dir / "out.locsimlog"}, {}).to_yaml());
+  locsim::TwinOptions options;
+  options.log = dir / "out.locsimlog";
+  options.calibration = dir / "calibration.yaml";
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(locsim::write_twin(options, dir / "twin" / "twin.yaml", true));
+  }
+  fs::remove_all(dir);
+  state.counters["records_per_s"] = benchmark::Counter(
+      static_cast<double>(summary.records * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_TwinMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
