@@ -19,6 +19,7 @@
 #include "sim/producers/log_source.hpp"
 #include "sim/producers/text_table.hpp"
 #include "sim/run/runner.hpp"
+#include "tests/noisy_world.hpp"
 #include "tests/test_support.hpp"
 
 namespace locsim {
@@ -166,45 +167,6 @@ TEST(TrajectoryDrive, FollowsTimedPosesWithinCentimetresInlineOrFromATumFile) {
   }
 }
 
-// Every noise calibrate measures, configured; walls, so that the twin keeps them too.
-constexpr const char* kRecordedWorld = R"(name: twin_test
-walls:
-  - points: [[0, 0], [10, 0], [10, 8], [0, 8]]
-    closed: true
-landmarks:
-  - {id: 1, position: [5.0, 1.4], color: red}
-  - {id: 2, position: [8.7, 4.0], color: green}
-  - {id: 3, position: [1.3, 4.0], color: blue}
-  - {id: 4, position: [5.0, 3.2], color: red}
-  - {id: 5, position: [3.5, 5.7], color: yellow}
-  - {id: 6, position: [6.5, 5.7], color: magenta}
-robots:
-  - name: robot
-    footprint: {radius_m: 0.2}
-    wheel_base_m: 0.33
-    wheel_radius_m: 0.05
-    start: {x: 2, y: 2, theta_deg: 0}
-    sensors:
-      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}
-      range_bearing:
-        rate_hz: 10
-        fov_deg: 120
-        min_range_m: 0.3
-        max_range_m: 7
-        sigma_range_m: 0.05
-        sigma_range_per_m: 0.02
-        sigma_bearing_deg: 1.5
-        miss_probability: 0.3
-        false_detections: 0.2
-scenario:
-  duration_s: 200
-  drive:
-    mode: waypoints
-    path: [[8, 2], [8, 6], [5, 4], [2, 6], [2, 2]]
-    loop: true
-    speed_mps: 0.5
-)";
-
 struct LogCounts {
   double duration_s = 0.0;
   std::size_t landmark_detections = 0;
@@ -228,7 +190,7 @@ LogCounts count(const fs::path& log) {
 
 TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
   const fs::path dir = testing::temp_dir("twin");
-  std::ofstream(dir / "world.yaml") << kRecordedWorld;
+  std::ofstream(dir / "world.yaml") << testing::noisy_world(0.0);
   RunOptions options;
   options.world_file = dir / "world.yaml";
   options.seed = 5;
@@ -253,7 +215,7 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
   EXPECT_TRUE(twin.camera->note.empty()) << twin.camera->note;
   // A camera read every frame it had: the matching finds its rate and misses again.
   EXPECT_DOUBLE_EQ(twin.camera->rate_hz, 10.0);
-  EXPECT_NEAR(twin.camera->miss_probability, 0.3, 0.05);
+  EXPECT_NEAR(twin.camera->miss_probability, 0.2, 0.05);
 
   // The world carries the calibrated noise and keeps the walls and landmarks.
   const YAML::Node world = YAML::LoadFile((dir / "twin" / "twin.yaml").string());
@@ -263,7 +225,7 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
             calibrated["encoders"]["k_left"].as<std::string>());
   EXPECT_EQ(sensors["range_bearing"]["sigma_range_per_m"].as<std::string>(),
             calibrated["range_bearing"]["sigma_range_per_m"].as<std::string>());
-  EXPECT_EQ(world["landmarks"].size(), 6u);
+  EXPECT_EQ(world["landmarks"].size(), 8u);
   EXPECT_EQ(world["walls"].size(), 1u);
 
   // Run the twin on another seed: the same path, as many detections, the same noise measured.
@@ -295,7 +257,7 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
 
 TEST(Twin, CommandLineIsDeterministicAndRefusesBadInput) {
   const fs::path dir = testing::temp_dir("twin_cli");
-  std::ofstream(dir / "world.yaml") << kRecordedWorld;
+  std::ofstream(dir / "world.yaml") << testing::noisy_world(0.0);
   const auto run = testing::locsim("run " + (dir / "world.yaml").string() +
                                    " --duration 30 --out " + (dir / "run").string() +
                                    " --no-readings -q --log " + (dir / "rec.locsimlog").string());

@@ -1,0 +1,57 @@
+// A simulated world with every noise `locsim calibrate` measures configured (docs/sensors.md),
+// for the calibration and twin tests.
+#pragma once
+
+#include <string>
+
+namespace locsim::testing {
+
+/// The world's YAML; its range-bearing sensor's noise correlated over `noise_correlation_s`.
+inline std::string noisy_world(double noise_correlation_s) {
+  return R"(name: calibration_test
+walls:
+  - points: [[0, 0], [10, 0], [10, 8], [0, 8]]
+    closed: true
+landmarks:  # beside the path (0.6 to 0.8 m off it) and in the corners: ranges from 0.5 to 7 m
+  - {id: 1, position: [5.0, 1.4], color: red}
+  - {id: 2, position: [8.7, 4.0], color: green}
+  - {id: 3, position: [1.3, 4.0], color: blue}
+  - {id: 4, position: [5.0, 3.2], color: red}
+  - {id: 5, position: [3.5, 5.7], color: yellow}
+  - {id: 6, position: [6.5, 5.7], color: magenta}
+  - {id: 7, position: [0.5, 7.5], color: cyan}
+  - {id: 8, position: [9.5, 0.5], color: green}
+robots:
+  - name: robot
+    footprint: {radius_m: 0.2}
+    wheel_base_m: 0.33
+    wheel_radius_m: 0.05
+    start: {x: 2, y: 2, theta_deg: 0}
+    sensors:
+      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}
+      range_bearing:
+        rate_hz: 10
+        fov_deg: 120
+        min_range_m: 0.3
+        max_range_m: 7
+        sigma_range_m: 0.05
+        sigma_range_per_m: 0.02
+        range_bias_m: 0.1
+        range_bias_per_m: -0.05
+        sigma_bearing_deg: 1.5
+        bearing_bias_deg: 2
+        miss_probability: 0.2
+        false_detections: 0.3
+        noise_correlation_s: )" +
+         std::to_string(noise_correlation_s) + R"(
+scenario:
+  duration_s: 300
+  drive:
+    mode: waypoints
+    path: [[8, 2], [8, 6], [5, 4], [2, 6], [2, 2]]
+    loop: true
+    speed_mps: 0.5
+)";
+}
+
+}  // namespace locsim::testing
