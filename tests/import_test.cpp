@@ -480,6 +480,70 @@ TEST(GenericImport, BadInputIsRefusedNamingFileLineAndColumn) {
   refused("map.csv", "id,x,y\n6,1,1\n6,2,2\n", "map.csv:3:1: 'id': landmark id listed twice");
   refused("detections.csv", "t,id,range,bearing,target\n0.5,6,1.0,0.1,wall\n",
           "expected landmark or robot");
+  refused("map.csv", "id,x,y,color\n6,1,1,mauve\n", "map.csv:2:7: 'color': unknown colour 'mauve'");
+  refused("detections.csv", "t,id,range,bearing,color\n0.5,-1,1.0,0.1,red\n",
+          "detections.csv:2:16: 'color': no landmark of colour 'red' in map.csv");
+  refused("imu.csv", "t,yaw_rate,accel_x\n0,0.1,0\n", "accel_x or accel_y alone");
+  refused("imu.csv", "t,yaw_rate\n0,0.1\n1,nan\n", "imu.csv:3:3: 'yaw_rate'");
+  refused("robot.yaml", "radius_m: 0.2\nwheelbase_m: 0.3\n", "robot.yaml:2:1");
+  refused("robot.yaml", "range_bearing: {fov_deg: 500}\n", "fov");
+}
+
+/// A detector that tells colours, not identities; an IMU; the robot's geometry and camera from
+/// robot.yaml.
+TEST(GenericImport, ReadsColoursAnImuAndTheRobotsGeometry) {
+  const fs::path dir = testing::temp_dir("data");
+  std::ofstream(dir / "map.csv") << "x,y,id,color\n4.0,0.0,6,red\n4.0,2.0,7,blue\n5,5,8,red\n";
+  std::ofstream(dir / "odometry.csv") << "t,v,omega\n0,0.1,0\n1,0.1,0\n2,0.1,0\n";
+  std::ofstream(dir / "groundtruth.tum")
+      << "0 0 0 0 0 0 0 1\n1 0.1 0 0 0 0 0 1\n2 0.2 0 0 0 0 0 1\n";
+  std::ofstream(dir / "detections.csv") << "t,id,range,bearing,color\n0.5,-1,3.9,0.0,red\n"
+                                           "0.5,7,4.4,0.46,blue\n1.5,-1,4.3,0.5,\n";
+  std::ofstream(dir / "imu.csv") << "t,yaw_rate,accel_x,accel_y\n0,0.01,0.1,0\n0.5,0.02,0,0\n"
+                                    "1.0,-0.01,0,0.05\n";
+  std::ofstream(dir / "robot.yaml")
+      << "radius_m: 0.25\nwheel_base_m: 0.4\nwheel_radius_m: 0.06\n"
+         "range_bearing: {fov_deg: 90, min_range_m: 0.5, max_range_m: 10}\n";
+  const fs::path log = testing::temp_dir("out") / "colours.locsimlog";
+  const ImportSummary summary = write_import(read_generic(dir), {}, log);
+  EXPECT_EQ(summary.imu, 3u);
+  LogSource source(log);
+  const WorldDef& world = source.world();
+  ASSERT_EQ(world.landmarks.size(), 3u);
+  EXPECT_EQ(world.landmarks[0].color_name, "red");
+  EXPECT_EQ(world.landmarks[1].color_name, "blue");
+  const RobotDef& robot = world.robots.at(0);
+  EXPECT_DOUBLE_EQ(robot.footprint.radius_m, 0.25);
+  EXPECT_DOUBLE_EQ(robot.wheel_base_m, 0.4);
+  EXPECT_DOUBLE_EQ(robot.wheel_radius_m, 0.06);
+  ASSERT_TRUE(robot.sensors.range_bearing && robot.sensors.imu);
+  EXPECT_NEAR(robot.sensors.range_bearing->fov_rad, deg_to_rad(90.0), 1e-12);
+  EXPECT_DOUBLE_EQ(robot.sensors.range_bearing->max_range_m, 10.0);
+  int by_colour = 0, imu = 0;
+  for (const Record& rec : read_all(source)) {
+    if (rec.type != Record::Type::kReading) continue;
+    if (rec.reading.kind == SensorKind::kImu) {
+      const auto& reading = std::get<ImuReading>(rec.reading.data);
+      if (imu++ == 0) {
+        EXPECT_DOUBLE_EQ(reading.yaw_rate_radps, 0.01);
+        EXPECT_DOUBLE_EQ(reading.accel_mps2.x(), 0.1);
+      }
+    }
+    if (rec.reading.kind != SensorKind::kRangeBearing) continue;
+    for (const Detection& d : std::get<RangeBearingReading>(rec.reading.data).detections) {
+      if (d.id == -1 && d.color == "red") ++by_colour;
+      if (d.id == 7) {
+        EXPECT_EQ(d.color, "blue");
+      }
+    }
+  }
+  EXPECT_EQ(by_colour, 1);
+  EXPECT_EQ(imu, 3);
+  // A landmark particle filter takes a colour-only detection (the best landmark of its colour).
+  const auto replay = testing::locsim("replay " + log.string() + " --out " +
+                                      (testing::temp_dir("replay")).string() +
+                                      " --localizer mcl --localizer ekf_landmarks -q");
+  EXPECT_EQ(replay.exit_code, 0) << replay.output;
 }
 
 }  // namespace

@@ -2,12 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <set>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/yaml_node.hpp"
 #include "sim/producers/text_table.hpp"
+#include "sim/robot/robot_def.hpp"
 #include "sim/world/world_def.hpp"
+#include "sim/world/world_loader.hpp"
 
 namespace locsim {
 
@@ -17,11 +21,36 @@ namespace {
 
 using Layout = TextTable::Layout;
 
+/// The landmarks of map.csv: id -> colour ("" when it has no color column).
+using LandmarkColors = std::map<int, std::string>;
+
+/// robot.yaml: the robot's geometry and its range-bearing sensor's field of view and ranges, where
+/// the data cannot tell them.
+void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
+  const YamlNode root = YamlNode::load_file(file);
+  root.allow_keys({"radius_m", "wheel_base_m", "wheel_radius_m", "range_bearing"});
+  robot.radius_m = root.get_double("radius_m", robot.radius_m, FootprintDef::kRadiusRange);
+  robot.wheel_base_m =
+      root.get_double("wheel_base_m", robot.wheel_base_m, RobotDef::kWheelBaseRange);
+  robot.wheel_radius_m =
+      root.get_double("wheel_radius_m", robot.wheel_radius_m, RobotDef::kWheelRadiusRange);
+  if (const auto sensor = root.find("range_bearing")) {
+    sensor->allow_keys({"fov", "fov_deg", "min_range_m", "max_range_m"});
+    if (sensor->has("fov") || sensor->has("fov_deg"))
+      robot.fov_rad = sensor->get_angle("fov", 0.0, RangeBearingDef::kFovRange);
+    if (sensor->has("min_range_m"))
+      robot.min_range_m = sensor->get_double("min_range_m", 0.0, RangeBearingDef::kRangeRange);
+    if (sensor->has("max_range_m"))
+      robot.max_range_m = sensor->get_double("max_range_m", 0.0, RangeBearingDef::kRangeRange);
+  }
+}
+
 ImportedRobot read_robot(const fs::path& dir, const std::string& name,
-                         const std::set<int>& landmark_ids,
+                         const LandmarkColors& landmarks,
                          const std::vector<std::string>& robot_names) {
   ImportedRobot robot;
   robot.name = name;
+  if (fs::exists(dir / "robot.yaml")) read_robot_yaml(dir / "robot.yaml", robot);
 
   const TextTable odometry(dir / "odometry.csv", Layout::kCsv, {"t"},
                            {"v", "omega", "x", "y", "theta"});
@@ -56,10 +85,13 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
 
   if (fs::exists(dir / "detections.csv")) {
     const TextTable detections(dir / "detections.csv", Layout::kCsv,
-                               {"t", "id", "range", "bearing"}, {"target"});
+                               {"t", "id", "range", "bearing"}, {"target", "color"});
     const int dt = detections.column("t"), id = detections.column("id");
     const int range = detections.column("range"), bearing = detections.column("bearing");
     const int target = detections.column("target");
+    const int color = detections.column("color");
+    std::set<std::string> map_colors;
+    for (const auto& [landmark, c] : landmarks) map_colors.insert(c);
     detections.check_non_decreasing(dt);
     for (const auto& row : detections.rows()) {
       const double t_s = detections.number(row, dt);
@@ -80,8 +112,23 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
       } else if (kind == "landmark" || kind.empty()) {
         d.id =
             static_cast<int>(detections.whole(row, id, -1, static_cast<long long>(kIdRange.max)));
-        if (d.id >= 0 && !landmark_ids.contains(d.id))
+        if (d.id >= 0 && !landmarks.contains(d.id))
           detections.fail(row, id, "landmark " + std::to_string(d.id) + " is not in map.csv");
+        // A detector that tells colours, not identities: id -1 and the colour seen.
+        const std::string seen = color >= 0 ? std::string(detections.text(row, color)) : "";
+        if (!seen.empty()) {
+          if (!map_colors.contains(seen)) {
+            detections.fail(row, color,
+                            "no landmark of colour '" + seen +
+                                "' in map.csv (give map.csv a color column naming each one's)");
+          }
+          if (d.id >= 0 && landmarks.at(d.id) != seen) {
+            detections.fail(row, color,
+                            "landmark " + std::to_string(d.id) + " is " + landmarks.at(d.id) +
+                                " in map.csv, not " + seen);
+          }
+          d.color = seen;
+        }
       } else {
         detections.fail(row, target,
                         "target '" + std::string(kind) + "': expected landmark or robot");
@@ -90,6 +137,24 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
       if (robot.detections.empty() || robot.detections.back().t_s != t_s)
         robot.detections.push_back({t_s, {}});
       robot.detections.back().detections.push_back(d);
+    }
+  }
+
+  if (fs::exists(dir / "imu.csv")) {
+    const TextTable imu(dir / "imu.csv", Layout::kCsv, {"t", "yaw_rate"}, {"accel_x", "accel_y"});
+    const int it = imu.column("t"), yaw = imu.column("yaw_rate");
+    const int ax = imu.column("accel_x"), ay = imu.column("accel_y");
+    if ((ax >= 0) != (ay >= 0)) {
+      throw InputError(SourceLocation{imu.file().string(), imu.rows().front().line - 1}, "",
+                       "the header row names accel_x or accel_y alone: give both or neither");
+    }
+    imu.check_non_decreasing(it);
+    for (const auto& row : imu.rows()) {
+      ImportedRobot::Imu sample;
+      sample.t_s = imu.number(row, it);
+      sample.reading.yaw_rate_radps = imu.number(row, yaw);
+      if (ax >= 0) sample.reading.accel_mps2 = {imu.number(row, ax), imu.number(row, ay)};
+      robot.imu.push_back(sample);
     }
   }
   return robot;
@@ -106,13 +171,22 @@ ImportedDataset read_generic(const fs::path& dir) {
   ImportedDataset dataset;
   const fs::path absolute = fs::absolute(dir).lexically_normal();
   dataset.name = "imported_" + absolute.filename().string();
-  std::set<int> landmark_ids;
+  LandmarkColors landmarks;
   if (fs::exists(dir / "map.csv")) {
-    const TextTable map(dir / "map.csv", Layout::kCsv, {"id", "x", "y"});
+    const TextTable map(dir / "map.csv", Layout::kCsv, {"id", "x", "y"}, {"color"});
+    const int id_column = map.column("id"), x = map.column("x"), y = map.column("y");
+    const int color = map.column("color");
     for (const auto& row : map.rows()) {
-      const int id = static_cast<int>(map.whole(row, 0, 0, static_cast<long long>(kIdRange.max)));
-      if (!landmark_ids.insert(id).second) map.fail(row, 0, "landmark id listed twice");
-      dataset.landmarks.push_back({id, {map.number(row, 1), map.number(row, 2)}});
+      const int id =
+          static_cast<int>(map.whole(row, id_column, 0, static_cast<long long>(kIdRange.max)));
+      const std::string c = color >= 0 ? std::string(map.text(row, color)) : "";
+      if (!c.empty() && !named_colors().contains(c)) {
+        std::string known;
+        for (const auto& [n, rgb] : named_colors()) known += (known.empty() ? "" : ", ") + n;
+        map.fail(row, color, "unknown colour '" + c + "' (known: " + known + ")");
+      }
+      if (!landmarks.emplace(id, c).second) map.fail(row, id_column, "landmark id listed twice");
+      dataset.landmarks.push_back({id, {map.number(row, x), map.number(row, y)}, c});
     }
   }
   std::vector<std::pair<std::string, fs::path>> robots;
@@ -133,7 +207,7 @@ ImportedDataset read_generic(const fs::path& dir) {
   for (const auto& [name, path] : robots) names.push_back(name);
   dataset.source = {{"format", "generic"}, {"path", absolute.string()}, {"robots", names}};
   for (const auto& [name, path] : robots)
-    dataset.robots.push_back(read_robot(path, name, landmark_ids, names));
+    dataset.robots.push_back(read_robot(path, name, landmarks, names));
   return dataset;
 }
 

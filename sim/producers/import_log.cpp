@@ -65,6 +65,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     if (!robot.odometry.empty()) t0 = std::min(t0, robot.odometry.front().t_s);
     if (!robot.truth.empty()) t0 = std::min(t0, robot.truth.front().t_s);
     if (!robot.detections.empty()) t0 = std::min(t0, robot.detections.front().t_s);
+    if (!robot.imu.empty()) t0 = std::min(t0, robot.imu.front().t_s);
   }
   if (!std::isfinite(t0)) throw InputError(where, "", "the dataset holds no readings");
   const double lo = t0 + window.from_s;
@@ -83,6 +84,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     window_samples(robot.odometry, lo, hi);
     window_samples(robot.truth, lo, hi);
     window_samples(robot.detections, lo, hi);
+    window_samples(robot.imu, lo, hi);
     if (!robot.start) {
       if (robot.truth.empty()) {
         throw InputError(where, "",
@@ -95,6 +97,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     if (!robot.odometry.empty()) end_s = std::max(end_s, robot.odometry.back().t_s);
     if (!robot.truth.empty()) end_s = std::max(end_s, robot.truth.back().t_s);
     if (!robot.detections.empty()) end_s = std::max(end_s, robot.detections.back().t_s);
+    if (!robot.imu.empty()) end_s = std::max(end_s, robot.imu.back().t_s);
     for (const auto& reading : robot.detections) {
       for (const Detection& d : reading.detections) {
         max_bearing_rad = std::max(max_bearing_rad, std::abs(d.bearing_rad));
@@ -124,7 +127,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
   if (!dataset.landmarks.empty()) yaml += "landmarks:\n";
   for (std::size_t i = 0; i < dataset.landmarks.size(); ++i) {
     const ImportedLandmark& l = dataset.landmarks[i];
-    const char* color = kPalette[i % kPalette.size()];
+    const std::string color = l.color.empty() ? kPalette[i % kPalette.size()] : l.color;
     colors[l.id] = color;
     yaml += "  - {id: " + std::to_string(l.id) + ", position: [" + number(l.position_m.x()) + ", " +
             number(l.position_m.y()) + "], color: " + color + ", radius_m: 0.05}\n";
@@ -150,6 +153,11 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     // Nominal rates (the readings keep the dataset's own times).
     yaml += "      encoders: {rate_hz: " + number(nominal_rate_hz(robot.odometry)) +
             ", reports: [" + report_list + "]}\n";
+    if (!robot.imu.empty()) {
+      // Nominal rate; the readings keep the dataset's times. No noise settings: the data have
+      // their own.
+      yaml += "      imu: {rate_hz: " + number(nominal_rate_hz(robot.imu)) + "}\n";
+    }
     yaml += "      range_bearing: {rate_hz: " + number(nominal_rate_hz(robot.detections)) +
             ", fov: " + number(robot.fov_rad.value_or(fov_rad)) +
             ", min_range_m: " + number(robot.min_range_m.value_or(min_m)) +
@@ -173,7 +181,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     double t_s;
     int cls;  // 0 reading, 1 ground truth
     std::size_t robot;
-    int kind;  // 0 odometry, 1 detections
+    int kind;  // 0 odometry, 1 IMU, 2 detections (the simulator's order: encoders, IMU, cameras)
     std::size_t index;
     bool operator<(const Entry& o) const {
       return std::tie(t_s, cls, robot, kind, index) <
@@ -185,8 +193,10 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     const ImportedRobot& robot = dataset.robots[r];
     for (std::size_t i = 0; i < robot.odometry.size(); ++i)
       order.push_back({robot.odometry[i].t_s, 0, r, 0, i});
+    for (std::size_t i = 0; i < robot.imu.size(); ++i)
+      order.push_back({robot.imu[i].t_s, 0, r, 1, i});
     for (std::size_t i = 0; i < robot.detections.size(); ++i)
-      order.push_back({robot.detections[i].t_s, 0, r, 1, i});
+      order.push_back({robot.detections[i].t_s, 0, r, 2, i});
     for (std::size_t i = 0; i < robot.truth.size(); ++i)
       order.push_back({robot.truth[i].t_s, 1, r, 0, i});
   }
@@ -224,6 +234,10 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
           record.reading.kind = SensorKind::kEncoders;
           record.reading.data = robot.odometry[e.index].reading;
           ++summary.odometry;
+        } else if (e.kind == 1) {
+          record.reading.kind = SensorKind::kImu;
+          record.reading.data = robot.imu[e.index].reading;
+          ++summary.imu;
         } else {
           record.reading.kind = SensorKind::kRangeBearing;
           RangeBearingReading reading{robot.detections[e.index].detections};
@@ -254,12 +268,13 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
 std::string describe(const ImportSummary& s) {
   std::string robots;
   for (const std::string& name : s.robots) robots += (robots.empty() ? "" : ", ") + name;
-  std::string text = std::to_string(s.records) + " records (" + std::to_string(s.odometry) +
-                     " odometry, " + std::to_string(s.detection_readings) +
-                     " detection readings with " + std::to_string(s.detections) + " detections, " +
-                     std::to_string(s.ground_truth) + " true poses) of " +
-                     std::to_string(s.robots.size()) + " robots (" + robots + "), " +
-                     fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) + " s";
+  std::string text =
+      std::to_string(s.records) + " records (" + std::to_string(s.odometry) + " odometry, " +
+      (s.imu > 0 ? std::to_string(s.imu) + " IMU, " : std::string()) +
+      std::to_string(s.detection_readings) + " detection readings with " +
+      std::to_string(s.detections) + " detections, " + std::to_string(s.ground_truth) +
+      " true poses) of " + std::to_string(s.robots.size()) + " robots (" + robots + "), " +
+      fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) + " s";
   std::size_t dropped = 0;
   std::string reasons;
   for (const auto& [reason, count] : s.dropped) {

@@ -19,6 +19,7 @@ namespace locsim {
 struct ImportedLandmark {
   int id = 0;
   Vec2 position_m{0.0, 0.0};
+  std::string color = {};  // a named colour (world_loader named_colors); empty: one in turn
 };
 
 /// One robot's data; times as the dataset gives them (absolute or relative) [s].
@@ -36,9 +37,14 @@ struct ImportedRobot {
     double t_s = 0.0;
     std::vector<Detection> detections;
   };
+  struct Imu {
+    double t_s = 0.0;
+    ImuReading reading;
+  };
   std::vector<Odometry> odometry;  // each in time order
   std::vector<StampedPose> truth;
   std::vector<Detections> detections;
+  std::vector<Imu> imu;        // none: the robot has no IMU
   std::optional<Pose2> start;  // default: the first true pose in the window
   // The range-bearing sensor's settings; unset ones are taken from the imported detections
   // (every robot's: one camera model), or the sensor's defaults when there are none.
@@ -69,7 +75,7 @@ struct ImportWindow {
 
 struct ImportSummary {
   std::size_t records = 0;  // written, the end record not counted
-  std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0;
+  std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0, imu = 0;
   std::vector<std::string> robots;
   double t0_s = 0.0;        // the log's time 0 in the dataset's times
   double duration_s = 0.0;  // of the log

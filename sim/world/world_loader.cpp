@@ -13,6 +13,16 @@
 
 namespace locsim {
 
+const std::map<std::string, Rgb>& named_colors() {
+  static const std::map<std::string, Rgb> kNamed = {
+      {"red", {230, 25, 25}},     {"green", {20, 170, 40}},   {"blue", {30, 80, 230}},
+      {"yellow", {240, 210, 20}}, {"cyan", {20, 200, 220}},   {"magenta", {220, 40, 200}},
+      {"orange", {255, 130, 0}},  {"purple", {120, 40, 170}}, {"white", {245, 245, 245}},
+      {"black", {20, 20, 20}},    {"pink", {255, 140, 180}},  {"brown", {130, 80, 30}},
+  };
+  return kNamed;
+}
+
 namespace {
 
 bool is_convex_ccw(const std::vector<Vec2>& points) {
@@ -68,12 +78,7 @@ std::vector<Vec2> convex_polygon(const YamlNode& node, const Range& range, doubl
 constexpr double kMinStaticPolygonAreaM2 = 1e-6;
 
 Rgb parse_color(const YamlNode& node, std::string& name_out) {
-  static const std::map<std::string, Rgb> kNamed = {
-      {"red", {230, 25, 25}},     {"green", {20, 170, 40}},   {"blue", {30, 80, 230}},
-      {"yellow", {240, 210, 20}}, {"cyan", {20, 200, 220}},   {"magenta", {220, 40, 200}},
-      {"orange", {255, 130, 0}},  {"purple", {120, 40, 170}}, {"white", {245, 245, 245}},
-      {"black", {20, 20, 20}},    {"pink", {255, 140, 180}},  {"brown", {130, 80, 30}},
-  };
+  const std::map<std::string, Rgb>& kNamed = named_colors();
   if (node.is_scalar()) {
     name_out = node.as_string();
     const auto it = kNamed.find(name_out);

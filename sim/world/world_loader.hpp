@@ -2,6 +2,8 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
+#include <string>
 
 #include "sim/common/yaml_node.hpp"
 #include "sim/world/world_def.hpp"
@@ -11,6 +13,9 @@ namespace locsim {
 /// Reads and checks a world file, including a referenced ROS map and an inline scenario.
 /// Throws InputError.
 WorldDef load_world(const std::filesystem::path& file);
+
+/// The colours a world names (`color: red`), with the RGB they draw with.
+const std::map<std::string, Rgb>& named_colors();
 /// The same from an already parsed document; relative paths resolve against `base_dir`.
 WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir);
 
