@@ -235,6 +235,45 @@ TEST(LogExperiment, SeedsDefaultToEachLogsOwn) {
                                            "ekf_landmarks/b/seed-0"}));
 }
 
+TEST(LogExperiment, EachNamedRobotOfALogIsRunAsALogOfItsOwn) {
+  const fs::path dir = testing::temp_dir("robots");
+  write_circle_log(dir / "pair.locsimlog", "pair", 2);
+  const ExperimentDef experiment = load_experiment(
+      write_log_experiment(dir, "[{file: pair.locsimlog, robots: [robot2, robot1]}]", "[4]"));
+  std::vector<std::string> ids;
+  for (const RunUnit& run : expand_runs(experiment)) ids.push_back(run.id);
+  EXPECT_EQ(ids, (std::vector<std::string>{"mcl/pair-robot2/seed-4", "mcl/pair-robot1/seed-4",
+                                           "ekf_landmarks/pair-robot2/seed-4",
+                                           "ekf_landmarks/pair-robot1/seed-4"}));
+  const testing::Outcome sweep = testing::locsim("sweep " + (dir / "experiment.yaml").string() +
+                                                 " --out " + (dir / "out").string() + " --jobs 2");
+  ASSERT_EQ(sweep.exit_code, 0) << sweep.output;
+  const auto rows = read_csv(dir / "out" / "results.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  for (const auto& row : rows) EXPECT_EQ(row.at("status"), "ok") << row.at("id");
+
+  // A replay of one robot scores what that robot scores in a replay of the whole log (the EKF is
+  // deterministic): the same records, renumbered.
+  const auto whole = testing::locsim("replay " + (dir / "pair.locsimlog").string() + " --out " +
+                                     (dir / "whole").string() + " --localizer ekf_landmarks -q");
+  ASSERT_EQ(whole.exit_code, 0) << whole.output;
+  const auto one =
+      testing::locsim("replay " + (dir / "pair.locsimlog").string() + " --out " +
+                      (dir / "one").string() + " --localizer ekf_landmarks --robots robot2 -q");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const json in_whole = json::parse(testing::read_file(dir / "whole" / "robot2" / "metrics.json"));
+  const json alone = json::parse(testing::read_file(dir / "one" / "metrics.json"));
+  EXPECT_EQ(alone["localizers"][0]["position_error_m"]["rms"],
+            in_whole["localizers"][0]["position_error_m"]["rms"]);
+  EXPECT_EQ(json::parse(testing::read_file(dir / "one" / "run.json"))["replayed_robots"],
+            json::array({"robot2"}));
+  const auto nobody = testing::locsim("replay " + (dir / "pair.locsimlog").string() + " --out " +
+                                      (dir / "none").string() + " --robots nobody -q");
+  EXPECT_EQ(nobody.exit_code, 2);
+  testing::expect_contains(nobody.output, "no robot named 'nobody' in the log (its robots: ");
+  EXPECT_FALSE(fs::exists(dir / "none"));
+}
+
 TEST(LogExperiment, BadLogsAreReportedWhereTheExperimentNamesThem) {
   const fs::path dir = testing::temp_dir("bad_logs");
   write_circle_log(dir / "a.locsimlog", "a");
@@ -262,6 +301,12 @@ TEST(LogExperiment, BadLogsAreReportedWhereTheExperimentNamesThem) {
                            "experiment.yaml:2:8: 'logs[0]': " + (dir / "cut.locsimlog").string());
   testing::expect_contains(error_of(write_log_experiment(dir, "[pair.locsimlog]")),
                            "experiment.yaml:2:8: 'logs[0]': the log has 2 robots");
+  testing::expect_contains(
+      error_of(write_log_experiment(dir, "[{file: pair.locsimlog, robots: [robot1, nobody]}]")),
+      "'logs[0].robots[1]': no robot named 'nobody' in the log (its robots: robot1, robot2)");
+  testing::expect_contains(
+      error_of(write_log_experiment(dir, "[{file: pair.locsimlog, robot: [robot1]}]")),
+      "'logs[0].robot'");
   testing::expect_contains(error_of(write_log_experiment(dir, "[]")),
                            "'logs': give at least one log");
 

@@ -84,30 +84,56 @@ ExperimentDef load_experiment(const fs::path& file) {
       }
     }
     for (const YamlNode& item : logs->items()) {
-      const fs::path path = input_file(item);
-      std::size_t robots = 0;
+      // A log's file, or {file, robots: [names]} for a log of several robots: each robot a log
+      // of its own in the runs and results (the log replayed as if it held only that robot).
+      std::optional<YamlNode> robots_node;
+      YamlNode file_node = item;
+      if (item.is_map()) {
+        item.allow_keys({"file", "robots"});
+        file_node = item["file"];
+        robots_node = item["robots"];
+      }
+      const fs::path path = input_file(file_node);
+      std::vector<std::string> names;
       std::uint64_t seed = 0;
       try {
         const LogSource source(path);  // reads the header and the end record only
-        robots = source.world().robots.size();
+        for (const RobotDef& r : source.world().robots) names.push_back(r.name);
         seed = source.seed();
       } catch (const InputError& error) {
-        item.fail(error.what());
+        file_node.fail(error.what());
       }
-      // Each run's result is one robot's metrics (its run folder's metrics.json).
-      if (robots != 1) {
-        item.fail("the log has " + std::to_string(robots) +
-                  " robots; an experiment scores one robot per log: import each robot into a log "
+      std::vector<std::string> robots;
+      if (robots_node) {
+        for (const YamlNode& name : robots_node->items()) {
+          const std::string robot = name.as_string();
+          if (std::find(names.begin(), names.end(), robot) == names.end()) {
+            std::string known;
+            for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+            name.fail("no robot named '" + robot + "' in the log (its robots: " + known + ")");
+          }
+          robots.push_back(robot);
+        }
+        if (robots.empty()) robots_node->fail("name at least one robot");
+      } else if (names.size() != 1) {
+        // Each run's result is one robot's metrics (its run folder's metrics.json).
+        item.fail("the log has " + std::to_string(names.size()) +
+                  " robots; an experiment scores one robot per run: name them, as {file: " +
+                  path.filename().string() +
+                  ", robots: [...]} (each robot's runs apart), or import each robot into a log "
                   "of its own (`locsim import mrclam SOURCE --robots N`)");
       }
-      const std::string stem = path.stem().string();
-      for (const ExperimentLog& other : e.logs) {
-        if (other.stem == stem) {
-          item.fail("the file name '" + stem + "' is also that of '" + other.file.string() +
-                    "'; the runs are named after it: rename one");
+      if (robots.empty()) robots.push_back("");
+      for (const std::string& robot : robots) {
+        const std::string stem = path.stem().string() + (robot.empty() ? "" : "-" + robot);
+        for (const ExperimentLog& other : e.logs) {
+          if (other.stem == stem) {
+            item.fail("the file name '" + stem + "' is also that of '" + other.file.string() +
+                      "'; the runs are named after it (and the robot): rename one");
+          }
         }
+        e.logs.push_back({path, stem, seed, robot});
       }
-      e.logs.push_back({path, stem, seed});
     }
     if (e.logs.empty()) logs->fail("give at least one log");
   } else {
@@ -242,7 +268,10 @@ ExperimentDef load_experiment(const fs::path& file) {
     }
   }
   // The logs are inputs like the world: a resume or merge must see one change.
-  for (const ExperimentLog& log : e.logs) e.files.push_back(log.file);
+  for (const ExperimentLog& log : e.logs) {
+    if (std::find(e.files.begin(), e.files.end(), log.file) == e.files.end())
+      e.files.push_back(log.file);
+  }
   return e;
 }
 

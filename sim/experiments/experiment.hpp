@@ -32,9 +32,11 @@ struct LocalizerConfig {
 
 /// A recorded log an experiment replays (`logs:`), e.g. one `locsim import` wrote.
 struct ExperimentLog {
-  std::filesystem::path file;       // resolved against the experiment file
-  std::string stem;                 // its file name without extension: names its runs, unique
+  std::filesystem::path file;  // resolved against the experiment file
+  // Its file name without extension, and "-ROBOT" with `robot`: names its runs, unique.
+  std::string stem;
   std::uint64_t recorded_seed = 0;  // the log's own seed: the default of `seeds:`
+  std::string robot;  // of a log of several robots, the one replayed (`replay --robots`)
 };
 
 struct ExperimentDef {

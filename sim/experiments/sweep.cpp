@@ -664,6 +664,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       task.args.insert(task.args.end(), {"--params", run.config->params_file->string()});
     // A simulated seed's log was recorded with that seed; a recorded log gets the run's.
     if (run.log != nullptr) task.args.insert(task.args.end(), {"--seed", std::to_string(run.seed)});
+    if (run.log != nullptr && !run.log->robot.empty())
+      task.args.insert(task.args.end(), {"--robots", run.log->robot});
     return task;
   };
   for (const RunUnit* run : pending) {

@@ -1,6 +1,8 @@
 #include "sim/producers/log_source.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 #include <type_traits>
 #include <variant>
 
@@ -14,7 +16,7 @@ namespace locsim {
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
-LogSource::LogSource(const fs::path& file) : reader_(file) {
+LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robots) : reader_(file) {
   reader_.check_end();  // a cut log is refused before any output exists
   const json& header = reader_.header();
   const auto fail = [&](const std::string& problem) {
@@ -48,11 +50,82 @@ LogSource::LogSource(const fs::path& file) : reader_(file) {
     fail(std::string("lacks a field or has one of another type: ") + e.what());
   }
   bind_scenario(scenario_, world_);
+  if (robots.empty()) return;
+
+  // The view: the robots asked for, in the world's order; the scenario's parts about the others
+  // dropped (a replay drives nothing: they only name robots).
+  view_index_.assign(world_.robots.size(), -1);
+  std::set<std::string> wanted(robots.begin(), robots.end());
+  WorldDef view = world_;
+  view.robots.clear();
+  for (std::size_t i = 0; i < world_.robots.size(); ++i) {
+    if (!wanted.erase(world_.robots[i].name)) continue;
+    view_index_[i] = static_cast<int>(view.robots.size());
+    view.robots.push_back(world_.robots[i]);
+  }
+  if (!wanted.empty()) {
+    std::string names;
+    for (const RobotDef& r : world_.robots) names += (names.empty() ? "" : ", ") + r.name;
+    throw InputError(
+        SourceLocation{file.string()}, "",
+        "no robot named '" + *wanted.begin() + "' in the log (its robots: " + names + ")");
+  }
+  const auto kept = [&](const std::string& name) {
+    return std::any_of(view.robots.begin(), view.robots.end(),
+                       [&](const RobotDef& r) { return r.name == name; });
+  };
+  std::erase_if(scenario_.drives, [&](const DriveDef& d) { return !kept(d.robot); });
+  std::erase_if(scenario_.pan_policies, [&](const PanPolicyDef& p) { return !kept(p.robot); });
+  std::erase_if(scenario_.events,
+                [&](const EventDef& e) { return !e.robot.empty() && !kept(e.robot); });
+  view_ = std::move(view);
 }
 
 bool LogSource::next(Record& record) {
-  if (!reader_.next(record)) return false;
-  check(record);
+  do {
+    if (!reader_.next(record)) return false;
+    check(record);
+  } while (view_ && !to_view(record));
+  return true;
+}
+
+bool LogSource::to_view(Record& record) const {
+  const auto index = [&](int recorded) {
+    return recorded < 0 ? -1 : view_index_[static_cast<std::size_t>(recorded)];
+  };
+  switch (record.type) {
+    case Record::Type::kReading: {
+      record.reading.robot = index(record.reading.robot);
+      if (record.reading.robot < 0) return false;
+      std::visit(
+          [&](auto& data) {
+            using T = std::decay_t<decltype(data)>;
+            if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading> ||
+                          std::is_same_v<T, RangeBearingReading>) {
+              std::erase_if(data.detections, [&](Detection& d) {
+                if (d.target != DetectionTarget::kRobot) return false;
+                // Dropped when it is of a robot the view does not hold.
+                const int seen = d.id >= 0 ? d.id : d.truth_id;
+                if (seen >= 0 && index(seen) < 0) return true;
+                if (d.id >= 0) d.id = index(d.id);
+                if (d.truth_id >= 0) d.truth_id = index(d.truth_id);
+                return false;
+              });
+            }
+          },
+          record.reading.data);
+      return true;
+    }
+    case Record::Type::kGroundTruth:
+      record.robot = index(record.robot);
+      return record.robot >= 0;
+    case Record::Type::kEvent:
+      if (record.robot < 0) return true;  // about the world, not a robot
+      record.robot = index(record.robot);
+      return record.robot >= 0;
+    case Record::Type::kEnd:
+      return true;
+  }
   return true;
 }
 

@@ -5,6 +5,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/stream/log_file.hpp"
@@ -15,8 +18,12 @@ namespace locsim {
 class LogSource {
  public:
   /// Opens the log and rebuilds its world. Throws InputError naming the file and the problem.
-  explicit LogSource(const std::filesystem::path& file);
-  const WorldDef& world() const { return world_; }
+  /// With `robots` (names), the log as if it held only those robots, in the world's order: the
+  /// others' readings, true poses and events are skipped, and detections of them dropped (the
+  /// kept robots' detections of robots renumbered). Empty: every robot.
+  explicit LogSource(const std::filesystem::path& file,
+                     const std::vector<std::string>& robots = {});
+  const WorldDef& world() const { return view_ ? *view_ : world_; }
   const ScenarioDef& scenario() const { return scenario_; }
   std::uint64_t seed() const { return seed_; }
   const nlohmann::ordered_json& header() const { return reader_.header(); }
@@ -31,8 +38,12 @@ class LogSource {
   /// What a reading of a sensor the robot has may hold: odometry fields as its encoders report,
   /// receivers and beams it has, detected robots that are other robots of the world.
   void check_contents(const Record& record, const RobotDef& robot) const;
+  /// Renumbers a checked record for the view; false when it is not in it.
+  bool to_view(Record& record) const;
   LogReader reader_;
-  WorldDef world_;
+  WorldDef world_;                // as recorded: the records are checked against it
+  std::optional<WorldDef> view_;  // with the robots asked for only
+  std::vector<int> view_index_;   // recorded robot index -> the view's, or -1
   ScenarioDef scenario_;
   std::uint64_t seed_ = 0;
 };

@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt) {
-  LogSource source(options.log_file);
+  LogSource source(options.log_file, options.robots);
   RunFolder::check(options.out_dir, options.overwrite);
   const std::uint64_t seed = options.seed.value_or(source.seed());
   Session session(options, source.world(), source.scenario(), seed, interrupt);
@@ -85,6 +85,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   run["recorded_with"] = header.value("locsim_version", "");
   run["seed"] = seed;  // the localizers' (--seed), by default the log's
   run["recorded_seed"] = source.seed();
+  if (!options.robots.empty()) run["replayed_robots"] = options.robots;
   run["world_file"] = header.value("world_file", "");
   run["scenario_file"] = source.scenario().source.string();
   if (options.params_file) run["params_file"] = options.params_file->string();

@@ -24,6 +24,8 @@ struct ReplayOptions : SessionOptions {
   /// The seed the localizers' random streams (their seeds and the initial guess) derive from;
   /// default: the log's, so that a replay of a run gives that run's estimates byte for byte.
   std::optional<std::uint64_t> seed;
+  /// The robots to replay, by name (the log as if it held only them); empty: all.
+  std::vector<std::string> robots;
 };
 
 struct ReplayResult {

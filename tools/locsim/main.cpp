@@ -536,6 +536,10 @@ int main(int argc, char** argv) {
                    "from; default: the log's own, so that a replay of a run repeats its estimates "
                    "exactly. Another seed varies the particle filters, not the deterministic ones")
       ->transform(whole_number_in(0, std::numeric_limits<std::uint64_t>::max()));
+  std::string replay_robots = "all";
+  replay->add_option("--robots", replay_robots,
+                     "Replay only these robots, by name, as robot1,robot3 (the log as if it held "
+                     "only them); or all");
   add_session_options(replay, replay_options);
   VideoCli replay_video;
   add_video_options(replay, replay_video, replay_options.video_options);
@@ -733,6 +737,7 @@ int main(int argc, char** argv) {
     }
     if (*replay) {
       replay_options.out_dir = replay_out;
+      replay_options.robots = robot_names(replay_robots);
       replay_options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
       replay_options.isolate = isolation == "process";
       const std::shared_ptr<locsim::FrameSink> recorder =
