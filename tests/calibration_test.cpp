@@ -75,6 +75,45 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
 
 INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));
 
+TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
+  // The noisy world's detections (errors correlated over 0.5 s, 0.3 false ones per reading) make
+  // the truth's own w_fast / w_slow dip below 1 all the time: with Thrun's rule (level 1)
+  // augmented_mcl injects uniform guesses while it tracks, and they cost it the pose. The level
+  // `calibrate` writes is where the truth's ratio almost never goes.
+  const fs::path dir = testing::temp_dir("calibrate_injection");
+  const fs::path log = record_noisy_run(dir, 3);
+  const auto cal =
+      testing::locsim("calibrate " + log.string() + " --out " + (dir / "cal").string());
+  ASSERT_EQ(cal.exit_code, 0) << cal.output;
+  const YAML::Node yaml = YAML::LoadFile((dir / "cal/calibration.yaml").string());
+  const YAML::Node augmented = yaml["localizer_params"]["augmented_mcl"];
+  ASSERT_TRUE(augmented["injection_level"]);
+  const double level = augmented["injection_level"].as<double>();
+  EXPECT_GT(level, 0.0);
+  EXPECT_LT(level, 0.9);
+  EXPECT_DOUBLE_EQ(augmented["alpha_slow"].as<double>(), kAugmentedAlphaSlow);
+  EXPECT_DOUBLE_EQ(augmented["alpha_fast"].as<double>(), kAugmentedAlphaFast);
+
+  const auto replay =
+      testing::locsim("replay " + log.string() + " --out " + (dir / "replay").string() +
+                      " --params " + (dir / "cal/calibration.yaml").string() +
+                      " --localizer augmented_mcl"
+                      " --localizer augmented_mcl:injection_level=1@thrun -q");
+  ASSERT_EQ(replay.exit_code, 0) << replay.output;
+  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "replay/metrics.json"));
+  const auto& calibrated = metrics.at("localizers").at(0);
+  const auto& thrun = metrics.at("localizers").at(1);
+  ASSERT_EQ(calibrated.at("status"), "ok");
+  ASSERT_EQ(thrun.at("status"), "ok");
+  EXPECT_DOUBLE_EQ(calibrated.at("params").at("injection_level").get<double>(), level);
+  const double calibrated_resets = calibrated.at("diagnostics_mean").at("resets").get<double>();
+  const double thrun_resets = thrun.at("diagnostics_mean").at("resets").get<double>();
+  EXPECT_GT(thrun_resets, 5.0);  // of 200 particles, per step
+  EXPECT_LT(calibrated_resets, 0.25 * thrun_resets);
+  EXPECT_LT(calibrated.at("position_error_m").at("rms").get<double>(),
+            thrun.at("position_error_m").at("rms").get<double>());
+}
+
 /// A robot whose odometry reports designed motions (drives, turns on the spot, arcs) while its
 /// true path follows them with the odometry model's noise, alphas `noise` (standard-deviation
 /// form): what a landmark particle filter assumes. Detections (exact) of every landmark in 6 m

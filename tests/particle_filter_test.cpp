@@ -97,6 +97,35 @@ TEST(ParticleFilters, AsrlRecoversFromKidnapsWhereMclCannot) {
   EXPECT_GE(asrl_recovered, kidnaps - 1);
 }
 
+TEST(ParticleFilters, AugmentedMclInjectingFromTheDetectionsRecoversAsResettingDoes) {
+  // Thrun's uniform guesses rarely land on a kidnapped robot's pose in 40 steps; drawn from the
+  // detections (injection=sensors, as the resets are) they do, at augmented MCL's own rate.
+  int uniform_recovered = 0, sensors_recovered = 0, kidnaps = 0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const auto metrics =
+        run_field("kidnap.yaml", seed, 60.0,
+                  {"augmented_mcl:particles=400," + kCalibrated + "@uniform",
+                   "augmented_mcl:particles=400,injection=sensors," + kCalibrated + "@sensors"},
+                  testing::temp_dir("pf-augmented") / ("seed" + std::to_string(seed)));
+    for (const auto& l : metrics["localizers"]) {
+      ASSERT_EQ(l["status"], "ok");
+      ASSERT_EQ(l["segments"].size(), 3u);
+      for (std::size_t k = 1; k < 3; ++k) {
+        const auto& steps = l["segments"][k]["recovery_steps"];
+        const int recovered = !steps.is_null() && steps.get<long>() <= 40 ? 1 : 0;
+        if (l["label"] == "uniform") {
+          uniform_recovered += recovered;
+        } else {
+          ++kidnaps;
+          sensors_recovered += recovered;
+        }
+      }
+    }
+  }
+  EXPECT_GE(sensors_recovered, kidnaps - 1);
+  EXPECT_LT(uniform_recovered, sensors_recovered);
+}
+
 TEST(ParticleFilters, FalseDetectionsAreRejectedOrOutwaitedInsteadOfResetOnto) {
   // The field with a phantom in 3 % of the camera's frames (a landmark's colour at a random range
   // and bearing). As the paper has it, ASRL resets onto the phantom's ring and loses the pose; with

@@ -178,6 +178,20 @@ TEST(Sweep, ShardsMergedEqualTheWholeSweep) {
             testing::read_file(dir / "whole/results.csv"));
   EXPECT_EQ(testing::read_file(dir / "merged/summary.csv"),
             testing::read_file(dir / "whole/summary.csv"));
+  // With every run's folder, as the whole sweep's (what `locsim report` draws from): its
+  // metrics.json, and its trajectories byte for byte (metrics.json also holds timings).
+  std::size_t runs = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir / "whole/runs")) {
+    const fs::path relative = fs::relative(entry.path(), dir / "whole");
+    if (entry.path().filename() == "metrics.json") {
+      ++runs;
+      EXPECT_TRUE(fs::exists(dir / "merged" / relative)) << relative;
+    } else if (entry.path().extension() == ".tum") {
+      EXPECT_EQ(testing::read_file(dir / "merged" / relative), testing::read_file(entry.path()))
+          << relative;
+    }
+  }
+  EXPECT_EQ(runs, 9u);
   // Another experiment's folder cannot be merged in.
   const fs::path other_dir = dir / "other_experiment";
   fs::create_directories(other_dir);
@@ -573,6 +587,13 @@ TEST(Experiment, MalformedFilesAreReportedWhereTheyAreWrong) {
       std::string::npos);
   EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: odometry}]\ntimeout_s: 1e300\n")
                 .find("bad.yaml:4:12: 'timeout_s': 1e+300 s is outside [0.01, 10000000] s"),
+            std::string::npos);
+  // Several robots in the world: every run would end without a result (a folder per robot).
+  EXPECT_NE(error(std::string("world: ") + LOCSIM_SOURCE_DIR +
+                  "/tests/data/every_key/world.yaml\nseeds: [1]\nlocalizers: [{plugin: "
+                  "odometry}]\n")
+                .find("bad.yaml:1:8: 'world': the world has 3 robots; an experiment scores one "
+                      "robot per run"),
             std::string::npos);
   // Grid values the plugin might never see: run keeps one value per parameter.
   EXPECT_NE(error(world + "seeds: [1]\nlocalizers: [{plugin: ekf_landmarks, params: {gate_chi2: "

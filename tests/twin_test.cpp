@@ -138,33 +138,28 @@ TEST(TrajectoryDrive, FollowsTimedPosesWithinCentimetresInlineOrFromATumFile) {
   EXPECT_LT((from_file.back().pose.position() - path.back().pose.position()).norm(), 0.03);
 
   // Bad input names the file, line and key.
+  const auto load_error = [](const fs::path& world) {
+    try {
+      load_run_inputs(world, std::nullopt, std::nullopt);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
   std::ofstream(dir / "both.yaml")
       << trajectory_world("{mode: trajectory, poses_file: path.tum, poses: [[0, 2, 2, 0]]}");
-  try {
-    load_run_inputs(dir / "both.yaml", std::nullopt, std::nullopt);
-    ADD_FAILURE() << "poses and poses_file together were accepted";
-  } catch (const InputError& e) {
-    testing::expect_contains(e.what(), "either 'poses' or 'poses_file'");
-  }
+  testing::expect_contains(load_error(dir / "both.yaml"), "either 'poses' or 'poses_file'");
   std::ofstream(dir / "short.yaml")
       << trajectory_world("{mode: trajectory, poses: [[0, 2, 2, 0], [1, 2.5, 2]]}");
-  try {
-    load_run_inputs(dir / "short.yaml", std::nullopt, std::nullopt);
-    ADD_FAILURE() << "a pose of three numbers was accepted";
-  } catch (const InputError& e) {
-    testing::expect_contains(e.what(), "scenario.drive.poses[1]");
-    testing::expect_contains(e.what(), "[t_s, x_m, y_m, theta_rad]");
-  }
+  const std::string short_pose = load_error(dir / "short.yaml");
+  testing::expect_contains(short_pose, "scenario.drive.poses[1]");
+  testing::expect_contains(short_pose, "[t_s, x_m, y_m, theta_rad]");
   std::ofstream(dir / "repeat.tum") << "0 2 2 0 0 0 0 1\n1 2.1 2 0 0 0 0 1\n1 2.2 2 0 0 0 0 1\n";
   std::ofstream(dir / "repeat.yaml")
       << trajectory_world("{mode: trajectory, poses_file: repeat.tum}");
-  try {
-    load_run_inputs(dir / "repeat.yaml", std::nullopt, std::nullopt);
-    ADD_FAILURE() << "a repeated time was accepted";
-  } catch (const InputError& e) {
-    testing::expect_contains(e.what(), "repeat.tum:3");
-    testing::expect_contains(e.what(), "times must increase");
-  }
+  const std::string repeated = load_error(dir / "repeat.yaml");
+  testing::expect_contains(repeated, "repeat.tum:3");
+  testing::expect_contains(repeated, "times must increase");
 }
 
 struct LogCounts {
@@ -289,6 +284,15 @@ TEST(Twin, CommandLineIsDeterministicAndRefusesBadInput) {
   testing::expect_contains(bad.output, "not_calibration.yaml");
   testing::expect_contains(bad.output, "sensors");
   EXPECT_FALSE(fs::exists(dir / "c.yaml"));
+  // A setting that is not a number: at its line in the calibration, before anything is written.
+  std::ofstream(dir / "text_calibration.yaml")
+      << "sensors:\n  range_bearing:\n    miss_probability: often\n";
+  const auto text = testing::locsim(twin + (dir / "d.yaml").string() + " --calibration " +
+                                    (dir / "text_calibration.yaml").string());
+  EXPECT_EQ(text.exit_code, 2);
+  testing::expect_contains(text.output, "text_calibration.yaml:3:");
+  testing::expect_contains(text.output, "range_bearing.miss_probability");
+  EXPECT_FALSE(fs::exists(dir / "d.yaml"));
 }
 
 }  // namespace

@@ -7,11 +7,19 @@ class AugmentedMcl final : public locsim::particle_filters::LandmarkParticleFilt
   explicit AugmentedMcl(const locsim_init& init)
       : LandmarkParticleFilter(init, locsim::particle_filters::Recovery::kAugmented) {}
 };
-constexpr locsim_param_decl kParams[] = {LOCSIM_LANDMARK_PF_PARAMS,
-                                         {"alpha_slow", LOCSIM_PARAM_DOUBLE, 0.001, 0, 1, nullptr,
-                                          "long-term likelihood average rate [-]"},
-                                         {"alpha_fast", LOCSIM_PARAM_DOUBLE, 0.1, 0, 1, nullptr,
-                                          "short-term likelihood average rate [-]"}};
+constexpr locsim_param_decl kParams[] = {
+    LOCSIM_LANDMARK_PF_PARAMS,
+    {"alpha_slow", LOCSIM_PARAM_DOUBLE, 0.001, 0, 1, nullptr,
+     "long-term likelihood average rate [-]"},
+    {"alpha_fast", LOCSIM_PARAM_DOUBLE, 0.1, 0, 1, nullptr,
+     "short-term likelihood average rate [-]"},
+    {"injection_level", LOCSIM_PARAM_DOUBLE, 1.0, 1e-6, 1, nullptr,
+     "inject 1 - w_fast / (level w_slow) of the particles "
+     "(1: Thrun; locsim calibrate measures it) [-]"},
+    {"injection", LOCSIM_PARAM_STRING, 0, 0, 0, "uniform",
+     "where injected particles come from: uniform over the "
+     "free space (Thrun) or sensors, poses that fit the "
+     "step's detections (as srl resets)"}};
 }  // namespace
 
 LOCSIM_LOCALIZER(AugmentedMcl, "augmented_mcl", "MCL with w_slow/w_fast random injection (Thrun)",

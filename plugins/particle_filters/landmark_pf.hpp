@@ -123,7 +123,8 @@ class LandmarkParticleFilter : public sdk::Localizer {
   std::size_t reset_min_detections_ = 1;
   // Recovery parameters.
   double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
-  double w_slow_ = 0.0, w_fast_ = 0.0;
+  double w_slow_ = 0.0, w_fast_ = 0.0, injection_level_ = 1.0;
+  bool inject_uniform_ = true;  // augmented_mcl: uniform (Thrun) or from the detections
   std::vector<Landmark> landmarks_;
   locsim_occupancy_grid grid_{};
   std::vector<std::uint8_t> grid_cells_;

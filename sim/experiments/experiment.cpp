@@ -258,7 +258,19 @@ ExperimentDef load_experiment(const fs::path& file) {
         "hold_samples", e.convergence.hold_samples, ConvergenceCriterion::kHoldRange));
   }
   // The world and scenario must load now, not in every run (a log's were checked above).
-  if (e.logs.empty()) e.files = load_run_inputs(e.world, e.scenario, e.duration_s).files;
+  if (e.logs.empty()) {
+    const RunInputs inputs = load_run_inputs(e.world, e.scenario, e.duration_s);
+    if (inputs.world.robots.size() != 1) {
+      // Each run's result is one robot's metrics (its run folder's metrics.json); a run of
+      // several robots writes a folder per robot, which no run of a sweep would be scored by.
+      root["world"].fail("the world has " + std::to_string(inputs.world.robots.size()) +
+                         " robots; an experiment scores one robot per run: give it a world with "
+                         "one robot, or record this one (`locsim run WORLD --seed N --log "
+                         "FILE`) and list the log with the robots to score as logs: [{file: "
+                         "FILE, robots: [...]}]");
+    }
+    e.files = inputs.files;
+  }
   e.files.insert(e.files.begin(), file);
   // The parameter files too: a resume must see them change like the world.
   for (const LocalizerConfig& config : e.localizers) {

@@ -853,6 +853,17 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   header["merged_from"] = json::array();
   for (const fs::path& part : parts) header["merged_from"].push_back(part.string());
   std::ofstream(out_dir / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
+  // The runs' folders and the seeds' logs too, so that the joined folder is a sweep like any
+  // (`locsim report` draws from the runs' files). A run is in one shard only; a seed's log may
+  // be in several, the same file (a seed is simulated the same wherever).
+  for (const fs::path& part : parts) {
+    for (const char* sub : {"runs", "logs"}) {
+      if (fs::exists(part / sub)) {
+        fs::copy(part / sub, out_dir / sub,
+                 fs::copy_options::recursive | fs::copy_options::skip_existing);
+      }
+    }
+  }
   {
     std::ofstream results(out_dir / "results.jsonl", std::ios::binary);
     for (const auto& [index, r] : by_index) results << jsonl_line(r);

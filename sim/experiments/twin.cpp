@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -64,6 +65,10 @@ SensorSettings read_calibration_sensors(const fs::path& file) {
   for (const auto& [sensor, settings] : sensors.entries()) {
     for (const auto& [key, value] : settings.entries()) {
       if (!value.is_scalar()) value.fail("expected a number (a sensor setting of `calibrate`)");
+      // Any number here (the world's loader checks each against its key's range, at the twin's
+      // key); text that is not one fails now, at this file's line.
+      constexpr double kLargest = std::numeric_limits<double>::max();
+      value.as_double(Range{-kLargest, kLargest, ""});
       out[sensor].emplace_back(key, value.as_string());
     }
   }

@@ -459,7 +459,9 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
   constexpr double kQuantile = 0.01;
   const double sigma_bearing = std::max(c.bearing_rms_rad, 1e-9);
   std::vector<double> step_likelihood, per_detection;
+  std::vector<std::size_t> step_track;
   for (const auto& [first, count] : data.steps) {
+    step_track.push_back(data.residuals[first].track);
     double log_p = 0.0;
     for (std::size_t i = first; i < first + count; ++i) {
       const Residual& r = data.residuals[i];
@@ -484,6 +486,21 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
   // SRL resets below `threshold` (its p~); ASRL below mu p_t^(2m), p_t^2 per detection (mu 1).
   c.srl_threshold = std::clamp(quantile(step_likelihood, kQuantile), 1e-300, 1.0);
   c.asrl_p_t = std::clamp(std::sqrt(quantile(per_detection, kQuantile)), 1e-12, 1.0);
+  // augmented_mcl injects 1 - w_fast / (level w_slow) of its particles: Thrun's averages of the
+  // per-detection likelihood, run here on the truth's, robot by robot. Real detections explain
+  // the truth better for a while and worse for a while (their errors persist), so w_fast dips
+  // below w_slow without any kidnapping; the level is the ratio's low quantile, under which the
+  // truth's own ratio almost never falls.
+  std::vector<double> ratios;
+  double w_slow = 0.0, w_fast = 0.0;
+  for (std::size_t k = 0; k < per_detection.size(); ++k) {
+    const double w = per_detection[k];
+    if (k == 0 || step_track[k] != step_track[k - 1]) w_slow = w_fast = w;
+    w_slow += kAugmentedAlphaSlow * (w - w_slow);
+    w_fast += kAugmentedAlphaFast * (w - w_fast);
+    ratios.push_back(w_fast / std::max(w_slow, 1e-300));
+  }
+  c.augmented_injection_level = std::clamp(quantile(ratios, kQuantile), 1e-6, 1.0);
 }
 
 DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
@@ -870,10 +887,12 @@ json Calibration::to_json() const {
       cj["miss_probability"] = *c.miss_probability;
     }
     if (c.srl_threshold) {
-      cj["true_pose_step_likelihood"] = {{"median", *c.step_likelihood_median},
-                                         {"quantile", *c.reset_quantile},
-                                         {"srl_threshold", *c.srl_threshold},
-                                         {"asrl_p_t", *c.asrl_p_t}};
+      cj["true_pose_step_likelihood"] = {
+          {"median", *c.step_likelihood_median},
+          {"quantile", *c.reset_quantile},
+          {"srl_threshold", *c.srl_threshold},
+          {"asrl_p_t", *c.asrl_p_t},
+          {"augmented_injection_level", *c.augmented_injection_level}};
     }
     if (c.outlier_likelihood) cj["outlier_likelihood"] = *c.outlier_likelihood;
     if (c.noise_correlation_s) {
@@ -954,6 +973,10 @@ std::string Calibration::to_yaml() const {
     y += "  # and a reset from two detections or more: one puts the robot on a ring\n";
     y += "  srl: {threshold: " + num(*camera->srl_threshold) + ", reset_min_detections: 2}\n";
     y += "  asrl: {p_t: " + num(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
+    y += "  # w_fast / w_slow of the truth falls below injection_level in as few steps\n";
+    y += "  augmented_mcl: {injection_level: " + num(*camera->augmented_injection_level) +
+         ", alpha_slow: " + num(kAugmentedAlphaSlow) + ", alpha_fast: " + num(kAugmentedAlphaFast) +
+         "}\n";
   }
   if (camera != nullptr && camera->outlier_likelihood) {
     y += "  # the landmark particle filters: a detection may be false (" +

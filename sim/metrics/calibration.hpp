@@ -66,6 +66,10 @@ struct RangeBin {
   double bearing_error_std_rad = 0.0;
 };
 
+/// The averaging rates augmented_mcl's injection_level is measured with (its defaults, Thrun's
+/// and nav2's recommended values); written beside the level, which holds only with them.
+inline constexpr double kAugmentedAlphaSlow = 0.001, kAugmentedAlphaFast = 0.1;
+
 /// One camera kind's detections (range_bearing, ptz_camera, omni_camera).
 struct DetectionCalibration {
   std::string camera;
@@ -84,8 +88,11 @@ struct DetectionCalibration {
   std::optional<double> miss_probability;
   // The likelihood (a landmark particle filter's, with the noise written for it) of the true pose
   // at each step: its median, and the resetting levels at its `reset_quantile` (srl's
-  // `threshold`, asrl's `p_t` with mu 1). Unset with fewer than 10 steps.
-  std::optional<double> reset_quantile, step_likelihood_median, srl_threshold, asrl_p_t;
+  // `threshold`, asrl's `p_t` with mu 1, augmented_mcl's `injection_level`: the ratio
+  // w_fast / w_slow of the truth's per-detection likelihood with kAugmentedAlpha*). Unset with
+  // fewer than 10 steps.
+  std::optional<double> reset_quantile, step_likelihood_median, srl_threshold, asrl_p_t,
+      augmented_injection_level;
   // The landmark particle filters' outlier_likelihood (false detections over the measured span);
   // unset without false detections.
   std::optional<double> outlier_likelihood;
