@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <Eigen/Cholesky>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -150,6 +151,59 @@ TEST(LocalizerRun, ThrowingAndNanPluginsFailAloneWithTheReasonRecorded) {
   EXPECT_EQ(run["status"], "completed");
 }
 
+TEST(LocalizerRun, ACovarianceThatIsNotOneFailsThePluginLikeANan) {
+  const fs::path out = testing::temp_dir("run") / "out";
+  const std::string nan = test_plugin("nan");
+  const auto metrics = run_demo(
+      out, 4.0, {nan + ":mode=asymmetric@asymmetric", nan + ":mode=negative@negative", "odometry"});
+  const auto& asymmetric = entry(metrics, "asymmetric");
+  EXPECT_EQ(asymmetric["status"], "failed");
+  EXPECT_EQ(asymmetric["failure"]["call"], "estimate");
+  EXPECT_DOUBLE_EQ(asymmetric["failure"]["t_s"].get<double>(), 2.0);
+  expect_contains(asymmetric["failure"]["message"],
+                  "returned a covariance that is not symmetric: (x, y) and (y, x) are 0.5 and 0");
+  const auto& negative = entry(metrics, "negative");
+  EXPECT_EQ(negative["status"], "failed");
+  expect_contains(negative["failure"]["message"],
+                  "is not positive semidefinite: it has an eigenvalue of -0.01");
+  // Before it failed, its estimates were scored, an identity covariance among them.
+  EXPECT_GT(asymmetric["consistency"]["samples"].get<double>(), 0.0);
+  EXPECT_EQ(entry(metrics, "odometry")["status"], "ok");
+}
+
+TEST(Metrics, NeesAndThe95PercentEllipseSayWhetherACovarianceIsHonest) {
+  // Errors drawn from N(0, P): the mean NEES is the dimension, 95 % fall in the 95 % ellipse. A
+  // filter claiming P / 4 is overconfident: NEES four times larger, far fewer inside.
+  Eigen::Matrix3d p;
+  p << 0.04, 0.01, 0.002, 0.01, 0.09, -0.003, 0.002, -0.003, 0.01;
+  const Eigen::Matrix3d root = p.llt().matrixL();
+  std::mt19937_64 engine(5);
+  std::normal_distribution<double> normal;
+  ErrorAccumulator honest, overconfident, singular;
+  std::array<double, 9> claimed{}, quarter{};
+  for (int i = 0; i < 9; ++i) {
+    claimed[static_cast<std::size_t>(i)] = p(i / 3, i % 3);
+    quarter[static_cast<std::size_t>(i)] = p(i / 3, i % 3) / 4.0;
+  }
+  for (int k = 0; k < 20000; ++k) {
+    const Eigen::Vector3d e =
+        root * Eigen::Vector3d(normal(engine), normal(engine), normal(engine));
+    const double t = 0.02 * k;
+    honest.add({t, e(0), e(1), e(2), 0, claimed});
+    overconfident.add({t, e(0), e(1), e(2), 0, quarter});
+    singular.add({t, e(0), e(1), e(2), 0, std::array<double, 9>{}});  // zero: claims nothing
+  }
+  const ErrorSummary h = honest.summary(), o = overconfident.summary();
+  EXPECT_EQ(h.consistency_samples, 20000u);
+  EXPECT_NEAR(h.nees_mean, 3.0, 0.1);
+  EXPECT_NEAR(h.position_nees_mean, 2.0, 0.1);
+  EXPECT_NEAR(h.inside_95_fraction, 0.95, 0.005);
+  EXPECT_NEAR(o.nees_mean, 12.0, 0.4);
+  EXPECT_LT(o.inside_95_fraction, 0.6);
+  EXPECT_EQ(singular.summary().consistency_samples, 0u);
+  EXPECT_EQ(singular.summary().samples, 20000u);
+}
+
 TEST(LocalizerRun, EveryFilterSeesTheSameReadings) {
   const fs::path out = testing::temp_dir("run") / "out";
   const std::string probe = test_plugin("probe");
@@ -219,10 +273,10 @@ TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   std::vector<ErrorSample> samples;
   for (int i = 0; i < 150; ++i) {
     const double t = i * 0.02;
-    samples.push_back({t, t < 1.0 ? 1.0 : 0.0, 0.0, 0.0, i / 5});  // a camera frame every 0.1 s
+    samples.push_back({t, t < 1.0 ? 1.0 : 0.0, 0.0, 0.0, i / 5, {}});  // a frame every 0.1 s
   }
-  samples.push_back({5.0, 2.0, 0.0, 0.0});
-  samples.push_back({5.02, 0.0, 0.0, 0.0});
+  samples.push_back({5.0, 2.0, 0.0, 0.0, 0, {}});
+  samples.push_back({5.02, 0.0, 0.0, 0.0, 0, {}});
   const ErrorSummary s = summarize_errors(samples);
   ASSERT_TRUE(s.converged_at_s.has_value());
   EXPECT_NEAR(*s.converged_at_s, 1.0, 1e-9);

@@ -286,8 +286,16 @@ def localizer_rows(metrics):
                              f"{'never' if s['recovery_s'] is None else format(s['recovery_s'], '.1f')}"
                              for s in l["segments"])
         rows.append(f"{l['label']} | {l['status']} | {l['position_error_m']['rms']:.3f} | "
-                    f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | {segments} |")
+                    f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | "
+                    f"{consistency_cell(l)} | {segments} |")
     return rows
+
+
+def consistency_cell(localizer):
+    """'0.93, 3.4': the share of samples with the truth in the 95 % ellipse and the mean NEES
+    (0.95 and 3 when the covariance is honest); '—' without a positive definite covariance."""
+    c = localizer.get("consistency")
+    return "—" if not c else f"{c['inside_95_ellipse']:.2f}, {c['nees_mean']:.3g}"
 
 
 def landmark_map_lines(metrics, robot=None):
@@ -331,7 +339,8 @@ def run_report(root, out_dir):
              f"seed {run['seed']}", ""]
     if run.get("source") == "replay":
         lines += [f"Replay of `{run.get('log_file', '')}`.", ""]
-    header = "| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | per segment (RMS m, recovery s) |"
+    header = ("| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | "
+              "in 95 % ellipse, NEES (0.95, 3: honest) | per segment (RMS m, recovery s) |")
     # A run of several robots keeps each robot's files in its own folder (run.json's robots).
     folders = [(r["name"], os.path.join(root, r["folder"])) for r in run.get("robots", []) if r.get("folder")]
     if len(folders) < 2:
@@ -340,7 +349,7 @@ def run_report(root, out_dir):
             return lines + ["No localizers ran (run with --localizer)."]
         with open(metrics_path) as f:
             metrics = json.load(f)
-        lines += [header, "|---|---|---|---|---|---|"]
+        lines += [header, "|---|---|---|---|---|---|---|"]
         lines += ["| " + row for row in localizer_rows(metrics)]
         lines += landmark_map_lines(metrics)
         fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -377,7 +386,7 @@ def run_report(root, out_dir):
                      f"{'—' if position is None else format(position, '.3f')} | "
                      f"{max(l['position_error_m']['max'] for l in ls):.3f} | "
                      f"{'—' if heading is None else format(heading, '.2f')} |")
-    lines += ["", "Per robot:", "", "| robot " + header, "|---|---|---|---|---|---|---|"]
+    lines += ["", "Per robot:", "", "| robot " + header, "|---|---|---|---|---|---|---|---|"]
     for name, _folder, metrics in robots:
         lines += [f"| {name} | " + row for row in localizer_rows(metrics)]
     for name, _folder, metrics in robots:

@@ -301,7 +301,8 @@ void write_tables(const fs::path& out_dir) {
     std::ofstream csv(out_dir / "results.csv", std::ios::binary);
     csv << "index,id,config,log,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
-           "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m\n";
+           "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m,nees_mean,"
+           "inside_95_ellipse\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
       std::string recoveries, recovery_steps;  // one per kidnap: the segments after the first
@@ -321,6 +322,12 @@ void write_tables(const fs::path& out_dir) {
       // SLAM filters only: the RMS distance of their mapped landmarks to the true ones matched.
       const json landmark_error =
           m.value("landmark_map", json::object()).value("error_m", json::object());
+      // Empty when the localizer gave no positive definite covariance (metrics.json: null).
+      const json consistency = m.value("consistency", json());
+      const json nees =
+          consistency.is_object() ? consistency.value("nees_mean", json()) : json(nullptr);
+      const json inside =
+          consistency.is_object() ? consistency.value("inside_95_ellipse", json()) : json(nullptr);
       csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
           << csv_field(r["config"]) << ',' << csv_field(r.value("source_log", "")) << ','
           << r["seed"].get<std::uint64_t>() << ',' << r["status"].get<std::string>() << ','
@@ -332,7 +339,8 @@ void write_tables(const fs::path& out_dir) {
           << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
                                                    : std::string())
           << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
-          << recovery_steps << ',' << number(landmark_error.value("rms", json())) << '\n';
+          << recovery_steps << ',' << number(landmark_error.value("rms", json())) << ','
+          << number(nees, 4) << ',' << number(inside, 4) << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).
@@ -348,15 +356,17 @@ void write_tables(const fs::path& out_dir) {
   csv << "config,runs,ok,converged,recovered_every_kidnap,first_segment_position_rms_m_mean,"
          "first_segment_position_rms_m_ci95,position_rms_m_mean,position_rms_m_ci95,position_rms_m_"
          "median,heading_rms_deg_mean,heading_rms_deg_ci95,heading_rms_deg_median,"
-         "converged_s_mean,converged_s_ci95,converged_s_median\n";
+         "converged_s_mean,converged_s_ci95,converged_s_median,inside_95_ellipse_mean,"
+         "inside_95_ellipse_ci95,nees_median\n";
   md << "Figures: mean ± 95 % confidence interval over the runs that finished (ok); median after "
         "';'.\n\n"
         "| config | runs | ok | converged | recovered every kidnap | position RMS before the first "
         "kidnap [m] "
-        "| position RMS [m] | heading RMS [deg] | convergence [s] |\n"
-        "|---|---|---|---|---|---|---|---|---|\n";
+        "| position RMS [m] | heading RMS [deg] | convergence [s] | truth in the 95 % ellipse "
+        "(0.95: honest) | NEES (3: honest) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& config : order) {
-    std::vector<double> position, heading, converged, first_segment;
+    std::vector<double> position, heading, converged, first_segment, inside, nees;
     std::size_t ok = 0, recovered_all = 0;
     for (const json* r : by_config[config]) {
       if ((*r)["status"] != "ok") continue;
@@ -367,26 +377,34 @@ void write_tables(const fs::path& out_dir) {
         first_segment.push_back(m["segments"][0]["position_error_m"]["rms"]);
       heading.push_back(m["heading_error_deg"]["rms"]);
       if (!m["convergence"]["time_s"].is_null()) converged.push_back(m["convergence"]["time_s"]);
+      if (const json c = m.value("consistency", json()); c.is_object()) {
+        inside.push_back(c["inside_95_ellipse"]);
+        nees.push_back(c["nees_mean"]);
+      }
       bool all = true;
       for (std::size_t s = 1; s < m["segments"].size(); ++s)
         all = all && !m["segments"][s]["recovery_s"].is_null();
       recovered_all += all ? 1 : 0;
     }
     const Aggregate p = aggregate(position), h = aggregate(heading), c = aggregate(converged),
-                    f = aggregate(first_segment);
+                    f = aggregate(first_segment), in = aggregate(inside), ne = aggregate(nees);
     const std::size_t runs = by_config[config].size();
     csv << csv_field(config) << ',' << runs << ',' << ok << ',' << c.n << ',' << recovered_all
         << ',' << fixed(f.mean, 6) << ',' << fixed(f.ci95, 6) << ',' << fixed(p.mean, 6) << ','
         << fixed(p.ci95, 6) << ',' << fixed(p.median, 6) << ',' << fixed(h.mean, 4) << ','
         << fixed(h.ci95, 4) << ',' << fixed(h.median, 4) << ',' << fixed(c.mean, 4) << ','
-        << fixed(c.ci95, 4) << ',' << fixed(c.median, 4) << '\n';
+        << fixed(c.ci95, 4) << ',' << fixed(c.median, 4) << ','
+        << (in.n > 0 ? fixed(in.mean, 4) + ',' + fixed(in.ci95, 4) + ',' + fixed(ne.median, 4)
+                     : std::string(",,"))
+        << '\n';
     md << "| " << config << " | " << runs << " | " << ok << " | " << c.n << " | " << recovered_all
        << " | " << fixed(f.mean, 3) << " ± " << fixed(f.ci95, 3) << " | " << fixed(p.mean, 3)
        << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3) << " | " << fixed(h.mean, 2)
        << " ± " << fixed(h.ci95, 2) << "; " << fixed(h.median, 2) << " | "
        << (c.n > 0 ? fixed(c.mean, 2) + " ± " + fixed(c.ci95, 2) + "; " + fixed(c.median, 2)
                    : std::string("—"))
-       << " |\n";
+       << " | " << (in.n > 0 ? fixed(in.mean, 2) + " ± " + fixed(in.ci95, 2) : std::string("—"))
+       << " | " << (ne.n > 0 ? fixed(ne.median, 1) : std::string("—")) << " |\n";
   }
 }
 

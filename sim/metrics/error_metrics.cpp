@@ -1,5 +1,6 @@
 #include "sim/metrics/error_metrics.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
@@ -31,6 +32,21 @@ void ErrorAccumulator::add(const ErrorSample& e) {
   sum_sq_y_ += e.dy_m * e.dy_m;
   sum_sq_h_ += heading * heading;
   sum_h_ += heading;
+  if (e.covariance) {
+    const Eigen::Matrix3d p =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(e.covariance->data());
+    // Cholesky succeeds only for a positive definite matrix: the others are left out.
+    const Eigen::LLT<Eigen::Matrix3d> pose(p);
+    const Eigen::LLT<Eigen::Matrix2d> xy(p.topLeftCorner<2, 2>());
+    if (pose.info() == Eigen::Success && xy.info() == Eigen::Success) {
+      const Eigen::Vector3d error(e.dx_m, e.dy_m, e.dtheta_rad);
+      const double position_nees = error.head<2>().dot(xy.solve(error.head<2>()));
+      ++consistency_samples_;
+      sum_nees_ += error.dot(pose.solve(error));
+      sum_position_nees_ += position_nees;
+      inside_95_ += position_nees <= kChiSquare2Dof95 ? 1 : 0;
+    }
+  }
   position_max_m_ = std::max(position_max_m_, position);
   heading_max_rad_ = std::max(heading_max_rad_, heading);
   if (!converged_at_s_) {
@@ -64,6 +80,13 @@ ErrorSummary ErrorAccumulator::summary() const {
   s.y_rms_m = std::sqrt(sum_sq_y_ / n);
   s.heading_rms_rad = std::sqrt(sum_sq_h_ / n);
   s.heading_mean_rad = sum_h_ / n;
+  s.consistency_samples = consistency_samples_;
+  if (consistency_samples_ > 0) {
+    const double m = static_cast<double>(consistency_samples_);
+    s.nees_mean = sum_nees_ / m;
+    s.position_nees_mean = sum_position_nees_ / m;
+    s.inside_95_fraction = static_cast<double>(inside_95_) / m;
+  }
   return s;
 }
 

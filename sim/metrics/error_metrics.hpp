@@ -18,7 +18,14 @@ struct ErrorSample {
   double dx_m = 0.0, dy_m = 0.0;  // estimate - truth
   double dtheta_rad = 0.0;        // wrapped
   long steps = 0;                 // perception updates (camera, ultrasonic, laser) delivered so far
+  /// The estimate's covariance, row-major over (x, y, theta) [m^2, m rad, rad^2]; none: the
+  /// sample says nothing of consistency.
+  std::optional<std::array<double, 9>> covariance;
 };
+
+/// The chi-square 95 % quantile with two degrees of freedom: a position error e with
+/// e^T P^-1 e at most this lies inside the covariance P's 95 % ellipse.
+inline constexpr double kChiSquare2Dof95 = 5.991464547107979;
 
 struct ConvergenceCriterion {
   double position_m = 0.1;  // error at or below this... [m]
@@ -38,6 +45,13 @@ struct ErrorSummary {
   std::optional<long> converged_at_steps;  // perception updates from the first sample to then
   double time_lost_s =
       0.0;  // time with the error outside the criterion's bounds (carried time aside)
+  // Whether the covariance is honest, over the samples whose covariance is positive definite
+  // (`consistency_samples`; a zero or singular covariance claims nothing to test): the mean
+  // normalised estimation error squared e^T P^-1 e of the pose (x, y, theta; 3 when the
+  // covariance matches the errors, above when it is overconfident) and of the position (2), and
+  // the share of samples whose true position lies inside the estimate's 95 % ellipse (0.95).
+  std::size_t consistency_samples = 0;
+  double nees_mean = 0.0, position_nees_mean = 0.0, inside_95_fraction = 0.0;
 };
 
 /// The error summary of a series of samples, one at a time.
@@ -61,6 +75,8 @@ class ErrorAccumulator {
   ErrorSample first_, last_;       // first and latest sample
   double typical_interval_s_ = 0;  // between the first two samples
   double time_lost_s_ = 0;         // of the samples before the latest
+  std::size_t consistency_samples_ = 0, inside_95_ = 0;
+  double sum_nees_ = 0, sum_position_nees_ = 0;
   std::optional<double> converged_at_s_;
   std::optional<long> converged_at_steps_;
 };

@@ -26,7 +26,13 @@ json error_json(const ErrorSummary& e) {
            {{"rms", rad_to_deg(e.heading_rms_rad)},
             {"mean", rad_to_deg(e.heading_mean_rad)},
             {"max", rad_to_deg(e.heading_max_rad)}}},
-          {"time_lost_s", e.time_lost_s}};
+          {"time_lost_s", e.time_lost_s},
+          {"consistency", e.consistency_samples == 0
+                              ? json(nullptr)
+                              : json{{"samples", e.consistency_samples},
+                                     {"nees_mean", e.nees_mean},
+                                     {"position_nees_mean", e.position_nees_mean},
+                                     {"inside_95_ellipse", e.inside_95_fraction}}}};
 }
 
 json landmark_map_json(const LandmarkMapSummary& s) {
@@ -122,8 +128,12 @@ void Scorer::estimate(const EstimateSample& s) {
     track.segment = ErrorAccumulator(criterion_);
     ++track.kidnaps_passed;
   }
-  const ErrorSample error{s.t_s, s.pose.x - s.truth.x, s.pose.y - s.truth.y,
-                          wrap_angle(s.pose.theta - s.truth.theta), s.perception_updates};
+  const ErrorSample error{s.t_s,
+                          s.pose.x - s.truth.x,
+                          s.pose.y - s.truth.y,
+                          wrap_angle(s.pose.theta - s.truth.theta),
+                          s.perception_updates,
+                          s.covariance};
   track.all.add(error);
   track.segment.add(error);
   if (!s.diagnostics.empty()) track.last_diagnostics = s.diagnostics;

@@ -1,13 +1,18 @@
 #include "sim/plugin_host/localizer_instance.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/format.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/sensors/models.hpp"
 
@@ -16,6 +21,33 @@ namespace locsim {
 using json = nlohmann::ordered_json;
 
 namespace {
+
+/// Why an estimate's covariance cannot be one (empty when it can): it must be symmetric and
+/// positive semidefinite, as a NaN must not be scored (the NEES of metrics.json needs an honest
+/// matrix, and a negative variance would make it negative). Both up to 1e-6 of the largest
+/// variance: above the rounding a filter's algebra leaves (an EKF's Joseph-form update on a
+/// covariance of 1e-14 m^2 was 1e-8 asymmetric), far below anything it means.
+std::string covariance_problem(const double (&c)[9]) {
+  const double tolerance = 1e-6 * std::max({std::abs(c[0]), std::abs(c[4]), std::abs(c[8])});
+  constexpr std::array<std::tuple<int, int, const char*>, 3> kPairs{
+      {{1, 3, "(x, y) and (y, x)"},
+       {2, 6, "(x, theta) and (theta, x)"},
+       {5, 7, "(y, theta) and (theta, y)"}}};
+  for (const auto& [a, b, which] : kPairs) {
+    if (std::abs(c[a] - c[b]) > tolerance) {
+      return std::string("is not symmetric: ") + which + " are " + short_number(c[a]) + " and " +
+             short_number(c[b]);
+    }
+  }
+  const Eigen::Matrix3d p = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(c);
+  const double lowest =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(p, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  if (lowest < -tolerance) {
+    return "is not positive semidefinite: it has an eigenvalue of " + short_number(lowest);
+  }
+  return {};
+}
+
 bool valid_name(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-' || c == '.' ||
@@ -566,6 +598,10 @@ std::optional<locsim_estimate> LocalizerInstance::estimate(double t_s) {
   for (const double c : out.covariance) finite = finite && std::isfinite(c);
   if (!finite) {
     fail(t_s, "estimate", "returned a non-finite (NaN or inf) pose or covariance");
+    return std::nullopt;
+  }
+  if (const std::string problem = covariance_problem(out.covariance); !problem.empty()) {
+    fail(t_s, "estimate", "returned a covariance that " + problem);
     return std::nullopt;
   }
   return out;

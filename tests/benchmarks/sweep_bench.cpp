@@ -89,3 +89,29 @@ BENCHMARK(BM_DemoEkf)
     ->UseRealTime();
 
 }  // namespace
+
+#include "sim/metrics/error_metrics.hpp"
+
+namespace {
+
+/// What scoring one estimate costs, without a covariance (`consistency` 0) and with one (1: the
+/// NEES and 95 % ellipse test, two Cholesky factorisations): the scorer runs it once per
+/// localizer per ground-truth sample (50 Hz in the demo).
+void BM_ScoreEstimate(benchmark::State& state) {
+  const bool consistency = state.range(0) == 1;
+  locsim::ErrorAccumulator accumulator;
+  locsim::ErrorSample sample{0.0, 0.03, -0.02, 0.01, 0, std::nullopt};
+  if (consistency) {
+    sample.covariance =
+        std::array<double, 9>{0.04, 0.01, 0.002, 0.01, 0.09, -0.003, 0.002, -0.003, 0.01};
+  }
+  for (auto _ : state) {
+    sample.t_s += 0.02;
+    accumulator.add(sample);
+  }
+  benchmark::DoNotOptimize(accumulator.summary());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_ScoreEstimate)->ArgName("consistency")->Arg(0)->Arg(1);
+
+}  // namespace

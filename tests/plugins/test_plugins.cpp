@@ -65,17 +65,29 @@ class Plugin final : public Probe {
   }
 };
 #elif defined(LOCSIM_TEST_NAN)
+/// From two seconds on, an estimate that is not one: by `mode`, a NaN position (the default,
+/// "fast"), a covariance that is not symmetric ("asymmetric") or one with a negative variance
+/// ("negative").
 class Plugin final : public Probe {
  public:
-  using Probe::Probe;
+  explicit Plugin(const locsim_init& init)
+      : Probe(init), mode_(locsim::sdk::Params(init).string("mode")) {}
   void on_reading(const locsim_reading& r) override { t_ = r.t_s; }
   locsim::sdk::Estimate estimate() const override {
     locsim::sdk::Estimate e{pose_, Eigen::Matrix3d::Identity()};
-    if (t_ >= 2.0) e.pose.x = std::numeric_limits<double>::quiet_NaN();
+    if (t_ < 2.0) return e;
+    if (mode_ == "asymmetric") {
+      e.covariance(0, 1) = 0.5;
+    } else if (mode_ == "negative") {
+      e.covariance(2, 2) = -0.01;
+    } else {
+      e.pose.x = std::numeric_limits<double>::quiet_NaN();
+    }
     return e;
   }
 
  private:
+  std::string mode_;
   double t_ = 0.0;
 };
 #elif defined(LOCSIM_TEST_CREATE_FAILS)
