@@ -196,9 +196,15 @@ TEST(Metrics, NeesAndThe95PercentEllipseSayWhetherACovarianceIsHonest) {
   const ErrorSummary h = honest.summary(), o = overconfident.summary();
   EXPECT_EQ(h.consistency_samples, 20000u);
   EXPECT_NEAR(h.nees_mean, 3.0, 0.1);
+  EXPECT_NEAR(h.nees_median, 2.366, 0.03 * 2.366);  // chi-square, 3 degrees of freedom
   EXPECT_NEAR(h.position_nees_mean, 2.0, 0.1);
   EXPECT_NEAR(h.inside_95_fraction, 0.95, 0.005);
   EXPECT_NEAR(o.nees_mean, 12.0, 0.4);
+  EXPECT_NEAR(o.nees_median, 4 * 2.366, 0.03 * 4 * 2.366);
+  // One lost sample decides the mean, not the median.
+  honest.add({400.0, 1e6, 0.0, 0.0, 0, claimed});
+  EXPECT_GT(honest.summary().nees_mean, 1e9);
+  EXPECT_NEAR(honest.summary().nees_median, h.nees_median, 0.03 * h.nees_median);
   EXPECT_LT(o.inside_95_fraction, 0.6);
   EXPECT_EQ(singular.summary().consistency_samples, 0u);
   EXPECT_EQ(singular.summary().samples, 20000u);

@@ -292,10 +292,11 @@ def localizer_rows(metrics):
 
 
 def consistency_cell(localizer):
-    """'0.93, 3.4': the share of samples with the truth in the 95 % ellipse and the mean NEES
-    (0.95 and 3 when the covariance is honest); '—' without a positive definite covariance."""
+    """'0.93, 3.4': the share of samples with the truth in the 95 % ellipse and the median NEES
+    (0.95 and about 2.4, the chi-square median with 3 degrees of freedom, when the covariance is
+    honest); '—' without a positive definite covariance."""
     c = localizer.get("consistency")
-    return "—" if not c else f"{c['inside_95_ellipse']:.2f}, {c['nees_mean']:.3g}"
+    return "—" if not c else f"{c['inside_95_ellipse']:.2f}, {c['nees_median']:.3g}"
 
 
 def landmark_map_lines(metrics, robot=None):
@@ -340,7 +341,7 @@ def run_report(root, out_dir):
     if run.get("source") == "replay":
         lines += [f"Replay of `{run.get('log_file', '')}`.", ""]
     header = ("| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | "
-              "in 95 % ellipse, NEES (0.95, 3: honest) | per segment (RMS m, recovery s) |")
+              "in 95 % ellipse, median NEES (0.95, 2.37: honest) | per segment (RMS m, recovery s) |")
     # A run of several robots keeps each robot's files in its own folder (run.json's robots).
     folders = [(r["name"], os.path.join(root, r["folder"])) for r in run.get("robots", []) if r.get("folder")]
     if len(folders) < 2:

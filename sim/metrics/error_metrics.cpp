@@ -41,8 +41,10 @@ void ErrorAccumulator::add(const ErrorSample& e) {
     if (pose.info() == Eigen::Success && xy.info() == Eigen::Success) {
       const Eigen::Vector3d error(e.dx_m, e.dy_m, e.dtheta_rad);
       const double position_nees = error.head<2>().dot(xy.solve(error.head<2>()));
+      const double nees = error.dot(pose.solve(error));
       ++consistency_samples_;
-      sum_nees_ += error.dot(pose.solve(error));
+      sum_nees_ += nees;
+      nees_.add(nees);
       sum_position_nees_ += position_nees;
       inside_95_ += position_nees <= kChiSquare2Dof95 ? 1 : 0;
     }
@@ -84,6 +86,7 @@ ErrorSummary ErrorAccumulator::summary() const {
   if (consistency_samples_ > 0) {
     const double m = static_cast<double>(consistency_samples_);
     s.nees_mean = sum_nees_ / m;
+    s.nees_median = nees_.quantile(0.5);
     s.position_nees_mean = sum_position_nees_ / m;
     s.inside_95_fraction = static_cast<double>(inside_95_) / m;
   }
@@ -97,12 +100,36 @@ ErrorSummary summarize_errors(const std::vector<ErrorSample>& samples,
   return accumulator.summary();
 }
 
+LogHistogram::LogHistogram(double lowest, double ratio, std::size_t bins)
+    : lowest_(lowest), log_ratio_(std::log(ratio)), bins_(bins, 0) {}
+
+void LogHistogram::add(double value) {
+  ++count_;
+  max_ = std::max(max_, value);
+  const double bin = value > lowest_ ? std::log(value / lowest_) / log_ratio_ : 0.0;
+  ++bins_[std::min(bins_.size() - 1, static_cast<std::size_t>(bin))];
+}
+
+double LogHistogram::quantile(double q) const {
+  if (count_ == 0) return 0.0;
+  const auto rank = std::max<std::size_t>(
+      1, static_cast<std::size_t>(std::ceil(q * static_cast<double>(count_))));
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < bins_.size(); ++i) {
+    seen += bins_[i];
+    if (seen >= rank) {
+      // The geometric middle, capped by the maximum (so that one value reports that value).
+      return std::min(lowest_ * std::exp(log_ratio_ * (static_cast<double>(i) + 0.5)), max_);
+    }
+  }
+  return max_;
+}
+
 void CostAccumulator::add(double seconds) {
   ++calls_;
   sum_s_ += seconds;
   max_s_ = std::max(max_s_, seconds);
-  const double bin = seconds > kLowestS ? std::log(seconds / kLowestS) / std::log(kBinRatio) : 0.0;
-  ++bins_[std::min(kBins - 1, static_cast<std::size_t>(bin))];
+  histogram_.add(seconds);
 }
 
 CostSummary CostAccumulator::summary() const {
@@ -111,18 +138,7 @@ CostSummary CostAccumulator::summary() const {
   if (calls_ == 0) return c;
   c.mean_us = 1e6 * sum_s_ / static_cast<double>(calls_);
   c.max_us = 1e6 * max_s_;
-  // The bin holding the ceil(0.99 n)-th smallest duration; its geometric middle, capped by the
-  // maximum (so that a run of one call reports that call).
-  const auto rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(calls_)));
-  std::size_t seen = 0;
-  for (std::size_t i = 0; i < kBins; ++i) {
-    seen += bins_[i];
-    if (seen >= rank) {
-      const double middle = kLowestS * std::pow(kBinRatio, static_cast<double>(i) + 0.5);
-      c.p99_us = 1e6 * std::min(middle, max_s_);
-      break;
-    }
-  }
+  c.p99_us = 1e6 * histogram_.quantile(0.99);
   return c;
 }
 

@@ -31,6 +31,7 @@ json error_json(const ErrorSummary& e) {
                               ? json(nullptr)
                               : json{{"samples", e.consistency_samples},
                                      {"nees_mean", e.nees_mean},
+                                     {"nees_median", e.nees_median},
                                      {"position_nees_mean", e.position_nees_mean},
                                      {"inside_95_ellipse", e.inside_95_fraction}}}};
 }
