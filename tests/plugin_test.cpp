@@ -207,6 +207,17 @@ TEST(Metrics, NeesAndThe95PercentEllipseSayWhetherACovarianceIsHonest) {
   EXPECT_NEAR(honest.summary().nees_median, h.nees_median, 0.03 * h.nees_median);
   EXPECT_LT(o.inside_95_fraction, 0.6);
   EXPECT_EQ(singular.summary().consistency_samples, 0u);
+  // A positive definite covariance of 1e-300 and a metre of error: a NEES past any double,
+  // counted as kNeesCap (found by fuzz_log: it was an undefined cast of infinity).
+  ErrorAccumulator tiny;
+  std::array<double, 9> minute{};
+  minute[0] = minute[4] = minute[8] = 1e-300;
+  tiny.add({0.0, 1.0, 1.0, 1.0, 0, minute});
+  tiny.add({0.02, 1.0, 1.0, 1.0, 0, minute});
+  EXPECT_EQ(tiny.summary().consistency_samples, 2u);
+  EXPECT_DOUBLE_EQ(tiny.summary().nees_mean, kNeesCap);
+  EXPECT_DOUBLE_EQ(tiny.summary().nees_median, kNeesCap);
+  EXPECT_EQ(tiny.summary().inside_95_fraction, 0.0);
   EXPECT_EQ(singular.summary().samples, 20000u);
 }
 

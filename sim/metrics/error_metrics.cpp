@@ -40,8 +40,11 @@ void ErrorAccumulator::add(const ErrorSample& e) {
     const Eigen::LLT<Eigen::Matrix2d> xy(p.topLeftCorner<2, 2>());
     if (pose.info() == Eigen::Success && xy.info() == Eigen::Success) {
       const Eigen::Vector3d error(e.dx_m, e.dy_m, e.dtheta_rad);
-      const double position_nees = error.head<2>().dot(xy.solve(error.head<2>()));
-      const double nees = error.dot(pose.solve(error));
+      // A positive definite but tiny covariance can make them overflow: capped (kNeesCap), so
+      // that a sum of many stays finite and a mean says "hopelessly overconfident" as a number.
+      const auto capped = [](double v) { return std::isnan(v) ? kNeesCap : std::min(v, kNeesCap); };
+      const double position_nees = capped(error.head<2>().dot(xy.solve(error.head<2>())));
+      const double nees = capped(error.dot(pose.solve(error)));
       ++consistency_samples_;
       sum_nees_ += nees;
       nees_.add(nees);
@@ -107,7 +110,9 @@ void LogHistogram::add(double value) {
   ++count_;
   max_ = std::max(max_, value);
   const double bin = value > lowest_ ? std::log(value / lowest_) / log_ratio_ : 0.0;
-  ++bins_[std::min(bins_.size() - 1, static_cast<std::size_t>(bin))];
+  // Above the range, infinite or NaN: the last bin (a cast of those to an integer is undefined).
+  const auto last = static_cast<double>(bins_.size() - 1);
+  ++bins_[bin < last ? static_cast<std::size_t>(bin) : bins_.size() - 1];
 }
 
 double LogHistogram::quantile(double q) const {
@@ -118,6 +123,8 @@ double LogHistogram::quantile(double q) const {
   for (std::size_t i = 0; i < bins_.size(); ++i) {
     seen += bins_[i];
     if (seen >= rank) {
+      // The last bin holds everything above the range: the largest value stands for it.
+      if (i + 1 == bins_.size()) return max_;
       // The geometric middle, capped by the maximum (so that one value reports that value).
       return std::min(lowest_ * std::exp(log_ratio_ * (static_cast<double>(i) + 0.5)), max_);
     }

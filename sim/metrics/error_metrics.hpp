@@ -40,6 +40,9 @@ class LogHistogram {
   double max_ = 0.0;
 };
 
+/// A NEES above this (or NaN, from a covariance of 1e-300) counts as this in the statistics.
+inline constexpr double kNeesCap = 1e100;
+
 /// The chi-square 95 % quantile with two degrees of freedom: a position error e with
 /// e^T P^-1 e at most this lies inside the covariance P's 95 % ellipse.
 inline constexpr double kChiSquare2Dof95 = 5.991464547107979;
