@@ -300,8 +300,9 @@ TEST(AbiVersion1, SoInAWorkerProcessToo) {
 /// One filter of `spec` on the demo robot: an odometry reading at the start, then (unless
 /// nullopt) a range-bearing reading with `detections`; its estimate and how many landmarks it
 /// mapped (SLAM: a first detection moves no estimate, it maps the landmark).
-using Outcome = std::pair<Pose, std::size_t>;
-Outcome estimate_after(const std::string& spec, const std::optional<std::vector<Detection>>& seen) {
+using EstimateOutcome = std::pair<Pose, std::size_t>;
+EstimateOutcome estimate_after(const std::string& spec,
+                               const std::optional<std::vector<Detection>>& seen) {
   WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
   world.robots.resize(1);
   HostOptions options;
@@ -334,8 +335,9 @@ TEST(LandmarkFilters, TakeRangeBearingDetectionsAndSkipOtherRobots) {
   // FastSLAM maps a landmark at its first detection (that moves no estimate) when told to.
   for (const std::string plugin : {"ekf_landmarks:", "mcl:", "srl:", "asrl:", "augmented_mcl:",
                                    "fastslam:map_min_observations=1,"}) {
-    const Outcome used = estimate_after(plugin + "use_range_bearing=true", std::vector{landmark});
-    const Outcome empty =
+    const EstimateOutcome used =
+        estimate_after(plugin + "use_range_bearing=true", std::vector{landmark});
+    const EstimateOutcome empty =
         estimate_after(plugin + "use_range_bearing=true", std::vector<Detection>{});
     EXPECT_NE(used, empty) << plugin << " did not use the range-bearing detection";
     EXPECT_EQ(estimate_after(plugin + "use_range_bearing=true", std::vector{robot}), empty)

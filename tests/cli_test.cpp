@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 using testing::locsim;
 using testing::Outcome;
 
-const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+using testing::kDemo;
 
 TEST(Cli, HelpDocumentsTheExitCodes) {
   const Outcome help = locsim("--help");

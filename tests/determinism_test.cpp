@@ -35,12 +35,7 @@ RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   return run_simulation(options);
 }
 
-std::string json_without_timing(const fs::path& file) {
-  nlohmann::ordered_json run = nlohmann::ordered_json::parse(testing::read_file(file));
-  EXPECT_TRUE(run.contains("timing"));
-  run.erase("timing");
-  return run.dump();
-}
+using testing::json_without_timing;
 
 TEST(Determinism, SameSeedGivesByteIdenticalOutputs) {
   const fs::path base = testing::temp_dir("runs");

@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using testing::locsim;
 
-const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+using testing::kDemo;
 
 void expect_failed_for_a_full_disk(const testing::Outcome& o, const fs::path& run_json,
                                    const std::string& path) {

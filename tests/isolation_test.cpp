@@ -23,11 +23,9 @@ using testing::locsim;
 using testing::Outcome;
 using json = nlohmann::json;
 
-const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+using testing::kDemo;
 
-std::string test_plugin(const std::string& kind) {
-  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
-}
+using testing::test_plugin;
 
 json entry(const fs::path& metrics_file, const std::string& label) {
   const json metrics = json::parse(testing::read_file(metrics_file));

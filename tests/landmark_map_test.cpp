@@ -20,7 +20,7 @@ namespace locsim {
 namespace {
 
 namespace fs = std::filesystem;
-using json = nlohmann::ordered_json;  // keeps the files' key order
+using ojson = nlohmann::ordered_json;  // keeps the files' key order
 
 // ----------------------------------------------------------------------------------- matching
 TEST(LandmarkMatching, IsOneToOneByIncreasingDistance) {
@@ -108,7 +108,7 @@ fs::path write_world(const fs::path& dir, const std::string& scenario_extra = ""
   return file;
 }
 
-const json& entry(const json& metrics, const std::string& label) {
+const ojson& entry(const ojson& metrics, const std::string& label) {
   for (const auto& e : metrics["localizers"]) {
     if (e["label"] == label) return e;
   }
@@ -123,9 +123,9 @@ const char* kExpectedCsv =
     "103,-2.700000,0.400000,0.010000000,0.002000000,0.020000000\n"
     "999,13.000000,10.000000,0.010000000,0.000000000,0.010000000\n";
 
-void expect_known_map_metrics(const json& l) {
+void expect_known_map_metrics(const ojson& l) {
   ASSERT_TRUE(l.contains("landmark_map")) << l.dump(2);
-  const json& m = l["landmark_map"];
+  const ojson& m = l["landmark_map"];
   std::vector<std::string> keys;  // in the file's order
   for (const auto& [key, value] : m.items()) keys.push_back(key);
   EXPECT_EQ(keys, (std::vector<std::string>{"mapped", "matched", "error_m", "spurious", "missed",
@@ -150,8 +150,8 @@ TEST(LandmarkMapRun, FakeSlamFilterGetsItsMapMatchedAndWritten) {
                         std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_probe.so@probe"};
   options.log_file = dir / "run.locsimlog";
   run_simulation(options);
-  const json metrics = json::parse(testing::read_file(options.out_dir / "metrics.json"));
-  const json& slam = entry(metrics, "slam");
+  const ojson metrics = ojson::parse(testing::read_file(options.out_dir / "metrics.json"));
+  const ojson& slam = entry(metrics, "slam");
   EXPECT_EQ(slam["status"], "ok");
   expect_known_map_metrics(slam);
   EXPECT_EQ(slam["diagnostics"]["map_landmarks"], 5.0);
@@ -161,7 +161,7 @@ TEST(LandmarkMapRun, FakeSlamFilterGetsItsMapMatchedAndWritten) {
   EXPECT_FALSE(entry(metrics, "probe").contains("landmark_map"));
   EXPECT_FALSE(fs::exists(options.out_dir / "probe_map.csv"));
   // The default (landmarks known) leaves the scenario's configuration in run.json as it was.
-  const json run = json::parse(testing::read_file(options.out_dir / "run.json"));
+  const ojson run = ojson::parse(testing::read_file(options.out_dir / "run.json"));
   EXPECT_FALSE(run["config"]["scenario"].contains("localization"));
 
   // A replay of the log (what sweeps run) knows what the cameras saw from the readings alone.
@@ -171,7 +171,7 @@ TEST(LandmarkMapRun, FakeSlamFilterGetsItsMapMatchedAndWritten) {
   replay.localizers = {options.localizers[0]};
   replay_log(replay);
   EXPECT_EQ(testing::read_file(replay.out_dir / "slam_map.csv"), kExpectedCsv);
-  const json replayed = json::parse(testing::read_file(replay.out_dir / "metrics.json"));
+  const ojson replayed = ojson::parse(testing::read_file(replay.out_dir / "metrics.json"));
   EXPECT_EQ(entry(replayed, "slam")["landmark_map"], slam["landmark_map"]);
 }
 
@@ -182,16 +182,16 @@ TEST(LandmarkMapRun, UnknownLandmarksGiveTheFiltersAMapWithoutThem) {
   options.out_dir = dir / "out";
   options.localizers = {slam_map_plugin() + "@slam"};
   run_simulation(options);
-  const json metrics = json::parse(testing::read_file(options.out_dir / "metrics.json"));
-  const json& slam = entry(metrics, "slam");
+  const ojson metrics = ojson::parse(testing::read_file(options.out_dir / "metrics.json"));
+  const ojson& slam = entry(metrics, "slam");
   EXPECT_EQ(slam["status"], "ok");
   EXPECT_EQ(slam["diagnostics"]["map_landmarks"], 0.0);
   EXPECT_EQ(slam["diagnostics"]["map_landmarks_null"], 1.0);
   // It mapped nothing (it copies the map it was given): no file, no block.
   EXPECT_FALSE(slam.contains("landmark_map"));
   EXPECT_FALSE(fs::exists(options.out_dir / "slam_map.csv"));
-  const json run = json::parse(testing::read_file(options.out_dir / "run.json"));
-  EXPECT_EQ(run["config"]["scenario"]["localization"], json({{"landmarks_known", false}}));
+  const ojson run = ojson::parse(testing::read_file(options.out_dir / "run.json"));
+  EXPECT_EQ(run["config"]["scenario"]["localization"], ojson({{"landmarks_known", false}}));
   // The world's landmarks are still there for the cameras.
   EXPECT_NE(testing::read_file(options.out_dir / "readings/ptz_camera.csv").find(",red,"),
             std::string::npos);
@@ -217,13 +217,13 @@ TEST(LandmarkMapRun, ErrorsAndNonFiniteMapsFailTheFilterAlone) {
   options.localizers = {slam_map_plugin() + ":fail=throw@throws",
                         slam_map_plugin() + ":fail=nan@nan", slam_map_plugin() + "@fine"};
   run_simulation(options);
-  const json metrics = json::parse(testing::read_file(options.out_dir / "metrics.json"));
-  const json& throws = entry(metrics, "throws");
+  const ojson metrics = ojson::parse(testing::read_file(options.out_dir / "metrics.json"));
+  const ojson& throws = entry(metrics, "throws");
   EXPECT_EQ(throws["status"], "failed");
   EXPECT_EQ(throws["failure"]["call"], "landmark_map");
   EXPECT_EQ(throws["failure"]["message"], "deliberate landmark map failure");
   EXPECT_DOUBLE_EQ(throws["failure"]["t_s"].get<double>(), 1.0);
-  const json& nan = entry(metrics, "nan");
+  const ojson& nan = entry(metrics, "nan");
   EXPECT_EQ(nan["status"], "failed");
   EXPECT_EQ(nan["failure"]["call"], "landmark_map");
   EXPECT_EQ(nan["failure"]["message"],
@@ -233,11 +233,11 @@ TEST(LandmarkMapRun, ErrorsAndNonFiniteMapsFailTheFilterAlone) {
     EXPECT_FALSE(fs::exists(options.out_dir / (std::string(label) + "_map.csv"))) << label;
   }
   // The same plugin without the failure: all five landmarks 0.5 m off, each matched.
-  const json& fine = entry(metrics, "fine");
+  const ojson& fine = entry(metrics, "fine");
   EXPECT_EQ(fine["status"], "ok");
   EXPECT_EQ(fine["landmark_map"]["matched"], 5);
   EXPECT_EQ(fine["landmark_map"]["missed"], 0);
-  const json run = json::parse(testing::read_file(options.out_dir / "run.json"));
+  const ojson run = ojson::parse(testing::read_file(options.out_dir / "run.json"));
   EXPECT_EQ(run["status"], "completed");
 }
 

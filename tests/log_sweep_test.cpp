@@ -37,7 +37,7 @@ fs::path write_circle_log(const fs::path& file, const std::string& noise, int ro
   for (std::size_t i = 0; i < landmarks.size(); ++i)
     d.landmarks.push_back({static_cast<int>(i) + 1, landmarks[i]});
   RandomStream rng = make_stream(1, "test/" + noise);
-  constexpr double kDt = 0.1, kV = 0.3, kOmega = 0.2;
+  constexpr double kDt = 0.1, kSpeedMps = 0.3, kTurnRadps = 0.2;
   for (int r = 0; r < robots; ++r) {
     ImportedRobot robot;
     robot.name = "robot" + std::to_string(r + 1);
@@ -47,8 +47,8 @@ fs::path write_circle_log(const fs::path& file, const std::string& noise, int ro
       ImportedRobot::Odometry o;
       o.t_s = t_s;
       o.reading.fields = kOdometryVelocity;
-      o.reading.v_mps = kV;
-      o.reading.omega_radps = kOmega;
+      o.reading.v_mps = kSpeedMps;
+      o.reading.omega_radps = kTurnRadps;
       robot.odometry.push_back(o);
       robot.truth.push_back({t_s, truth});
       ImportedRobot::Detections seen;
@@ -66,7 +66,8 @@ fs::path write_circle_log(const fs::path& file, const std::string& noise, int ro
         seen.detections.push_back(detection);
       }
       robot.detections.push_back(seen);
-      const double v = kV * (1.0 + rng.normal(0.0, 0.05)), omega = kOmega + rng.normal(0.0, 0.02);
+      const double v = kSpeedMps * (1.0 + rng.normal(0.0, 0.05)),
+                   omega = kTurnRadps + rng.normal(0.0, 0.02);
       truth = {truth.x + v * kDt * std::cos(truth.theta), truth.y + v * kDt * std::sin(truth.theta),
                wrap_angle(truth.theta + omega * kDt)};
     }
@@ -111,7 +112,7 @@ std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
   return rows;
 }
 
-std::string error_of(const fs::path& experiment) {
+std::string experiment_error(const fs::path& experiment) {
   try {
     load_experiment(experiment);
   } catch (const InputError& e) {
@@ -283,31 +284,34 @@ TEST(LogExperiment, BadLogsAreReportedWhereTheExperimentNamesThem) {
   std::ofstream(dir / "cut.locsimlog") << testing::read_file(dir / "a.locsimlog").substr(0, 400);
 
   // experiment.yaml's first line is `name:`; `extra` comes on line 2, `logs:` after it.
-  EXPECT_EQ(error_of(write_log_experiment(
+  EXPECT_EQ(experiment_error(write_log_experiment(
                 dir, "[a.locsimlog]", "",
                 "world: " + std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml\n")),
             (dir / "experiment.yaml").string() +
                 ":2:8: 'world': give either logs (each log holds its world, scenario and "
                 "duration) or world, scenario and duration_s, not both");
   testing::expect_contains(
-      error_of(write_log_experiment(dir, "[a.locsimlog]", "[1]", "duration_s: 10\n")),
+      experiment_error(write_log_experiment(dir, "[a.locsimlog]", "[1]", "duration_s: 10\n")),
       "experiment.yaml:2:13: 'duration_s': give either logs");
-  testing::expect_contains(error_of(write_log_experiment(dir, "[a.locsimlog, missing.locsimlog]")),
-                           "experiment.yaml:2:21: 'logs[1]': no such file '" +
-                               (dir / "missing.locsimlog").string() + "'");
-  testing::expect_contains(error_of(write_log_experiment(dir, "[a.locsimlog, other/a.locsimlog]")),
-                           "experiment.yaml:2:21: 'logs[1]': the file name 'a' is also that of");
-  testing::expect_contains(error_of(write_log_experiment(dir, "[cut.locsimlog]")),
+  testing::expect_contains(
+      experiment_error(write_log_experiment(dir, "[a.locsimlog, missing.locsimlog]")),
+      "experiment.yaml:2:21: 'logs[1]': no such file '" + (dir / "missing.locsimlog").string() +
+          "'");
+  testing::expect_contains(
+      experiment_error(write_log_experiment(dir, "[a.locsimlog, other/a.locsimlog]")),
+      "experiment.yaml:2:21: 'logs[1]': the file name 'a' is also that of");
+  testing::expect_contains(experiment_error(write_log_experiment(dir, "[cut.locsimlog]")),
                            "experiment.yaml:2:8: 'logs[0]': " + (dir / "cut.locsimlog").string());
-  testing::expect_contains(error_of(write_log_experiment(dir, "[pair.locsimlog]")),
+  testing::expect_contains(experiment_error(write_log_experiment(dir, "[pair.locsimlog]")),
                            "experiment.yaml:2:8: 'logs[0]': the log has 2 robots");
   testing::expect_contains(
-      error_of(write_log_experiment(dir, "[{file: pair.locsimlog, robots: [robot1, nobody]}]")),
+      experiment_error(
+          write_log_experiment(dir, "[{file: pair.locsimlog, robots: [robot1, nobody]}]")),
       "'logs[0].robots[1]': no robot named 'nobody' in the log (its robots: robot1, robot2)");
   testing::expect_contains(
-      error_of(write_log_experiment(dir, "[{file: pair.locsimlog, robot: [robot1]}]")),
+      experiment_error(write_log_experiment(dir, "[{file: pair.locsimlog, robot: [robot1]}]")),
       "'logs[0].robot'");
-  testing::expect_contains(error_of(write_log_experiment(dir, "[]")),
+  testing::expect_contains(experiment_error(write_log_experiment(dir, "[]")),
                            "'logs': give at least one log");
 
   // The command line exits with 2 and creates no folder.

@@ -18,11 +18,9 @@ using json = nlohmann::json;
 using testing::locsim;
 using testing::Outcome;
 
-const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+using testing::kDemo;
 
-std::string test_plugin(const std::string& kind) {
-  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
-}
+using testing::test_plugin;
 
 TEST(Overwrite, StartsFromAnEmptyFolder) {
   const fs::path out = testing::temp_dir("overwrite") / "out";

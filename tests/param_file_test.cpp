@@ -20,11 +20,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+using testing::kDemo;
 
-std::string test_plugin(const std::string& kind) {
-  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
-}
+using testing::test_plugin;
 
 fs::path write(const fs::path& file, const std::string& text) {
   std::ofstream(file) << text;

@@ -21,9 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string test_plugin(const std::string& kind) {
-  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
-}
+using testing::test_plugin;
 
 std::string load_error(const fs::path& file) {
   try {
@@ -88,11 +86,11 @@ TEST(Params, AreCheckedAgainstTheDeclarations) {
       parse_localizer_spec("probe:gain=0.25,count=7,verbose=true,mode=slow@p1");
   EXPECT_EQ(spec.label, "p1");
   const ParamSet params(library.table(), spec);
-  const auto json = params.to_json();
-  EXPECT_EQ(json["gain"], 0.25);
-  EXPECT_EQ(json["count"], 7);
-  EXPECT_EQ(json["verbose"], true);
-  EXPECT_EQ(json["mode"], "slow");
+  const auto values = params.to_json();
+  EXPECT_EQ(values["gain"], 0.25);
+  EXPECT_EQ(values["count"], 7);
+  EXPECT_EQ(values["verbose"], true);
+  EXPECT_EQ(values["mode"], "slow");
   EXPECT_EQ(ParamSet(library.table(), parse_localizer_spec("probe")).to_json()["mode"], "fast");
   const auto error = [&](const std::string& text) {
     try {

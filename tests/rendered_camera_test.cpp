@@ -9,6 +9,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "osmesa_support.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/producers/simulation.hpp"
 #include "sim/run/runner.hpp"
@@ -55,13 +56,7 @@ Truth truth_of(double x, double y) {
   return {std::hypot(x - 1.0, y - 4.0), std::atan2(y - 4.0, x - 1.0)};
 }
 
-LandmarkImagerFactory osmesa_imager(std::shared_ptr<render::RenderedCamera>* keep = nullptr) {
-  return [keep](const WorldDef& world, const PtzCameraDef& camera) {
-    auto imager = std::make_shared<render::RenderedCamera>(world, camera, "osmesa");
-    if (keep != nullptr) *keep = imager;
-    return imager;
-  };
-}
+using testing::osmesa_imager;
 
 RunInputs hall(const std::string& yaml = kHall) {
   const fs::path dir = testing::temp_dir("hall");

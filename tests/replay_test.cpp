@@ -19,12 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string without_timing(const fs::path& file) {
-  auto j = nlohmann::ordered_json::parse(testing::read_file(file));
-  j.erase("timing");
-  return j.dump();
-}
-
 /// Records 25 s of the demo (one kidnap) with two filters; returns the log's path.
 fs::path record(const fs::path& dir, double duration_s = 25.0) {
   RunOptions options;
@@ -56,7 +50,8 @@ TEST(Replay, GivesTheFiltersExactlyWhatTheRunGaveThem) {
     EXPECT_GT(original.size(), 100u) << file;
     EXPECT_EQ(original, testing::read_file(dir / "replay" / file)) << file;
   }
-  EXPECT_EQ(without_timing(dir / "run/metrics.json"), without_timing(dir / "replay/metrics.json"));
+  EXPECT_EQ(testing::json_without_timing(dir / "run/metrics.json"),
+            testing::json_without_timing(dir / "replay/metrics.json"));
   // Other parameters on the same log: a different estimate from the same readings.
   ReplayOptions other = replay_options(log, dir / "other");
   other.localizers = {"ekf_landmarks:sigma_bearing_deg=6@ekf"};
@@ -450,8 +445,8 @@ TEST(LogFormat, AVersion1LogStillReplaysWithTheSameResults) {
     }
     EXPECT_EQ(testing::read_file(dir / "replay1" / file), replayed) << file;
   }
-  EXPECT_EQ(without_timing(dir / "replay1/metrics.json"),
-            without_timing(dir / "replay2/metrics.json"));
+  EXPECT_EQ(testing::json_without_timing(dir / "replay1/metrics.json"),
+            testing::json_without_timing(dir / "replay2/metrics.json"));
 }
 
 TEST(LogFormat, Version2RoundTripsEveryNewField) {

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "osmesa_support.hpp"
 #include "render/rendered_camera.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/common/math.hpp"
@@ -94,11 +95,7 @@ fs::path worlds_dir() {
   return fs::path(LOCSIM_SOURCE_DIR) / "worlds";
 }
 
-LandmarkImagerFactory osmesa_imager() {
-  return [](const WorldDef& world, const PtzCameraDef& camera) {
-    return std::make_shared<render::RenderedCamera>(world, camera, "osmesa");
-  };
-}
+using testing::osmesa_imager;
 
 /// Every regular file under `dir`, relative to it, sorted.
 std::vector<fs::path> files_under(const fs::path& dir) {
@@ -110,7 +107,7 @@ std::vector<fs::path> files_under(const fs::path& dir) {
   return out;
 }
 
-nlohmann::ordered_json without_timing(const fs::path& file) {
+nlohmann::ordered_json parsed_without_timing(const fs::path& file) {
   auto j = nlohmann::ordered_json::parse(testing::read_file(file));
   EXPECT_TRUE(j.contains("timing")) << file;
   j.erase("timing");
@@ -125,7 +122,8 @@ void expect_same_folder(const fs::path& a, const fs::path& b) {
   for (const fs::path& file : files) {
     if (!fs::exists(b / file)) continue;
     if (file.filename() == "metrics.json") {
-      EXPECT_EQ(without_timing(a / file).dump(), without_timing(b / file).dump()) << file;
+      EXPECT_EQ(parsed_without_timing(a / file).dump(), parsed_without_timing(b / file).dump())
+          << file;
     } else if (file.filename() == "run.json") {
       const auto run_a = nlohmann::ordered_json::parse(testing::read_file(a / file));
       const auto run_b = nlohmann::ordered_json::parse(testing::read_file(b / file));

@@ -62,9 +62,7 @@ fs::path write_short_experiment(const fs::path& dir, const std::string& localize
   return file;
 }
 
-std::string test_plugin(const std::string& kind) {
-  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
-}
+using testing::test_plugin;
 
 /// A stand-in for the locsim binary that each run executes (SweepOptions::locsim_binary): a shell
 /// script doing `cases` (a `case "$*" in` body matched against the run's arguments) and handing
@@ -79,20 +77,20 @@ fs::path write_stand_in(const fs::path& dir, const std::string& cases) {
   return script;
 }
 
-struct Outcome {
+struct TimedOutcome {
   int exit_code = -1;
   std::string output;  // stdout, then stderr
   double seconds = 0.0;
 };
 
 /// `locsim ARGUMENTS` as a user runs it.
-Outcome locsim(const std::string& arguments, const fs::path& dir) {
+TimedOutcome locsim(const std::string& arguments, const fs::path& dir) {
   const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
   const auto start = std::chrono::steady_clock::now();
   const int status = std::system((std::string(LOCSIM_BINARY) + " " + arguments + " >" +
                                   out.string() + " 2>" + err.string() + " </dev/null")
                                      .c_str());
-  Outcome outcome;
+  TimedOutcome outcome;
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   outcome.output = testing::read_file(out) + testing::read_file(err);
@@ -101,10 +99,10 @@ Outcome locsim(const std::string& arguments, const fs::path& dir) {
 
 /// The message `locsim run` gives for `--localizer SPEC` (after "locsim: ...error: ").
 std::string run_message(const std::string& spec, const fs::path& dir) {
-  const Outcome run = locsim("run " + std::string(LOCSIM_SOURCE_DIR) +
-                                 "/worlds/demo/demo.yaml --duration 0.1 --out " +
-                                 (dir / "run").string() + " --localizer '" + spec + "'",
-                             dir);
+  const TimedOutcome run = locsim("run " + std::string(LOCSIM_SOURCE_DIR) +
+                                      "/worlds/demo/demo.yaml --duration 0.1 --out " +
+                                      (dir / "run").string() + " --localizer '" + spec + "'",
+                                  dir);
   EXPECT_NE(run.exit_code, 0) << run.output;
   const std::size_t colon = run.output.find("error: ");
   return colon == std::string::npos ? run.output : run.output.substr(colon + 7);
@@ -377,7 +375,7 @@ TEST(Sweep, AnUnknownPluginExitsWith3AtOnceAndLeavesNoFolder) {
   const fs::path dir = testing::temp_dir("sweep");
   const fs::path experiment = write_short_experiment(
       dir, "  - plugin: odometry\n  - plugin: odometri\n", "{from: 1, to: 3}");
-  const Outcome outcome =
+  const TimedOutcome outcome =
       locsim("sweep " + experiment.string() + " --out " + (dir / "out").string(), dir);
   EXPECT_EQ(outcome.exit_code, 3) << outcome.output;
   EXPECT_LT(outcome.seconds, 1.0) << "simulated before checking?";
@@ -395,7 +393,7 @@ TEST(Sweep, AParameterOneGridPointRejectsExitsWith2BeforeSimulating) {
   const fs::path experiment =
       write_short_experiment(dir, "  - plugin: odometry\n  - plugin: " + test_plugin("probe") +
                                       "\n    label: probe\n    grid: {gain: [0.5, 2]}\n");
-  const Outcome outcome =
+  const TimedOutcome outcome =
       locsim("sweep " + experiment.string() + " --out " + (dir / "out").string(), dir);
   EXPECT_EQ(outcome.exit_code, 2) << outcome.output;
   EXPECT_FALSE(fs::exists(dir / "out"));
@@ -450,7 +448,7 @@ TEST(Sweep, ARunInErrorKeepsItsWholeReasonAndTheReportLinksItsLog) {
       << csv;
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3) << "a reason broke its row";
 
-  const Outcome report = locsim("report " + (dir / "out").string(), dir);
+  const TimedOutcome report = locsim("report " + (dir / "out").string(), dir);
   EXPECT_EQ(report.exit_code, 0) << report.output;
   const std::string markdown = testing::read_file(dir / "out/report.md");
   EXPECT_NE(markdown.find("| odometry/seed-1 | error | exit code 2: locsim: error: the first line "
@@ -506,7 +504,7 @@ TEST(Sweep, ResumeKeepsFailedRunsAndRetryFailedRunsThemAgain) {
   const std::string resume = "sweep " + experiment.string() + " --out " + (dir / "out").string();
   EXPECT_EQ(locsim(resume + " --retry-failed", dir).exit_code, 2)
       << "--retry-failed needs --resume";
-  const Outcome retried = locsim(resume + " --resume --retry-failed", dir);
+  const TimedOutcome retried = locsim(resume + " --resume --retry-failed", dir);
   EXPECT_EQ(retried.exit_code, 0) << retried.output;
   EXPECT_NE(retried.output.find("2 runs (1 done before, 1 run again), 1 not ok"), std::string::npos)
       << retried.output;
@@ -522,7 +520,8 @@ TEST(Sweep, ARunInErrorMakesTheSweepExitWith1AndSayWhere) {
   const fs::path experiment = write_short_experiment(
       dir, "  - plugin: odometry\n  - plugin: " + test_plugin("create_fails") + "\n");
   const fs::path out = dir / "out";
-  const Outcome outcome = locsim("sweep " + experiment.string() + " --out " + out.string(), dir);
+  const TimedOutcome outcome =
+      locsim("sweep " + experiment.string() + " --out " + out.string(), dir);
   EXPECT_EQ(outcome.exit_code, 1) << outcome.output;
   const std::string last_line =
       outcome.output.substr(outcome.output.rfind('\n', outcome.output.size() - 2) + 1);

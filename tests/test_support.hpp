@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
@@ -24,6 +25,15 @@ inline const bool kPluginPathSet = [] {
   setenv("LOCSIM_PLUGIN_PATH", LOCSIM_BUILD_PLUGIN_DIR, 1);
   return true;
 }();
+
+inline const std::string kDemo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+
+#ifdef LOCSIM_TEST_PLUGIN_DIR
+/// The shared library of one of the test plugins (tests/plugins), e.g. "probe".
+inline std::string test_plugin(const std::string& kind) {
+  return std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_" + kind + ".so";
+}
+#endif
 
 inline WorldDef world_from_yaml(const std::string& text) {
   return parse_world(YamlNode::load_string(text, "test.yaml"), ".");
@@ -52,6 +62,15 @@ inline std::string read_file(const std::filesystem::path& path) {
   std::ostringstream out;
   out << in.rdbuf();
   return out.str();
+}
+
+/// A JSON file's text, in its own key order, without its wall-clock "timing" block (which it
+/// must have).
+inline std::string json_without_timing(const std::filesystem::path& file) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(read_file(file));
+  EXPECT_TRUE(j.contains("timing")) << file;
+  j.erase("timing");
+  return j.dump();
 }
 
 /// `text` (a message) holds `part`; says both when not.

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string num(double value) {
+std::string seven_digits(double value) {
   return rounded_number(value, 7);
 }
 
@@ -223,8 +223,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
           found = true;
         }
         if (!found)
-          c.note = "the log sees more than a camera at the physics rate could: rate " + num(best) +
-                   " Hz, nothing missed";
+          c.note = "the log sees more than a camera at the physics rate could: rate " +
+                   seven_digits(best) + " Hz, nothing missed";
         c.rate_hz = best;
         c.miss_probability = std::clamp(1.0 - true_per_s / (best * c.in_view_mean), 0.0, 1.0);
         c.false_per_reading = false_per_s / best;
@@ -246,9 +246,9 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     const Pose2& start = t.path.front().pose;
     YAML::Node pose(YAML::NodeType::Map);
     pose.SetStyle(YAML::EmitterStyle::Flow);
-    pose["x"] = num(start.x);
-    pose["y"] = num(start.y);
-    pose["theta"] = num(start.theta);
+    pose["x"] = seven_digits(start.x);
+    pose["y"] = seven_digits(start.y);
+    pose["theta"] = seven_digits(start.theta);
     robot["start"] = pose;
     YAML::Node sensors = robot["sensors"];
     for (const auto& [sensor, settings] : calibrated) {
@@ -259,8 +259,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     if (twin.camera && world.robots[i].sensors.range_bearing && twin.camera->note.empty()) {
       // Exact: the loader checks that the rate divides the physics rate.
       sensors["range_bearing"]["rate_hz"] = short_number(twin.camera->rate_hz);
-      sensors["range_bearing"]["miss_probability"] = num(twin.camera->miss_probability);
-      sensors["range_bearing"]["false_detections"] = num(twin.camera->false_per_reading);
+      sensors["range_bearing"]["miss_probability"] = seven_digits(twin.camera->miss_probability);
+      sensors["range_bearing"]["false_detections"] = seven_digits(twin.camera->false_per_reading);
     }
     robots.push_back(YAML::Clone(robot));
   }
@@ -273,14 +273,14 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
 
   YAML::Node s(YAML::NodeType::Map);
   s["name"] = "twin";
-  s["duration_s"] = num(scenario.duration_s);
-  s["groundtruth_hz"] = num(scenario.groundtruth_hz);
+  s["duration_s"] = seven_digits(scenario.duration_s);
+  s["groundtruth_hz"] = seven_digits(scenario.groundtruth_hz);
   YAML::Node localization(YAML::NodeType::Map);
   localization.SetStyle(YAML::EmitterStyle::Flow);
   localization["initial_pose"] = scenario.localization.initial_pose_known ? "known" : "unknown";
   localization["landmarks_known"] = scenario.localization.landmarks_known;
-  localization["sigma_xy_m"] = num(scenario.localization.sigma_xy_m);
-  localization["sigma_theta"] = num(scenario.localization.sigma_theta_rad);
+  localization["sigma_xy_m"] = seven_digits(scenario.localization.sigma_xy_m);
+  localization["sigma_theta"] = seven_digits(scenario.localization.sigma_theta_rad);
   s["localization"] = localization;
   YAML::Node drives(YAML::NodeType::Sequence);
   for (const TwinRobot& t : twin.robots) {
@@ -298,12 +298,12 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
                      "` (docs/real_data.md): a simulated twin of the log.\n"
                      "# Each robot follows its recorded true path (the .tum files beside this "
                      "file, " +
-                     num(options.pose_rate_hz) + " poses per second).\n";
+                     seven_digits(options.pose_rate_hz) + " poses per second).\n";
   if (options.calibration)
     text += "# Sensor noise: the `sensors:` of " + options.calibration->string() + ".\n";
   if (twin.camera && twin.camera->note.empty()) {
     const TwinCamera& c = *twin.camera;
-    text += "# range_bearing: rate " + num(c.rate_hz) + " Hz, miss_probability " +
+    text += "# range_bearing: rate " + seven_digits(c.rate_hz) + " Hz, miss_probability " +
             rounded_number(c.miss_probability, 3) +
             " (calibrated: " + rounded_number(c.calibrated_miss_probability, 3) +
             "), so that the twin sees the " + rounded_number(c.data_detections_per_s, 3) +
@@ -362,7 +362,7 @@ std::string describe(const Twin& twin) {
   if (twin.camera) {
     const TwinCamera& c = *twin.camera;
     if (c.note.empty()) {
-      text += "twin: range_bearing at " + num(c.rate_hz) + " Hz, miss probability " +
+      text += "twin: range_bearing at " + seven_digits(c.rate_hz) + " Hz, miss probability " +
               fixed(c.miss_probability, 3) + " (calibrated " +
               fixed(c.calibrated_miss_probability, 3) + "), " + fixed(c.false_per_reading, 4) +
               " false per reading: " + fixed(c.data_detections_per_s, 2) +

@@ -754,7 +754,7 @@ json model_json(const OdometryModelFit& f) {
           {"log_likelihood", f.log_likelihood}};
 }
 
-std::string num(double value) {
+std::string four_digits(double value) {
   return rounded_number(value, 4);
 }
 
@@ -934,16 +934,16 @@ std::string Calibration::to_yaml() const {
     // filters get the wheel model (docs/real_data.md measures both on MRCLAM).
     y += "  # motion: the wheel model at every odometry reading (ekf_landmarks; the particle "
          "filters with motion_model wheels)\n";
-    y += "  motion_model: wheels\n  k_left: " + num(motion->k_left) +
-         "\n  k_right: " + num(motion->k_right) +
-         "\n  motion_floor_m: " + num(motion->k_floor_position_m) +
+    y += "  motion_model: wheels\n  k_left: " + four_digits(motion->k_left) +
+         "\n  k_right: " + four_digits(motion->k_right) +
+         "\n  motion_floor_m: " + four_digits(motion->k_floor_position_m) +
          "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
-         num(rad_to_deg(motion->k_floor_heading_rad)) + "\n";
+         four_digits(rad_to_deg(motion->k_floor_heading_rad)) + "\n";
     const OdometryModelFit& f =
         motion->variance_form ? motion->odometry_variance : motion->odometry_std;
     y += "  # the odometry model per perception step (fastslam; motion_model odometry)\n";
-    y += "  alpha1: " + num(f.alpha1) + "\n  alpha2: " + num(f.alpha2) +
-         "\n  alpha3: " + num(f.alpha3) + "\n  alpha4: " + num(f.alpha4) +
+    y += "  alpha1: " + four_digits(f.alpha1) + "\n  alpha2: " + four_digits(f.alpha2) +
+         "\n  alpha3: " + four_digits(f.alpha3) + "\n  alpha4: " + four_digits(f.alpha4) +
          "\n  variance_form: " + (motion->variance_form ? "true" : "false") +
          "  # the form that explains the odometry better\n";
   }
@@ -951,57 +951,58 @@ std::string Calibration::to_yaml() const {
     // Localizers do not model a bias: they get the spread about zero (root mean square).
     y +=
         "  # from the " + camera->camera + "'s detections; the spread about zero (bias included)\n";
-    y += "  sigma_range_m: " + num(std::max(camera->range_rms_m.at_zero, 1e-6)) +
-         "\n  sigma_range_per_m: " + num(camera->range_rms_m.per_unit) +
+    y += "  sigma_range_m: " + four_digits(std::max(camera->range_rms_m.at_zero, 1e-6)) +
+         "\n  sigma_range_per_m: " + four_digits(camera->range_rms_m.per_unit) +
          "\n  sigma_range_per_m2: 0\n  sigma_bearing_deg: " +
-         num(std::max(rad_to_deg(camera->bearing_rms_rad), 1e-6)) + "\n";
+         four_digits(std::max(rad_to_deg(camera->bearing_rms_rad), 1e-6)) + "\n";
     // The FastSLAM filters take one range noise: the spread at the middle bin's range.
     if (!camera->bins.empty()) {
       const double middle_m = camera->bins[camera->bins.size() / 2].range_m;
-      const std::string fixed = num(std::max(camera->range_rms_m.at(middle_m), 1e-6));
+      const std::string fixed = four_digits(std::max(camera->range_rms_m.at(middle_m), 1e-6));
       for (const char* name : {"fastslam", "fastslam_afsa", "pso_pf"}) {
-        y += std::string("  ") + name + ": {sigma_range_m: " + fixed + "}  # at " + num(middle_m) +
-             " m\n";
+        y += std::string("  ") + name + ": {sigma_range_m: " + fixed + "}  # at " +
+             four_digits(middle_m) + " m\n";
       }
     }
   }
   if (camera != nullptr && camera->srl_threshold) {
     y += "  # resetting levels: the true pose's likelihood falls below them in " +
-         num(100.0 * *camera->reset_quantile) + " % of the steps\n";
+         four_digits(100.0 * *camera->reset_quantile) + " % of the steps\n";
     // One detection puts a reset pose anywhere on a ring around its landmark, which later
     // detections of that landmark cannot tell from the truth (docs/real_data.md).
     y += "  # and a reset from two detections or more: one puts the robot on a ring\n";
-    y += "  srl: {threshold: " + num(*camera->srl_threshold) + ", reset_min_detections: 2}\n";
-    y += "  asrl: {p_t: " + num(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
+    y += "  srl: {threshold: " + four_digits(*camera->srl_threshold) +
+         ", reset_min_detections: 2}\n";
+    y += "  asrl: {p_t: " + four_digits(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
     y += "  # w_fast / w_slow of the truth falls below injection_level in as few steps\n";
-    y += "  augmented_mcl: {injection_level: " + num(*camera->augmented_injection_level) +
-         ", alpha_slow: " + num(kAugmentedAlphaSlow) + ", alpha_fast: " + num(kAugmentedAlphaFast) +
-         "}\n";
+    y += "  augmented_mcl: {injection_level: " + four_digits(*camera->augmented_injection_level) +
+         ", alpha_slow: " + four_digits(kAugmentedAlphaSlow) +
+         ", alpha_fast: " + four_digits(kAugmentedAlphaFast) + "}\n";
   }
   if (camera != nullptr && camera->outlier_likelihood) {
     y += "  # the landmark particle filters: a detection may be false (" +
-         num(100.0 * static_cast<double>(camera->false_detections) /
-             static_cast<double>(camera->detections)) +
+         four_digits(100.0 * static_cast<double>(camera->false_detections) /
+                     static_cast<double>(camera->detections)) +
          " % of them), anywhere in the measured ranges and bearings\n";
-    y += "  outlier_likelihood: " + num(*camera->outlier_likelihood) + "\n";
+    y += "  outlier_likelihood: " + four_digits(*camera->outlier_likelihood) + "\n";
   }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
   if (motion) {
-    y += "  encoders: {k_left: " + num(motion->k_left) + ", k_right: " + num(motion->k_right) +
-         "}\n";
+    y += "  encoders: {k_left: " + four_digits(motion->k_left) +
+         ", k_right: " + four_digits(motion->k_right) + "}\n";
   }
   for (const DetectionCalibration& c : cameras) {
     if (c.camera != sensor_name(SensorKind::kRangeBearing)) continue;
-    y += "  range_bearing:\n    sigma_range_m: " + num(c.range_spread_m.at_zero) +
-         "\n    sigma_range_per_m: " + num(c.range_spread_m.per_unit) +
-         "\n    range_bias_m: " + num(c.range_bias_m.at_zero) +
-         "\n    range_bias_per_m: " + num(c.range_bias_m.per_unit) +
-         "\n    sigma_bearing_deg: " + num(rad_to_deg(c.bearing_spread_rad)) +
-         "\n    bearing_bias_deg: " + num(rad_to_deg(c.bearing_bias_rad)) + "\n";
-    if (c.miss_probability) y += "    miss_probability: " + num(*c.miss_probability) + "\n";
-    y += "    false_detections: " + num(c.false_per_reading) + "\n";
+    y += "  range_bearing:\n    sigma_range_m: " + four_digits(c.range_spread_m.at_zero) +
+         "\n    sigma_range_per_m: " + four_digits(c.range_spread_m.per_unit) +
+         "\n    range_bias_m: " + four_digits(c.range_bias_m.at_zero) +
+         "\n    range_bias_per_m: " + four_digits(c.range_bias_m.per_unit) +
+         "\n    sigma_bearing_deg: " + four_digits(rad_to_deg(c.bearing_spread_rad)) +
+         "\n    bearing_bias_deg: " + four_digits(rad_to_deg(c.bearing_bias_rad)) + "\n";
+    if (c.miss_probability) y += "    miss_probability: " + four_digits(*c.miss_probability) + "\n";
+    y += "    false_detections: " + four_digits(c.false_per_reading) + "\n";
     if (c.noise_correlation_s)
-      y += "    noise_correlation_s: " + num(*c.noise_correlation_s) + "\n";
+      y += "    noise_correlation_s: " + four_digits(*c.noise_correlation_s) + "\n";
   }
   return y;
 }
@@ -1013,25 +1014,28 @@ std::string describe(const Calibration& c) {
     const MotionCalibration& m = *c.motion;
     const OdometryModelFit& f = m.variance_form ? m.odometry_variance : m.odometry_std;
     text += "  motion: " + std::to_string(m.intervals) + " intervals (mean " +
-            num(m.mean_interval_s) + " s, " + num(m.mean_travel_m) + " m): alpha " + num(f.alpha1) +
-            " " + num(f.alpha2) + " " + num(f.alpha3) + " " + num(f.alpha4) +
-            (m.variance_form ? " (variance form)" : "") + "; k_left " + num(m.k_left) +
-            ", k_right " + num(m.k_right) + " m^1/2 (mean NEES " + num(m.k_mean_nees) +
-            "); error whatever the motion " + num(f.floor_position_m) + " m, " +
-            num(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
+            four_digits(m.mean_interval_s) + " s, " + four_digits(m.mean_travel_m) + " m): alpha " +
+            four_digits(f.alpha1) + " " + four_digits(f.alpha2) + " " + four_digits(f.alpha3) +
+            " " + four_digits(f.alpha4) + (m.variance_form ? " (variance form)" : "") +
+            "; k_left " + four_digits(m.k_left) + ", k_right " + four_digits(m.k_right) +
+            " m^1/2 (mean NEES " + four_digits(m.k_mean_nees) + "); error whatever the motion " +
+            four_digits(f.floor_position_m) + " m, " +
+            four_digits(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
   }
   for (const DetectionCalibration& d : c.cameras) {
-    text +=
-        "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
-        std::to_string(d.false_detections) + " false (" + num(d.false_per_reading) +
-        " per reading): range bias " + num(d.range_bias_m.at_zero) + " m + " +
-        num(d.range_bias_m.per_unit) + " r, spread " + num(d.range_spread_m.at_zero) + " m + " +
-        num(d.range_spread_m.per_unit) + " r; bearing bias " + num(rad_to_deg(d.bearing_bias_rad)) +
-        " deg, spread " + num(rad_to_deg(d.bearing_spread_rad)) + " deg" +
-        (d.miss_probability ? "; missed " + num(*d.miss_probability) : std::string()) +
-        (d.noise_correlation_s ? "; errors correlated over " + num(*d.noise_correlation_s) + " s"
-                               : std::string()) +
-        "\n";
+    text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
+            std::to_string(d.false_detections) + " false (" + four_digits(d.false_per_reading) +
+            " per reading): range bias " + four_digits(d.range_bias_m.at_zero) + " m + " +
+            four_digits(d.range_bias_m.per_unit) + " r, spread " +
+            four_digits(d.range_spread_m.at_zero) + " m + " +
+            four_digits(d.range_spread_m.per_unit) + " r; bearing bias " +
+            four_digits(rad_to_deg(d.bearing_bias_rad)) + " deg, spread " +
+            four_digits(rad_to_deg(d.bearing_spread_rad)) + " deg" +
+            (d.miss_probability ? "; missed " + four_digits(*d.miss_probability) : std::string()) +
+            (d.noise_correlation_s
+                 ? "; errors correlated over " + four_digits(*d.noise_correlation_s) + " s"
+                 : std::string()) +
+            "\n";
   }
   return text;
 }
