@@ -22,8 +22,8 @@ namespace fs = std::filesystem;
 // first kidnap) with odometry and ekf_landmarks. Any change to the physics, the sensors, the
 // random streams, these two filters, the scorer or the file formats moves them. Update them only
 // on purpose, with a one-line note in the commit message saying why the behaviour changed.
-constexpr std::string_view kPinnedStateHash = "e8179cbeba8d3c97";   // run.json "state_hash"
-constexpr std::uint64_t kPinnedOutputHash = 0xcf287b17a35f06dbULL;  // FNV-1a of the outputs
+constexpr std::string_view kPinnedStateHash = "fb55ff89a0fdca85";   // run.json "state_hash"
+constexpr std::uint64_t kPinnedOutputHash = 0xb2090752af2a85d0ULL;  // FNV-1a of the outputs
 
 RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   RunOptions options;
@@ -124,7 +124,12 @@ TEST(RunFolder, HoldsTumGroundTruthEventsAndResolvedConfig) {
   EXPECT_EQ(run["status"], "completed");
   EXPECT_EQ(run["seed"], 1);
   EXPECT_DOUBLE_EQ(run["simulated_s"].get<double>(), 45.0);
-  EXPECT_EQ(run["config"]["world"]["robots"][0]["wheel_radius_left_m"], 0.0502);
+  // The world as run: the true radius this seed drew around the declared 0.0502 m.
+  const auto& robot = run["config"]["world"]["robots"][0];
+  EXPECT_EQ(robot["wheel_radius_left_m"],
+            run["config"]["world"]["variation"]["drawn"]["robots"][0]["wheel_radius_left_m"]);
+  EXPECT_NEAR(robot["wheel_radius_left_m"].get<double>(), 0.0502, 0.003 * 0.0502);
+  EXPECT_NE(robot["wheel_radius_left_m"].get<double>(), 0.0502);
   EXPECT_EQ(run["config"]["scenario"]["events"].size(), 3u);
   EXPECT_GT(run["timing"]["real_time_factor"].get<double>(), 0.0);
   const std::string events = testing::read_file(out / "events.csv");
@@ -307,18 +312,20 @@ std::uint64_t fnv1a(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222
   return hash;
 }
 
-TEST(Determinism, PinnedHashesOfTheDemo) {
-  const fs::path out = testing::temp_dir("pinned") / "out";
+struct Pins {
+  std::string state_hash;
+  std::uint64_t output_hash = 0;
+};
+
+Pins pinned_run(const fs::path& world_file, const fs::path& out) {
   RunOptions options;
-  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.world_file = world_file;
   options.seed = 7;
   options.duration_s = 30.0;
   options.out_dir = out;
   options.localizers = {"odometry", "ekf_landmarks"};
   run_simulation(options);
   const auto run = nlohmann::json::parse(testing::read_file(out / "run.json"));
-  EXPECT_EQ(run["state_hash"].get<std::string>(), kPinnedStateHash);
-
   std::vector<fs::path> files = {"groundtruth.tum", "events.csv"};
   std::vector<fs::path> readings;
   for (const auto& entry : fs::directory_iterator(out / "readings")) {
@@ -342,7 +349,23 @@ TEST(Determinism, PinnedHashesOfTheDemo) {
   hash = fnv1a(metrics.dump(), hash);
   char hex[24];
   std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(hash));
-  EXPECT_EQ(hash, kPinnedOutputHash) << "output hash: 0x" << hex;
+  SCOPED_TRACE(std::string("output hash: 0x") + hex);
+  return {run["state_hash"].get<std::string>(), hash};
+}
+
+TEST(Determinism, PinnedHashesOfTheDemo) {
+  const Pins pins = pinned_run(testing::kDemo, testing::temp_dir("pinned") / "out");
+  EXPECT_EQ(pins.state_hash, kPinnedStateHash);
+  EXPECT_EQ(pins.output_hash, kPinnedOutputHash) << std::hex << "0x" << pins.output_hash;
+}
+
+TEST(Determinism, WithoutVariationTheDemoWritesWhatItDidBeforeVariationExisted) {
+  // The demo as it ran before seeds varied the world (the pins of d13b96d): `variation: none`.
+  const fs::path dir = testing::temp_dir("none");
+  std::ofstream(dir / "demo.yaml") << testing::read_file(testing::kDemo) << "variation: none\n";
+  const Pins pins = pinned_run(dir / "demo.yaml", dir / "out");
+  EXPECT_EQ(pins.state_hash, "e8179cbeba8d3c97");
+  EXPECT_EQ(pins.output_hash, 0xcf287b17a35f06dbULL) << std::hex << "0x" << pins.output_hash;
 }
 
 }  // namespace

@@ -62,7 +62,7 @@ TEST(KalmanCombine, IsTheInverseVarianceWeightedMean) {
 }
 
 TEST(OmniKf, FusingFramesBeatsSingleFramesAndOdometryOnTheHall) {
-  double odometry = 0.0, single = 0.0, multi = 0.0, odometry_last = 0.0;
+  double odometry = 0.0, single = 0.0, multi = 0.0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     RunOptions options;
     options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/omni/hall.yaml";
@@ -73,15 +73,17 @@ TEST(OmniKf, FusingFramesBeatsSingleFramesAndOdometryOnTheHall) {
     for (const auto& l : metrics["localizers"]) {
       ASSERT_EQ(l["status"], "ok");
       const double rms = l["position_error_m"]["rms"].get<double>();
-      if (l["label"] == "odometry") odometry += rms, odometry_last = rms;
+      if (l["label"] == "odometry") odometry += rms;
       if (l["label"] == "single") single += rms;
       if (l["label"] == "multi") multi += rms;
     }
   }
   EXPECT_LT(multi, 0.7 * single);
   EXPECT_LT(multi, 0.7 * odometry);
-  EXPECT_LT(multi / 3.0, 0.25);   // the paper: within 200 mm, most of the time
-  EXPECT_GT(odometry_last, 0.2);  // dead reckoning drifts
+  EXPECT_LT(multi / 3.0, 0.25);  // the paper: within 200 mm, most of the time
+  // Dead reckoning drifts: 0.09-0.64 m over seeds 1-6, as each draws its own true wheel radii
+  // around the hall's declared 0.3 % difference.
+  EXPECT_GT(odometry / 3.0, 0.2);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "sim/consumers/config_json.hpp"
 
+#include "sim/world/variation.hpp"
+
 namespace locsim {
 
 using json = nlohmann::ordered_json;
@@ -256,6 +258,20 @@ json to_json(const WorldDef& w) {
                       {"sensors", sensors(r.sensors)}});
   }
   out["robots"] = robots;
+  // Only when on: a world with `variation: none` writes what it wrote before variation existed.
+  if (w.variation.enabled) {
+    const VariationDef& v = w.variation;
+    out["variation"] = {{"wheel_radius_rel", v.wheel_radius_rel},
+                        {"wheel_base_rel", v.wheel_base_rel},
+                        {"motor_rel", v.motor_rel},
+                        {"friction_rel", v.friction_rel},
+                        {"mover_speed_rel", v.mover_speed_rel},
+                        {"start_xy_m", v.start_xy_m},
+                        {"start_theta", v.start_theta_rad},
+                        {"waypoint_m", v.waypoint_m},
+                        {"mover_phase", v.mover_phase},
+                        {"drawn", w.drawn.applied ? to_json(w.drawn) : json(nullptr)}};
+  }
   return out;
 }
 

@@ -199,7 +199,7 @@ void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled
     if (it == odometry.begin()) return std::nullopt;
     return static_cast<std::size_t>(it - odometry.begin()) - 1;
   };
-  const double wheel_base_m = robot.def->wheel_base_m;  // what ekf_landmarks is told
+  const double wheel_base_m = believed_wheel_base_m(*robot.def);  // what ekf_landmarks is told
   for (std::size_t k = 1; k < steps.size(); ++k) {
     const auto ia = latest(steps[k - 1]), ib = latest(steps[k]);
     if (!ia || !ib || *ib <= *ia) continue;

@@ -243,7 +243,9 @@ LocalizerWorld::LocalizerWorld(const WorldDef& world, const RobotDef& robot_def,
   map.beacon_count = beacons.size();
   map.grid = {grid.origin_m.x(), grid.origin_m.y(), grid.resolution_m,
               grid.width,        grid.height,       grid.cells.data()};
-  robot = {robot_def.wheel_base_m, robot_def.wheel_radius_m, bounding_radius(robot_def.footprint)};
+  // What the robot believes (the encoders' base, the nominal radius), not the true geometry.
+  robot = {believed_wheel_base_m(robot_def), robot_def.wheel_radius_m,
+           bounding_radius(robot_def.footprint)};
   initial_pose_known = localization.initial_pose_known;
   if (initial_pose_known) {
     // One guess per robot, shared by all its filters so that they start alike.
@@ -288,10 +290,7 @@ locsim_pose2 ReadingTranslator::odometry_pose(double t_s, const OdometryReading&
   if (odometry.has(kOdometryTicks)) {
     // Ticks come from the encoders (meters_per_tick_ is theirs); the wheel base the base
     // believes in, as its own dead reckoning (sensors/models.cpp).
-    const double wheel_base_m =
-        robot_->sensors.encoders
-            ? robot_->sensors.encoders->odometry_wheel_base_m.value_or(robot_->wheel_base_m)
-            : robot_->wheel_base_m;
+    const double wheel_base_m = believed_wheel_base_m(*robot_);
     if (last_ticks_) {
       tick_odometry_ = sdk::diff_drive_motion(
           tick_odometry_,

@@ -9,6 +9,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/scenario/scenario_loader.hpp"
+#include "sim/world/variation.hpp"
 #include "sim/world/world_loader.hpp"
 
 namespace locsim {
@@ -50,6 +51,17 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
     fail(std::string("lacks a field or has one of another type: ") + e.what());
   }
   bind_scenario(scenario_, world_);
+  // The world the recording ran in: the variation its seed drew, as recorded (a log without one
+  // ran the declared world).
+  if (const auto variation = header.find("variation"); variation != header.end()) {
+    try {
+      apply_variation(drawn_variation_from_json(*variation), world_, scenario_);
+    } catch (const InputError& e) {
+      fail(e.what());
+    }
+  } else {
+    world_.variation.enabled = false;
+  }
   if (robots.empty()) return;
 
   // The view: the robots asked for, in the world's order; the scenario's parts about the others

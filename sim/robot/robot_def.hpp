@@ -74,4 +74,12 @@ struct RobotDef {
   std::string key_path;  // of the robot's entry, e.g. "robots[0]", for messages
 };
 
+/// The wheel base the robot believes in: its encoders' odometry and the localizers are told this
+/// one; `wheel_base_m` is the true one the physics drives with. [m]
+inline double believed_wheel_base_m(const RobotDef& robot) {
+  return robot.sensors.encoders
+             ? robot.sensors.encoders->odometry_wheel_base_m.value_or(robot.wheel_base_m)
+             : robot.wheel_base_m;
+}
+
 }  // namespace locsim

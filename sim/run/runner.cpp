@@ -13,6 +13,7 @@
 #include "sim/producers/simulation_source.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/stream/log_file.hpp"
+#include "sim/world/variation.hpp"
 #include "sim/world/world_loader.hpp"
 
 #ifndef LOCSIM_VERSION_STRING
@@ -78,25 +79,28 @@ fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
 
 /// Everything replay needs to rebuild the world and its localizer inputs: the files' text.
 json log_header(const RunOptions& options, const RunInputs& inputs) {
-  return {{"format", "locsim-log"},
-          {"locsim_version", locsim_version()},
-          {"seed", options.seed},
-          {"world_file", options.world_file.string()},
-          {"world_dir", fs::absolute(options.world_file).parent_path().string()},
-          {"world_yaml", read_text(options.world_file)},
-          {"scenario_file",
-           options.scenario_file ? json(options.scenario_file->string()) : json(nullptr)},
-          {"scenario_yaml",
-           options.scenario_file ? json(read_text(*options.scenario_file)) : json(nullptr)},
-          {"duration_s", inputs.scenario.duration_s}};
+  json header = {{"format", "locsim-log"},
+                 {"locsim_version", locsim_version()},
+                 {"seed", options.seed},
+                 {"world_file", options.world_file.string()},
+                 {"world_dir", fs::absolute(options.world_file).parent_path().string()},
+                 {"world_yaml", read_text(options.world_file)},
+                 {"scenario_file",
+                  options.scenario_file ? json(options.scenario_file->string()) : json(nullptr)},
+                 {"scenario_yaml",
+                  options.scenario_file ? json(read_text(*options.scenario_file)) : json(nullptr)},
+                 {"duration_s", inputs.scenario.duration_s}};
+  if (inputs.world.drawn.applied) header["variation"] = to_json(inputs.world.drawn);
+  return header;
 }
 
 }  // namespace
 
 RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt) {
   // Everything that can be wrong with the input is found before the folder is made.
-  const RunInputs inputs =
-      load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
+  RunInputs inputs = load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
+  // This seed's world: everything downstream (the localizers' start guesses, the log) sees it.
+  vary_world(inputs.world, inputs.scenario, options.seed);
   RunResult result;
   result.out_dir =
       options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;

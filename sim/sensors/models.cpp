@@ -39,7 +39,7 @@ EncoderSensor::EncoderSensor(const EncodersDef& def, const RobotDef& robot, Rand
     : Sensor(SensorKind::kEncoders, def.common, rng),
       def_(def),
       nominal_radius_m_(robot.wheel_radius_m),
-      wheel_base_m_(def.odometry_wheel_base_m.value_or(robot.wheel_base_m)),
+      wheel_base_m_(believed_wheel_base_m(robot)),
       odometry_(robot.start) {}
 
 std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) {

@@ -151,6 +151,55 @@ struct OccupancyMapDef {
   std::vector<Rect> rects;
 };
 
+/// How much a seed varies the world around what the file declares (docs/worlds.md#variation):
+/// the true values a real robot and room would have on another day. A relative tolerance is the
+/// standard deviation of a factor 1 + N(0, sigma^2); every draw is cut at 3 sigma. Each quantity
+/// is drawn from its own named stream of the run's seed (sim/world/variation.hpp).
+struct VariationDef {
+  bool enabled = true;              // `variation: none` turns every draw off
+  double wheel_radius_rel = 0.001;  // each true wheel radius, relative [-]
+  double wheel_base_rel = 0.005;    // the true wheel base (the encoders keep the declared) [-]
+  double motor_rel = 0.05;       // each robot's wheel acceleration and torque limits, relative [-]
+  double friction_rel = 0.1;     // the floor's and each region's friction, relative [-]
+  double mover_speed_rel = 0.1;  // each mover's walking speed, relative [-]
+  static constexpr Range kRelativeRange{0.0, 0.3, ""};
+  double start_xy_m = 0.05;  // the start position, per axis; kept free of obstacles [m]
+  static constexpr Range kStartXyRange{0.0, 10.0, "m"};
+  double start_theta_rad = deg_to_rad(2.0);  // the start heading [rad]
+  static constexpr Range kStartThetaRange{0.0, deg_to_rad(180.0), "rad"};
+  double waypoint_m = 0.1;  // each waypoint of a `waypoints` drive, per axis; kept free [m]
+  static constexpr Range kWaypointRange{0.0, 10.0, "m"};
+  bool mover_phase = true;  // each looping mover starts anywhere along its path
+};
+
+/// What one seed drew (VariationDef), in absolute values: written to run.json and to logs so
+/// that a replay rebuilds the same world. Empty when the world has `variation: none`.
+struct DrawnVariation {
+  struct Robot {
+    std::string name;
+    double wheel_radius_left_m = 0.0, wheel_radius_right_m = 0.0;  // true radii [m]
+    double wheel_base_m = 0.0;                                     // true wheel base [m]
+    double max_wheel_accel_radps2 = 0.0;                           // [rad/s^2]
+    double max_wheel_torque_nm = 0.0;                              // [N m]
+    Pose2 start;                                                   // true start pose
+  };
+  struct Mover {
+    std::string name;
+    double speed_mps = 0.0;  // [m/s]
+    double phase_m = 0.0;    // where along its (looping) path it starts [m]
+  };
+  struct Drive {
+    std::string robot;
+    std::vector<Vec2> path_m;  // the waypoints this seed drives through
+  };
+  bool applied = false;
+  double floor_friction = 0.0;          // [-]
+  std::vector<double> region_friction;  // per floor region, in order [-]
+  std::vector<Robot> robots;            // in the world's order
+  std::vector<Mover> movers;            // in the world's order
+  std::vector<Drive> drives;            // the waypoints drives, in the scenario's order
+};
+
 struct WorldDef {
   std::string name = "world";
   std::filesystem::path source;  // the YAML file it came from
@@ -166,6 +215,8 @@ struct WorldDef {
   std::vector<MoverDef> movers;
   std::vector<RobotDef> robots;
   std::optional<ScenarioDef> scenario;  // a `scenario:` section, if the world file has one
+  VariationDef variation;               // what each seed may vary
+  DrawnVariation drawn;                 // what this run's seed drew (once applied)
   std::uint64_t memory_bytes = 0;  // what its geometry, map and cameras need (world_budget.hpp)
 };
 

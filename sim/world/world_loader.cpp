@@ -111,6 +111,30 @@ PhysicsDef parse_physics(const YamlNode& node) {
   return physics;
 }
 
+VariationDef parse_variation(const YamlNode& node) {
+  VariationDef v;
+  if (node.is_scalar()) {
+    if (node.as_string() != "none") node.fail("give `none` or a map of tolerances");
+    v.enabled = false;
+    return v;
+  }
+  node.allow_keys({"wheel_radius_rel", "wheel_base_rel", "motor_rel", "friction_rel",
+                   "mover_speed_rel", "start_xy_m", "start_theta", "start_theta_deg", "waypoint_m",
+                   "mover_phase"});
+  const Range& rel = VariationDef::kRelativeRange;
+  v.wheel_radius_rel = node.get_double("wheel_radius_rel", v.wheel_radius_rel, rel);
+  v.wheel_base_rel = node.get_double("wheel_base_rel", v.wheel_base_rel, rel);
+  v.motor_rel = node.get_double("motor_rel", v.motor_rel, rel);
+  v.friction_rel = node.get_double("friction_rel", v.friction_rel, rel);
+  v.mover_speed_rel = node.get_double("mover_speed_rel", v.mover_speed_rel, rel);
+  v.start_xy_m = node.get_double("start_xy_m", v.start_xy_m, VariationDef::kStartXyRange);
+  v.start_theta_rad =
+      node.get_angle("start_theta", v.start_theta_rad, VariationDef::kStartThetaRange);
+  v.waypoint_m = node.get_double("waypoint_m", v.waypoint_m, VariationDef::kWaypointRange);
+  v.mover_phase = node.get_bool("mover_phase", v.mover_phase);
+  return v;
+}
+
 FloorDef parse_floor(const YamlNode& node) {
   node.allow_keys({"friction", "regions"});
   FloorDef floor;
@@ -270,11 +294,12 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
 
 WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir) {
   root.allow_keys({"name", "physics", "floor", "walls", "boxes", "circles", "polygons", "map",
-                   "landmarks", "beacons", "movers", "robots", "scenario"});
+                   "landmarks", "beacons", "movers", "robots", "scenario", "variation"});
   WorldDef world;
   world.name = root.get_string("name", world.name);
   if (const auto physics = root.find("physics")) world.physics = parse_physics(*physics);
   if (const auto floor = root.find("floor")) world.floor = parse_floor(*floor);
+  if (const auto variation = root.find("variation")) world.variation = parse_variation(*variation);
   WorldMemory memory;
 
   if (const auto walls = root.find("walls")) {
