@@ -1,9 +1,14 @@
 // ekf_landmarks: an extended Kalman filter over (x, y, theta) on the known landmark map.
 // Predict with the wheel encoders' travel (paper 002's noise model); update with each camera
-// detection's range and bearing. Detections are associated by id when the camera gives ids, else
+// detection's range and bearing, with each camera's own noise model: the PTZ camera's and the
+// range-bearing sensor's grows with range (sigma_range_*), the omnidirectional camera's is an
+// ellipse along and across the ray (omni_sigma_*, paper 002's C_L; across the ray it is a bearing
+// noise of sigma_minor / range). Detections are associated by id when the camera gives ids, else
 // by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis distance; a
 // chi-square gate rejects false detections and wrong associations.
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <locsim/localizer.hpp>
 #include <locsim/models.hpp>
 #include <optional>
@@ -24,6 +29,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     sigma_range_per_m_ = params.number("sigma_range_per_m");
     sigma_range_per_m2_ = params.number("sigma_range_per_m2");
     sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
+    omni_sigma_major_m_ = params.number("omni_sigma_major_m");
+    omni_sigma_major_per_m_ = params.number("omni_sigma_major_per_m");
+    omni_sigma_minor_m_ = params.number("omni_sigma_minor_m");
     gate_ = params.number("gate_chi2");
     use_ptz_ = params.flag("use_ptz");
     use_omni_ = params.flag("use_omni");
@@ -60,7 +68,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       // Another robot seen is not a landmark of the map; using it (cooperative localization)
       // would need that robot's estimate, which this filter does not have.
       if (reading.detections[i].target != LOCSIM_TARGET_LANDMARK) continue;
-      correct(reading.detections[i]);
+      correct(reading.detections[i], noise(reading.camera, reading.detections[i].range_m));
     }
   }
 
@@ -77,13 +85,23 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     Eigen::Vector2d position;
   };
 
-  void correct(const locsim_detection& detection) {
+  /// R: the detection's range and bearing variances, by the camera that made it.
+  Eigen::Matrix2d noise(std::int32_t camera, double range_m) const {
+    double sigma_r = 0.0, sigma_b = 0.0;
+    if (camera == LOCSIM_CAMERA_OMNI) {
+      sigma_r = omni_sigma_major_m_ + omni_sigma_major_per_m_ * range_m;
+      // Across the ray the spread is a distance: as a bearing it is wider near the robot. The
+      // floor keeps a detection at the robot from being a certainty in bearing or an infinity.
+      sigma_b = std::atan2(omni_sigma_minor_m_, std::max(range_m, 1e-3));
+    } else {
+      sigma_r = sigma_range_m_ + (sigma_range_per_m_ + sigma_range_per_m2_ * range_m) * range_m;
+      sigma_b = sigma_bearing_rad_;
+    }
+    return Eigen::Vector2d(sigma_r * sigma_r, sigma_b * sigma_b).asDiagonal();
+  }
+
+  void correct(const locsim_detection& detection, const Eigen::Matrix2d& R) {
     const Eigen::Vector2d z(detection.range_m, detection.bearing_rad);
-    const double sigma_r =
-        sigma_range_m_ +
-        (sigma_range_per_m_ + sigma_range_per_m2_ * detection.range_m) * detection.range_m;
-    const Eigen::Matrix2d R =
-        Eigen::Vector2d(sigma_r * sigma_r, sigma_bearing_rad_ * sigma_bearing_rad_).asDiagonal();
     // Association: the candidate with the smallest Mahalanobis distance of the innovation.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Vector2d best_innovation;
@@ -116,7 +134,8 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   }
 
   double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_,
-      sigma_bearing_rad_, gate_, wheel_base_m_;
+      sigma_bearing_rad_, omni_sigma_major_m_, omni_sigma_major_per_m_, omni_sigma_minor_m_, gate_,
+      wheel_base_m_;
   bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
   Pose x_;
@@ -129,11 +148,18 @@ constexpr locsim_param_decl kParams[] = {
     {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr, "left wheel random error [m^1/2]"},
     {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr, "right wheel random error [m^1/2]"},
     {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 10.0, nullptr,
-     "range noise at zero range [m]"},
+     "range noise at zero range (PTZ camera, range-bearing sensor) [m]"},
     {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr, "range noise growth [m/m]"},
     {"sigma_range_per_m2", LOCSIM_PARAM_DOUBLE, 0.015, 0.0, 10.0, nullptr,
      "range noise growth with the square of the range (PTZ camera rows) [1/m]"},
-    {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr, "bearing noise [deg]"},
+    {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr,
+     "bearing noise of the PTZ camera and the range-bearing sensor [deg]"},
+    {"omni_sigma_major_m", LOCSIM_PARAM_DOUBLE, 0.25, 1e-6, 100.0, nullptr,
+     "omnidirectional camera: noise along the ray (the camera's sigma_major_m) [m]"},
+    {"omni_sigma_major_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,
+     "omnidirectional camera: growth of the along-ray noise with range [m/m]"},
+    {"omni_sigma_minor_m", LOCSIM_PARAM_DOUBLE, 0.08, 1e-6, 100.0, nullptr,
+     "omnidirectional camera: noise across the ray [m]"},
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},
     {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},

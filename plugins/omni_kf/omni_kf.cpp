@@ -10,8 +10,12 @@
 //    and the fused positions triangulated.
 // The pose covariance is the fused observations' covariance propagated through the
 // triangulation (a numerical Jacobian). Landmarks by id (the omni camera reports them) or, when
-// it does not, by colour; `landmark_a`, `landmark_b` pick the two (default: the map's first two).
+// it does not, by a colour no other landmark of the map has. The paper uses one fixed pair:
+// `landmark_a` and `landmark_b` pick it. By default every landmark of the map is followed and
+// each fix uses the pair, among those seen, whose triangulated position is the most certain
+// (smallest trace of its covariance): well-conditioned pairs, and a fix wherever any two are seen.
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <deque>
 #include <locsim/localizer.hpp>
@@ -43,19 +47,33 @@ class OmniKf final : public sdk::Localizer {
     sigma_major_per_m_ = params.number("sigma_major_per_m");
     if (init.map == nullptr || init.map->landmark_count < 2)
       throw std::invalid_argument("needs two landmarks on the map");
-    const auto pick = [&](long long id, std::size_t fallback) -> const locsim_landmark& {
-      if (id < 0) return init.map->landmarks[fallback];
-      for (std::size_t i = 0; i < init.map->landmark_count; ++i)
-        if (init.map->landmarks[i].id == id) return init.map->landmarks[i];
-      throw std::invalid_argument("no landmark with id " + std::to_string(id));
-    };
-    for (int k = 0; k < 2; ++k) {
-      const locsim_landmark& l =
-          pick(params.integer(k == 0 ? "landmark_a" : "landmark_b"), static_cast<std::size_t>(k));
-      landmarks_[k] = {l.id, l.color != nullptr ? l.color : "", Vec2(l.x, l.y)};
-    }
-    if (landmarks_[0].id == landmarks_[1].id)
+    const long long id_a = params.integer("landmark_a"), id_b = params.integer("landmark_b");
+    if ((id_a < 0) != (id_b < 0))
+      throw std::invalid_argument("give both landmark_a and landmark_b, or neither");
+    if (id_a >= 0 && id_a == id_b)
       throw std::invalid_argument("landmark_a and landmark_b are the same landmark");
+    for (std::size_t i = 0; i < init.map->landmark_count; ++i) {
+      const locsim_landmark& l = init.map->landmarks[i];
+      if (id_a >= 0 && l.id != id_a && l.id != id_b) continue;
+      landmarks_.push_back({l.id, l.color != nullptr ? l.color : "", Vec2(l.x, l.y)});
+    }
+    if (id_a >= 0) {
+      for (const long long id : {id_a, id_b}) {
+        if (std::none_of(landmarks_.begin(), landmarks_.end(),
+                         [&](const Landmark& l) { return l.id == id; }))
+          throw std::invalid_argument("no landmark with id " + std::to_string(id));
+      }
+      // The paper's order: a, then b.
+      if (landmarks_[0].id != id_a) std::swap(landmarks_[0], landmarks_[1]);
+    }
+    for (Landmark& l : landmarks_) {
+      l.unique_color =
+          !l.color.empty() &&
+          std::count_if(init.map->landmarks, init.map->landmarks + init.map->landmark_count,
+                        [&](const locsim_landmark& other) {
+                          return other.color != nullptr && l.color == other.color;
+                        }) == 1;
+    }
     if (init.initial_pose_known) {
       fix_ = sdk::Pose(init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta);
       for (int k = 0; k < 9; ++k) covariance_(k / 3, k % 3) = init.initial_covariance[k];
@@ -69,44 +87,62 @@ class OmniKf final : public sdk::Localizer {
 
   void on_landmarks(double, const locsim_landmarks& reading) override {
     if (reading.camera != LOCSIM_CAMERA_OMNI || !odom_) return;
-    Frame frame{*odom_, {}};
+    Frame frame{*odom_, std::vector<std::optional<Observation>>(landmarks_.size())};
     for (std::size_t i = 0; i < reading.count; ++i) {
       const locsim_detection& d = reading.detections[i];
       // Another robot seen is not on the map; using it (cooperative localization) would need
       // that robot's estimate, which this filter does not have.
       if (d.target != LOCSIM_TARGET_LANDMARK) continue;
-      for (int k = 0; k < 2; ++k) {
-        const bool match = d.id >= 0 ? d.id == landmarks_[k].id
-                                     : (d.color != nullptr && landmarks_[k].color == d.color);
+      for (std::size_t k = 0; k < landmarks_.size(); ++k) {
+        const Landmark& l = landmarks_[k];
+        const bool match =
+            d.id >= 0 ? d.id == l.id : (l.unique_color && d.color != nullptr && l.color == d.color);
         if (match) frame.seen[k] = observe(d.range_m, d.bearing_rad);
       }
     }
     frames_seen_.push_back(std::move(frame));
     while (frames_seen_.size() > (multi_ ? frames_ : 1)) frames_seen_.pop_front();
     // Each landmark's observations moved into the current robot frame and fused.
-    std::optional<Observation> fused[2];
+    std::vector<std::optional<Observation>> fused(landmarks_.size());
     for (const Frame& f : frames_seen_) {
       const sdk::Pose then_in_now = sdk::between(*odom_, f.odom);  // that frame in this one
       const double c = std::cos(then_in_now(2)), s = std::sin(then_in_now(2));
       Mat2 rotation;
       rotation << c, -s, s, c;
-      for (int k = 0; k < 2; ++k) {
+      for (std::size_t k = 0; k < landmarks_.size(); ++k) {
         if (!f.seen[k]) continue;
         const Observation moved{rotation * f.seen[k]->p + then_in_now.head<2>(),
                                 rotation * f.seen[k]->c * rotation.transpose()};
         fused[k] = fused[k] ? sdk::kalman_combine(*fused[k], moved) : moved;
       }
     }
-    if (!fused[0] || !fused[1]) return;
-    const auto pose =
-        sdk::two_landmark_pose(landmarks_[0].world, landmarks_[1].world, fused[0]->p, fused[1]->p);
-    if (!pose) {
+    // The pair whose fix is the most certain in position.
+    std::optional<sdk::Pose> best_pose;
+    Eigen::Matrix3d best_covariance;
+    bool two_seen = false;
+    for (std::size_t a = 0; a < landmarks_.size(); ++a) {
+      for (std::size_t b = a + 1; b < landmarks_.size(); ++b) {
+        if (!fused[a] || !fused[b]) continue;
+        two_seen = true;
+        const auto pose = sdk::two_landmark_pose(landmarks_[a].world, landmarks_[b].world,
+                                                 fused[a]->p, fused[b]->p);
+        if (!pose) continue;
+        const Eigen::Matrix3d covariance = propagate(a, b, *fused[a], *fused[b]);
+        if (!best_pose || covariance.topLeftCorner<2, 2>().trace() <
+                              best_covariance.topLeftCorner<2, 2>().trace()) {
+          best_pose = pose;
+          best_covariance = covariance;
+        }
+      }
+    }
+    if (!two_seen) return;
+    if (!best_pose) {
       ++rejected_;
       return;
     }
-    fix_ = *pose;
+    fix_ = *best_pose;
     odom_at_fix_ = odom_;
-    covariance_ = propagate(*fused[0], *fused[1]);
+    covariance_ = best_covariance;
     ++fixes_;
   }
 
@@ -125,10 +161,11 @@ class OmniKf final : public sdk::Localizer {
     int id;
     std::string color;
     Vec2 world;
+    bool unique_color = false;  // no other landmark of the map has it: a colour identifies it
   };
   struct Frame {
-    sdk::Pose odom;                      // odometry when it was taken
-    std::optional<Observation> seen[2];  // in that frame's robot frame
+    sdk::Pose odom;                                // odometry when it was taken
+    std::vector<std::optional<Observation>> seen;  // per landmark, in that frame's robot frame
   };
 
   /// A detection as a point in the robot frame with the camera's C_L rotated onto the ray.
@@ -141,13 +178,14 @@ class OmniKf final : public sdk::Localizer {
     return {range * Vec2(c, s), rotation * local * rotation.transpose()};
   }
 
-  /// Covariance of the triangulated pose: J C J^T, J by central differences over the four
-  /// coordinates of the two fused observations.
-  Eigen::Matrix3d propagate(const Observation& a, const Observation& b) const {
+  /// Covariance of the pose triangulated from landmarks `first` and `second`: J C J^T, J by central
+  /// differences over the four coordinates of the two fused observations.
+  Eigen::Matrix3d propagate(std::size_t first, std::size_t second, const Observation& a,
+                            const Observation& b) const {
     Eigen::Matrix<double, 4, 1> z;
     z << a.p, b.p;
     const auto f = [&](const Eigen::Matrix<double, 4, 1>& v) {
-      return sdk::two_landmark_pose(landmarks_[0].world, landmarks_[1].world, v.head<2>(),
+      return sdk::two_landmark_pose(landmarks_[first].world, landmarks_[second].world, v.head<2>(),
                                     v.tail<2>());
     };
     const auto centre = f(z);
@@ -171,7 +209,7 @@ class OmniKf final : public sdk::Localizer {
   bool multi_ = true;
   std::size_t frames_ = 10;
   double sigma_major_, sigma_minor_, sigma_major_per_m_;
-  Landmark landmarks_[2];
+  std::vector<Landmark> landmarks_;  // the pair given, else the whole map
   std::deque<Frame> frames_seen_;
   std::optional<sdk::Pose> odom_, odom_at_fix_;
   sdk::Pose fix_ = sdk::Pose::Zero();
@@ -191,9 +229,10 @@ constexpr locsim_param_decl kParams[] = {
     {"sigma_major_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,
      "growth of the along-ray noise with range [m/m]"},
     {"landmark_a", LOCSIM_PARAM_INT, -1, -1, 1000000, nullptr,
-     "id of the first landmark (-1: the map's first)"},
+     "id of the first landmark of a fixed pair, as the paper (-1: any pair seen, the most "
+     "certain)"},
     {"landmark_b", LOCSIM_PARAM_INT, -1, -1, 1000000, nullptr,
-     "id of the second landmark (-1: the map's second)"}};
+     "id of the second landmark of a fixed pair (-1: any pair seen)"}};
 
 }  // namespace
 
