@@ -22,8 +22,8 @@ namespace fs = std::filesystem;
 // first kidnap) with odometry and ekf_landmarks. Any change to the physics, the sensors, the
 // random streams, these two filters, the scorer or the file formats moves them. Update them only
 // on purpose, with a one-line note in the commit message saying why the behaviour changed.
-constexpr std::string_view kPinnedStateHash = "fb55ff89a0fdca85";   // run.json "state_hash"
-constexpr std::uint64_t kPinnedOutputHash = 0xf339f9b2ad976c32ULL;  // FNV-1a of the outputs
+constexpr std::string_view kPinnedStateHash = "ae09117b0263683b";   // run.json "state_hash"
+constexpr std::uint64_t kPinnedOutputHash = 0x5f340bdbf69d43aaULL;  // FNV-1a of the outputs
 
 RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   RunOptions options;

@@ -21,7 +21,7 @@ nlohmann::json field_run(std::uint64_t seed) {
 }
 
 TEST(FastSlam, MapsTheFieldPrunesDuplicatesAndTheFishSwarmKeepsN_eff) {
-  double spurious = 0.0, spurious_unpruned = 0.0;
+  double spurious = 0.0, spurious_unpruned = 0.0, position_m = 0.0, map_m = 0.0;
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     const auto metrics = field_run(seed);
     const auto& fastslam = metrics["localizers"][0];
@@ -30,13 +30,15 @@ TEST(FastSlam, MapsTheFieldPrunesDuplicatesAndTheFishSwarmKeepsN_eff) {
     for (const auto* filter : {&fastslam, &unpruned, &afsa}) {
       ASSERT_EQ((*filter)["status"], "ok") << (*filter)["label"];
       // Centimetres after a 120 m lap whose odometry ends metres off: 2-3 cm on the declared
-      // wheels, 5-7 cm on the radii seeds 1 and 2 draw (systematic odometry error, which the
-      // motion model does not know, bends the map).
-      EXPECT_LT((*filter)["position_error_m"]["rms"].get<double>(), 0.1) << (*filter)["label"];
+      // wheels; on the wheels seeds 1-6 draw, 1-11 cm (a systematic odometry error, which the
+      // motion model does not know, bends the map), so the bound is on the mean of two seeds.
+      EXPECT_LT((*filter)["position_error_m"]["rms"].get<double>(), 0.15) << (*filter)["label"];
+      position_m += (*filter)["position_error_m"]["rms"].get<double>() / 6.0;
       const auto& map = (*filter)["landmark_map"];
       EXPECT_EQ(map["missed"].get<int>(), 0) << (*filter)["label"];
       EXPECT_EQ(map["matched"].get<int>(), map["observed"].get<int>()) << (*filter)["label"];
-      EXPECT_LT(map["error_m"]["rms"].get<double>(), 0.1) << (*filter)["label"];
+      EXPECT_LT(map["error_m"]["rms"].get<double>(), 0.15) << (*filter)["label"];
+      map_m += map["error_m"]["rms"].get<double>() / 6.0;
     }
     spurious += fastslam["landmark_map"]["spurious"].get<double>();
     spurious_unpruned += unpruned["landmark_map"]["spurious"].get<double>();
@@ -51,6 +53,8 @@ TEST(FastSlam, MapsTheFieldPrunesDuplicatesAndTheFishSwarmKeepsN_eff) {
   }
   // A pose a few centimetres off puts a 1 cm landmark outside the gate: a duplicate. Without
   // negative evidence they stay (13-18 per lap here); with it most go (4-7 left).
+  EXPECT_LT(position_m, 0.06);  // the three filters over both seeds
+  EXPECT_LT(map_m, 0.06);
   EXPECT_GT(spurious_unpruned, 20.0);
   EXPECT_LT(spurious, 0.5 * spurious_unpruned);
 }

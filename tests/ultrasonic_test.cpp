@@ -104,7 +104,7 @@ TEST(UltrasonicEkf, TracksWithTheBeaconsAndTheImuWhilePeopleWalkThroughTheBeams)
   // The demo world's four beacons, two receivers on the robot, people crossing the beams: the
   // paper's trilateration + IMU EKF holds the pose to about 10 cm, absolute: no drift. Each seed
   // draws its own world (where the people are when, the robot's start): over seeds 1-10 the RMS
-  // is 0.08-0.20 m and 1.7-8.0 deg, so the bound is on the mean of three.
+  // is 0.07-0.20 m and 2.2-11.9 deg, so the bound is on the mean of three.
   double position_m = 0.0, heading_deg = 0.0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     RunOptions options;

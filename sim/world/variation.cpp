@@ -114,9 +114,12 @@ DrawnVariation draw_variation(const WorldDef& world, const ScenarioDef& scenario
       const double radius_m = bounding_radius(robot.footprint);
       RandomStream rng = make_stream(seed, "variation/" + base + "start");
       for (int attempt = 0; attempt < kFreeTries; ++attempt) {
-        const Pose2 pose{robot.start.x + v.start_xy_m * cut_normal(rng),
-                         robot.start.y + v.start_xy_m * cut_normal(rng),
-                         wrap_angle(robot.start.theta + v.start_theta_rad * cut_normal(rng))};
+        // One draw per statement: the order is the stream's, on every compiler.
+        const double dx = v.start_xy_m * cut_normal(rng);
+        const double dy = v.start_xy_m * cut_normal(rng);
+        const double dtheta = v.start_theta_rad * cut_normal(rng);
+        const Pose2 pose{robot.start.x + dx, robot.start.y + dy,
+                         wrap_angle(robot.start.theta + dtheta)};
         bool free = physics.is_free_of_static(shape, pose);
         // Clear of the robots placed before it (drawn) and after it (declared).
         for (std::size_t other = 0; free && other < world.robots.size(); ++other) {
@@ -175,8 +178,11 @@ DrawnVariation draw_variation(const WorldDef& world, const ScenarioDef& scenario
     DrawnVariation::Drive drawn{drive.robot, drive.path_m};
     for (Vec2& point : drawn.path_m) {
       for (int attempt = 0; attempt < kFreeTries; ++attempt) {
-        const Vec2 moved =
-            point + Vec2(v.waypoint_m * cut_normal(rng), v.waypoint_m * cut_normal(rng));
+        // Not Vec2(draw, draw): a constructor's arguments are evaluated in an order the compiler
+        // picks (gcc right to left, clang left to right), which made the two builds' worlds differ.
+        const double dx = v.waypoint_m * cut_normal(rng);
+        const double dy = v.waypoint_m * cut_normal(rng);
+        const Vec2 moved = point + Vec2(dx, dy);
         if (physics.is_free_of_static(circle, Pose2{moved.x(), moved.y(), 0.0})) {
           point = moved;
           break;
