@@ -68,7 +68,7 @@ def draw_world(ax, world):
                                      edgecolor="none"))
         cx = sum(p[0] for p in region["polygon"]) / len(region["polygon"])
         cy = sum(p[1] for p in region["polygon"]) / len(region["polygon"])
-        ax.text(cx, cy, f"{region['name']}\nμ={mu:g}", ha="center", va="center", fontsize=7,
+        ax.text(cx, cy, f"{region['name']}\nμ={mu:.2g}", ha="center", va="center", fontsize=7,
                 color="#333333")
     if "map" in world:
         try:

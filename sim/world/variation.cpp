@@ -57,6 +57,20 @@ std::vector<Vec2> rotate_loop(const std::vector<Vec2>& path_m, double phase_m) {
   return path_m;
 }
 
+/// True when a disc of `radius_m` at `at` overlaps none of the robots' start footprints (their
+/// bounding circles), the first `drawn_count` at their drawn starts, the rest at their declared
+/// ones; `skip` is the robot being placed (or none).
+bool clear_of_robots(const Vec2& at, double radius_m, const WorldDef& world,
+                     const std::vector<DrawnVariation::Robot>& drawn, std::size_t skip) {
+  for (std::size_t r = 0; r < world.robots.size(); ++r) {
+    if (r == skip) continue;
+    const Vec2 start =
+        r < drawn.size() ? drawn[r].start.position() : world.robots[r].start.position();
+    if ((at - start).norm() <= radius_m + bounding_radius(world.robots[r].footprint)) return false;
+  }
+  return true;
+}
+
 const DriveDef* drive_of(const ScenarioDef& scenario, const std::string& robot) {
   for (const DriveDef& d : scenario.drives) {
     if (d.robot == robot) return &d;
@@ -120,15 +134,9 @@ DrawnVariation draw_variation(const WorldDef& world, const ScenarioDef& scenario
         const double dtheta = v.start_theta_rad * cut_normal(rng);
         const Pose2 pose{robot.start.x + dx, robot.start.y + dy,
                          wrap_angle(robot.start.theta + dtheta)};
-        bool free = physics.is_free_of_static(shape, pose);
         // Clear of the robots placed before it (drawn) and after it (declared).
-        for (std::size_t other = 0; free && other < world.robots.size(); ++other) {
-          if (other == r) continue;
-          const Vec2 at =
-              other < r ? out.robots[other].start.position() : world.robots[other].start.position();
-          free = (at - pose.position()).norm() >
-                 radius_m + bounding_radius(world.robots[other].footprint);
-        }
+        const bool free = physics.is_free_of_static(shape, pose) &&
+                          clear_of_robots(pose.position(), radius_m, world, out.robots, r);
         if (free) {
           drawn.start = pose;
           break;
@@ -151,11 +159,7 @@ DrawnVariation draw_variation(const WorldDef& world, const ScenarioDef& scenario
       for (int attempt = 0; attempt < kFreeTries; ++attempt) {
         const double phase_m = rng.uniform(0.0, length_m);
         const Vec2 at = rotate_loop(mover.path_m, phase_m).front();
-        bool free = true;
-        for (std::size_t r = 0; free && r < world.robots.size(); ++r) {
-          free = (at - out.robots[r].start.position()).norm() >
-                 radius_m + bounding_radius(world.robots[r].footprint);
-        }
+        const bool free = clear_of_robots(at, radius_m, world, out.robots, world.robots.size());
         if (free) {
           drawn.phase_m = phase_m;
           break;
