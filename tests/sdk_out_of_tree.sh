@@ -23,4 +23,21 @@ grep -q "^odometry " <<<"$listing"   # the installed built-ins are found from th
   --localizer my_filter:gain=0.2 --localizer odometry
 test -s "$work/run/my_filter.tum"
 grep -q '"status": "ok"' "$work/run/metrics.json"
-echo "out-of-tree plugin built against the installed SDK and ran"
+
+# The particle-filter example of docs/plugins.md, as printed there, built against the installed
+# skeleton (locsim/particle_filter.hpp) and run on paper 004's field.
+"$locsim" new-plugin my_mcl "$work/my_mcl" >/dev/null
+{
+  printf '#include <locsim/localizer.hpp>\n#include <locsim/particle_filter.hpp>\n'
+  printf 'namespace sdk = locsim::sdk;\n'
+  sed -n '/^class MyMcl final/,/^```/p' "$source_dir/docs/plugins.md" | sed '$d'
+  printf 'constexpr locsim_param_decl kParams[] = {{"unused", LOCSIM_PARAM_INT, 0, 0, 1, nullptr, "-"}};\n'
+  printf 'LOCSIM_LOCALIZER(MyMcl, "my_mcl", "docs/plugins.md example", kParams)\n'
+} >"$work/my_mcl/my_mcl.cpp"
+cmake -S "$work/my_mcl" -B "$work/my_mcl/build" -DCMAKE_PREFIX_PATH="$work/prefix" \
+  -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$work/my_mcl/build" >/dev/null
+LOCSIM_PLUGIN_PATH="$work/my_mcl/build" "$locsim" run "$source_dir/worlds/asrl/field.yaml" \
+  --duration 10 --out "$work/run_mcl" -q --localizer my_mcl
+grep -q '"status": "ok"' "$work/run_mcl/metrics.json"
+echo "out-of-tree plugins built against the installed SDK and ran"

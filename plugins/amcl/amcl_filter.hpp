@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <locsim/laser.hpp>
 #include <locsim/localizer.hpp>
+#include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
 #include <numbers>
 #include <optional>
@@ -91,7 +92,7 @@ class AmclFilter {
  public:
   /// `params` holds the kAmclParams (among others); `seed` drives its random stream.
   AmclFilter(const sdk::Params& params, const locsim_init& init, std::uint64_t seed)
-      : random_(seed) {
+      : pf_(static_cast<std::size_t>(params.integer("max_particles")), seed) {
     min_particles_ = static_cast<std::size_t>(params.integer("min_particles"));
     max_particles_ = static_cast<std::size_t>(params.integer("max_particles"));
     if (min_particles_ > max_particles_)
@@ -103,9 +104,9 @@ class AmclFilter {
     update_min_d_ = params.number("update_min_d");
     update_min_a_ = params.number("update_min_a");
     resample_interval_ = static_cast<int>(params.integer("resample_interval"));
-    alpha_slow_ = params.number("recovery_alpha_slow");
-    alpha_fast_ = params.number("recovery_alpha_fast");
-    if (alpha_slow_ > 0.0 && alpha_fast_ <= alpha_slow_)
+    averages_.alpha_slow = params.number("recovery_alpha_slow");
+    averages_.alpha_fast = params.number("recovery_alpha_fast");
+    if (averages_.alpha_slow > 0.0 && averages_.alpha_fast <= averages_.alpha_slow)
       throw std::invalid_argument("recovery_alpha_fast must exceed recovery_alpha_slow");
     max_beams_ = static_cast<std::size_t>(params.integer("laser_max_beams"));
     noise_ = {params.number("odom_alpha1"), params.number("odom_alpha2"),
@@ -122,39 +123,21 @@ class AmclFilter {
     grid_cells_.assign(grid_.cells,
                        grid_.cells + static_cast<std::size_t>(grid_.width) * grid_.height);
     grid_.cells = grid_cells_.data();
-    for (std::size_t i = 0; i < grid_cells_.size(); ++i)
-      if (grid_cells_[i] == 0) free_cells_.push_back(i);
-    if (free_cells_.empty()) throw std::invalid_argument("the occupancy grid has no free cell");
-
-    const std::size_t n = max_particles_;
-    particles_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (init.initial_pose_known) {
-        particles_.x[i] =
-            init.initial_pose.x + random_.normal(std::sqrt(init.initial_covariance[0]));
-        particles_.y[i] =
-            init.initial_pose.y + random_.normal(std::sqrt(init.initial_covariance[4]));
-        particles_.theta[i] = sdk::wrap(init.initial_pose.theta +
-                                        random_.normal(std::sqrt(init.initial_covariance[8])));
-      } else {
-        sample_free(particles_.x[i], particles_.y[i], particles_.theta[i]);
-      }
-    }
+    free_ = sdk::FreeSpace(grid_);
+    if (free_.empty()) throw std::invalid_argument("the occupancy grid has no free cell");
+    pf_.initialise(init, free_);
     compute_estimate();
   }
 
-  void on_odometry(const locsim_odometry& odometry) {
-    odom_now_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-    if (!odom_at_update_) odom_at_update_ = odom_now_;
-  }
+  void on_odometry(const locsim_odometry& odometry) { pf_.odometry().observe(odometry); }
 
   /// A filter update when the robot has moved enough since the last one: true if it did.
   bool on_laser(const locsim_laser_scan& scan) {
-    if (!odom_now_ || !odom_at_update_) return false;
-    const sdk::OdometryDelta delta = sdk::decompose(*odom_at_update_, *odom_now_);
-    const bool moved =
-        delta.trans >= update_min_d_ ||
-        std::abs(sdk::wrap((*odom_now_)(2) - (*odom_at_update_)(2))) >= update_min_a_;
+    sdk::OdometryFollower& odometry = pf_.odometry();
+    if (!odometry.ready()) return false;
+    const sdk::OdometryDelta delta = odometry.since_mark();
+    const bool moved = delta.trans >= update_min_d_ ||
+                       std::abs(sdk::wrap(odometry.now()(2) - odometry.mark()(2))) >= update_min_a_;
     // AMCL updates after motion, and once at start or after a reseed.
     if (!moved && updates_ > 0 && !update_pending_) return false;
     update_pending_ = false;
@@ -163,8 +146,8 @@ class AmclFilter {
       field_ = sdk::LikelihoodField(grid_, field_def_);
       field_ready_ = true;
     }
-    sdk::sample_motion(particles_, delta, noise_, random_);
-    odom_at_update_ = odom_now_;
+    sdk::sample_motion(pf_.particles(), delta, noise_, pf_.random());
+    odometry.mark_now();
     weigh(scan);
     ++updates_;
     if (resample_interval_ > 0 && updates_ % resample_interval_ == 0) resample();
@@ -175,41 +158,26 @@ class AmclFilter {
   /// Replaces the particles by max_particles draws from N(pose, covariance) at the latest
   /// odometry (the fusion's start from an ultrasonic fix); KLD sampling thins them later.
   void reseed(const sdk::Pose& pose, const Eigen::Matrix3d& covariance) {
-    const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
-    const Eigen::Matrix3d l = llt.matrixL();
-    particles_.resize(max_particles_);
-    for (std::size_t i = 0; i < max_particles_; ++i) {
-      // One draw per statement: a constructor's arguments are unsequenced and compilers differ.
-      // Last component first, as gcc drew them (the results so far are gcc's).
-      const double z2 = random_.normal(1.0), z1 = random_.normal(1.0), z0 = random_.normal(1.0);
-      const Eigen::Vector3d z(z0, z1, z2);
-      const Eigen::Vector3d p = pose + l * z;
-      particles_.x[i] = p(0), particles_.y[i] = p(1), particles_.theta[i] = sdk::wrap(p(2));
-    }
-    particles_.weight.assign(max_particles_, 1.0 / static_cast<double>(max_particles_));
-    if (odom_now_) odom_at_update_ = odom_now_;
-    w_slow_ = w_fast_ = 0.0;
+    pf_.scatter(pose, covariance, max_particles_);
+    pf_.equalise_weights();
+    pf_.odometry().mark_now();
+    averages_.reset();
     update_pending_ = true;  // the next scan weighs them, moving or not
     ++reseeds_;
     compute_estimate();
   }
 
   sdk::Estimate estimate() const {
-    sdk::Pose mean = mean_;
-    if (odom_now_ && odom_at_update_)
-      mean = sdk::compose(mean, sdk::between(*odom_at_update_, *odom_now_));
+    const sdk::Pose mean = pf_.odometry().follow(mean_);
     return {{mean(0), mean(1), mean(2)}, covariance_};
   }
 
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const {
-    for (std::size_t i = 0; i < particles_.size(); ++i) {
-      poses.push_back({particles_.x[i], particles_.y[i], particles_.theta[i]});
-      weights.push_back(particles_.weight[i]);
-    }
+    pf_.export_particles(poses, weights);
   }
 
   std::vector<std::pair<std::string, double>> diagnostics() const {
-    return {{"particles", static_cast<double>(particles_.size())},
+    return {{"particles", static_cast<double>(pf_.size())},
             {"n_eff", n_eff_},
             {"kld_bins", static_cast<double>(last_bins_)},
             {"injected", static_cast<double>(injected_)},
@@ -218,17 +186,6 @@ class AmclFilter {
   }
 
  private:
-  void sample_free(double& x, double& y, double& theta) {
-    const std::size_t cell = free_cells_[std::min(
-        free_cells_.size() - 1,
-        static_cast<std::size_t>(random_.uniform() * static_cast<double>(free_cells_.size())))];
-    const auto col = static_cast<double>(cell % static_cast<std::size_t>(grid_.width));
-    const auto row = static_cast<double>(cell / static_cast<std::size_t>(grid_.width));
-    x = grid_.origin_x + (col + random_.uniform()) * grid_.resolution_m;
-    y = grid_.origin_y + (row + random_.uniform()) * grid_.resolution_m;
-    theta = random_.uniform(-std::numbers::pi, std::numbers::pi);
-  }
-
   /// Each particle's weight *= p(scan | particle) over the chosen beams: the end points in the
   /// robot frame once per scan, then per particle a rotation, a translation and a table lookup
   /// per beam.
@@ -245,7 +202,8 @@ class AmclFilter {
       beam_x_.push_back(scan.mount.x + cm * sx - sm * sy);
       beam_y_.push_back(scan.mount.y + sm * sx + cm * sy);
     }
-    const std::size_t n = particles_.size();
+    const sdk::ParticleSet& particles = pf_.particles();
+    const std::size_t n = particles.size();
     log_w_.resize(n);
     const double ox = field_.origin_x(), oy = field_.origin_y(), inv = field_.inv_resolution();
     const std::int64_t width = field_.width();
@@ -254,9 +212,9 @@ class AmclFilter {
     const float off_map = field_.log_off_map();
     const std::size_t beams = beam_x_.size();
     for (std::size_t i = 0; i < n; ++i) {
-      const double c = std::cos(particles_.theta[i]), s = std::sin(particles_.theta[i]);
+      const double c = std::cos(particles.theta[i]), s = std::sin(particles.theta[i]);
       // Grid coordinates of the robot, and the beam end points rotated into grid units.
-      const double px = (particles_.x[i] - ox) * inv, py = (particles_.y[i] - oy) * inv;
+      const double px = (particles.x[i] - ox) * inv, py = (particles.y[i] - oy) * inv;
       const double cx = c * inv, sx = s * inv;
       float sum = 0.0f;
       for (std::size_t b = 0; b < beams; ++b) {
@@ -268,17 +226,13 @@ class AmclFilter {
         const std::int64_t row = on_map ? static_cast<std::int64_t>(gy) : 0;
         sum += on_map ? table[row * width + col] : off_map;
       }
-      log_w_[i] = std::log(std::max(particles_.weight[i], 1e-300)) + static_cast<double>(sum);
+      log_w_[i] = static_cast<double>(sum);
     }
-    const double top = *std::max_element(log_w_.begin(), log_w_.end());
-    double total = 0.0;
-    for (std::size_t i = 0; i < n; ++i) total += particles_.weight[i] = std::exp(log_w_[i] - top);
-    // The mean over particles of p(scan | x) (the prior weights are in log_w_), per beam as a
+    const sdk::Evidence evidence = pf_.weigh(log_w_);
+    // The scan's likelihood under the belief (weighted by the prior weights), per beam as a
     // geometric mean: w_slow / w_fast compare scans with different numbers of valid beams.
-    const double log_mean = top + std::log(total);
-    w_avg_ = beams > 0 ? std::exp(log_mean / static_cast<double>(beams)) : 0.0;
-    sdk::normalize(particles_.weight);
-    n_eff_ = sdk::effective_sample_size(particles_.weight);
+    w_avg_ = beams > 0 ? std::exp(evidence.log_likelihood / static_cast<double>(beams)) : 0.0;
+    n_eff_ = evidence.n_eff;
   }
 
   Bin bin_of(double x, double y, double theta) const {
@@ -290,15 +244,16 @@ class AmclFilter {
   /// Low-variance draws, as many as KLD sampling asks for; with recovery, some uniform poses.
   void resample() {
     double inject_probability = 0.0;
-    if (alpha_slow_ > 0.0) {
-      w_slow_ = w_slow_ == 0.0 ? w_avg_ : w_slow_ + alpha_slow_ * (w_avg_ - w_slow_);
-      w_fast_ = w_fast_ == 0.0 ? w_avg_ : w_fast_ + alpha_fast_ * (w_avg_ - w_fast_);
-      inject_probability = std::max(0.0, 1.0 - w_fast_ / w_slow_);
+    if (averages_.alpha_slow > 0.0) {
+      averages_.update(w_avg_);
+      inject_probability = std::max(0.0, averages_.deficit());
     }
-    const std::size_t n = particles_.size();
+    sdk::ParticleSet& particles = pf_.particles();
+    sdk::Random& random = pf_.random();
+    const std::size_t n = particles.size();
     cumulative_.resize(n);
     double sum = 0.0;
-    for (std::size_t i = 0; i < n; ++i) cumulative_[i] = sum += particles_.weight[i];
+    for (std::size_t i = 0; i < n; ++i) cumulative_[i] = sum += particles.weight[i];
     next_.resize(0);
     next_.x.reserve(max_particles_), next_.y.reserve(max_particles_),
         next_.theta.reserve(max_particles_);
@@ -308,16 +263,17 @@ class AmclFilter {
     // One low-variance comb of max_particles teeth, walked until KLD says stop: the draws so far
     // are always an even spread over the weights.
     const double spacing = sum / static_cast<double>(max_particles_);
-    double pointer = random_.uniform() * spacing;
+    double pointer = random.uniform() * spacing;
     std::size_t i = 0;
     while (next_.x.size() < std::max(needed, min_particles_) && next_.x.size() < max_particles_) {
       double x, y, theta;
-      if (inject_probability > 0.0 && random_.uniform() < inject_probability) {
-        sample_free(x, y, theta);
+      if (inject_probability > 0.0 && random.uniform() < inject_probability) {
+        const sdk::Pose free = free_.sample(random);
+        x = free(0), y = free(1), theta = free(2);
         ++injected_;
       } else {
         while (i + 1 < n && cumulative_[i] < pointer) ++i;
-        x = particles_.x[i], y = particles_.y[i], theta = particles_.theta[i];
+        x = particles.x[i], y = particles.y[i], theta = particles.theta[i];
         pointer += spacing;
       }
       next_.x.push_back(x), next_.y.push_back(y), next_.theta.push_back(theta);
@@ -325,19 +281,20 @@ class AmclFilter {
         needed = sdk::kld_sample_count(bins_.size(), kld_err_, kld_z_);
     }
     last_bins_ = bins_.size();
-    std::swap(particles_.x, next_.x), std::swap(particles_.y, next_.y),
-        std::swap(particles_.theta, next_.theta);
-    particles_.weight.assign(particles_.x.size(), 1.0 / static_cast<double>(particles_.x.size()));
+    std::swap(particles.x, next_.x), std::swap(particles.y, next_.y),
+        std::swap(particles.theta, next_.theta);
+    pf_.equalise_weights();
   }
 
   /// Mean and covariance of the heaviest cluster of occupied bins (26-connected).
   void compute_estimate() {
-    const std::size_t n = particles_.size();
+    const sdk::ParticleSet& particles = pf_.particles();
+    const std::size_t n = particles.size();
     bins_.clear();
     particle_bin_.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      const auto [it, added] = bins_.emplace(
-          bin_of(particles_.x[i], particles_.y[i], particles_.theta[i]), bins_.size());
+      const auto [it, added] =
+          bins_.emplace(bin_of(particles.x[i], particles.y[i], particles.theta[i]), bins_.size());
       particle_bin_[i] = it->second;
     }
     // Union-find over the bins and their neighbours.
@@ -365,33 +322,33 @@ class AmclFilter {
     }
     cluster_weight_.assign(bins_.size(), 0.0);
     for (std::size_t i = 0; i < n; ++i)
-      cluster_weight_[root(particle_bin_[i])] += particles_.weight[i];
+      cluster_weight_[root(particle_bin_[i])] += particles.weight[i];
     const std::size_t best = static_cast<std::size_t>(
         std::max_element(cluster_weight_.begin(), cluster_weight_.end()) - cluster_weight_.begin());
     cluster_.resize(0);
     for (std::size_t i = 0; i < n; ++i) {
       if (root(particle_bin_[i]) != best) continue;
-      cluster_.x.push_back(particles_.x[i]), cluster_.y.push_back(particles_.y[i]),
-          cluster_.theta.push_back(particles_.theta[i]),
-          cluster_.weight.push_back(particles_.weight[i]);
+      cluster_.x.push_back(particles.x[i]), cluster_.y.push_back(particles.y[i]),
+          cluster_.theta.push_back(particles.theta[i]),
+          cluster_.weight.push_back(particles.weight[i]);
     }
     sdk::mean_and_covariance(cluster_, mean_, covariance_);
   }
 
-  sdk::Random random_;
-  sdk::ParticleSet particles_, next_, cluster_;
+  sdk::ParticleFilter pf_;  // with max_particles_ at the start; KLD sampling changes the count
+  sdk::ParticleSet next_, cluster_;
   sdk::OdometryNoise noise_;
   sdk::LikelihoodFieldDef field_def_;
   sdk::LikelihoodField field_;
   bool field_ready_ = false, update_pending_ = false;
   locsim_occupancy_grid grid_{};
   std::vector<std::uint8_t> grid_cells_;
-  std::vector<std::size_t> free_cells_;
+  sdk::FreeSpace free_;
   std::size_t min_particles_, max_particles_, max_beams_;
   double kld_err_, kld_z_, bin_xy_m_, bin_theta_rad_, update_min_d_, update_min_a_;
   int resample_interval_;
-  double alpha_slow_, alpha_fast_, w_slow_ = 0.0, w_fast_ = 0.0, w_avg_ = 0.0;
-  std::optional<sdk::Pose> odom_now_, odom_at_update_;
+  sdk::LikelihoodAverages averages_;  // recovery_alpha_slow, recovery_alpha_fast
+  double w_avg_ = 0.0;
   std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
   std::unordered_map<Bin, std::size_t, BinHash> bins_;
   std::vector<std::size_t> particle_bin_, parent_;

@@ -15,6 +15,7 @@
 
 #include <Eigen/Dense>
 #include <locsim/localizer.hpp>
+#include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
 #include <locsim/slam.hpp>
 #include <locsim/swarm.hpp>
@@ -99,14 +100,12 @@ struct MapLandmark {
   int misses = 0;  // omni frames in a row it was in range and not detected
 };
 
-struct SlamParticle {
-  sdk::Pose pose = sdk::Pose::Zero();
-  std::vector<MapLandmark> landmarks;
-};
+/// A particle's map: what it carries beside its pose (in the skeleton's ParticleSet).
+using LandmarkMap = std::vector<MapLandmark>;
 
 class FastSlam : public sdk::Localizer {
  public:
-  FastSlam(const locsim_init& init, Mover mover);
+  FastSlam(const locsim_init& init, Mover mover) : FastSlam(init, sdk::Params(init), mover) {}
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override;
   void on_landmarks(double t_s, const locsim_landmarks& reading) override;
@@ -122,20 +121,20 @@ class FastSlam : public sdk::Localizer {
     Eigen::Matrix2d r;
   };
 
+  FastSlam(const locsim_init& init, const sdk::Params& params, Mover mover);
   Eigen::Matrix2d noise(double range) const;
   /// `reading` without its detections of other robots (itself when it has none).
   const locsim_landmarks& landmarks_only(const locsim_landmarks& reading);
-  void associate(const SlamParticle& particle, const locsim_landmarks& reading,
+  void associate(const sdk::Pose& pose, const LandmarkMap& map, const locsim_landmarks& reading,
                  std::vector<Match>& matches) const;
-  double fitness(const SlamParticle& particle, const std::vector<Match>& matches,
+  double fitness(const LandmarkMap& map, const std::vector<Match>& matches,
                  const sdk::Pose& pose) const;
-  void prune(SlamParticle& particle, const std::vector<Match>& matches) const;
+  void prune(LandmarkMap& map, const sdk::Pose& pose, const std::vector<Match>& matches) const;
   void resample();
 
   Mover mover_;
-  sdk::Random random_;
-  std::vector<SlamParticle> particles_;
-  std::vector<double> weights_;
+  sdk::ParticleFilter pf_;
+  std::vector<LandmarkMap> maps_;  // particle i's map; reordered with the particles
   sdk::OdometryNoise motion_;
   double sigma_range_, sigma_bearing_, sigma_cross_, new_landmark_chi2_, resample_threshold_;
   bool use_ids_, use_omni_, use_ptz_, use_range_bearing_;
@@ -150,8 +149,9 @@ class FastSlam : public sdk::Localizer {
   bool board_noise_from_cloud_ = true;
   double board_sigma_m_ = 0.0, board_sigma_rad_ = 0.0;
   struct Board {
-    SlamParticle particle;  // the heaviest particle of the last camera update
-    sdk::Pose mean;         // the weighted mean pose of that update
+    sdk::Pose pose;   // the heaviest particle of the last camera update
+    LandmarkMap map;  // and its map
+    sdk::Pose mean;   // the weighted mean pose of that update
   };
   std::optional<Board> board_;
   sdk::Pose mean_ = sdk::Pose::Zero();

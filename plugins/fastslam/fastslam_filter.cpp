@@ -17,9 +17,8 @@ std::size_t heaviest(const std::vector<double>& weights) {
 }
 }  // namespace
 
-FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random_(init.seed) {
-  const sdk::Params params(init);
-  const auto n = static_cast<std::size_t>(params.integer("particles"));
+FastSlam::FastSlam(const locsim_init& init, const sdk::Params& params, Mover mover)
+    : mover_(mover), pf_(static_cast<std::size_t>(params.integer("particles")), init.seed) {
   motion_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
              params.number("alpha4"), false};
   sigma_range_ = params.number("sigma_range_m");
@@ -59,29 +58,19 @@ FastSlam::FastSlam(const locsim_init& init, Mover mover) : mover_(mover), random
       init.initial_pose_known
           ? sdk::Pose(init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta)
           : sdk::Pose::Zero();
-  particles_.assign(n, SlamParticle{start, {}});
-  weights_.assign(n, 1.0 / static_cast<double>(n));
+  pf_.place_all(start);
+  maps_.assign(pf_.size(), {});
   mean_ = start;
 }
 
 void FastSlam::on_odometry(double, const locsim_odometry& odometry) {
+  // The particles take each reading's motion (the map updates need them where the robot is);
+  // the estimate, the mean at the last camera frame, follows the odometry since (pf_.odometry()).
   const sdk::Pose odom(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-  if (last_odom_) {
-    const sdk::OdometryDelta delta = sdk::decompose(*last_odom_, odom);
-    for (SlamParticle& p : particles_) {
-      const sdk::OdometryDelta d = sdk::sample_delta(delta, motion_, random_);
-      const double heading = p.pose(2) + d.rot1;
-      p.pose(0) += d.trans * std::cos(heading);
-      p.pose(1) += d.trans * std::sin(heading);
-      p.pose(2) = sdk::wrap(heading + d.rot2);
-    }
-    // The estimate follows the odometry between camera frames.
-    const double heading = mean_(2) + delta.rot1;
-    mean_(0) += delta.trans * std::cos(heading);
-    mean_(1) += delta.trans * std::sin(heading);
-    mean_(2) = sdk::wrap(heading + delta.rot2);
-  }
+  if (last_odom_)
+    sdk::sample_motion(pf_.particles(), sdk::decompose(*last_odom_, odom), motion_, pf_.random());
   last_odom_ = odom;
+  pf_.odometry().observe(odometry);
 }
 
 Eigen::Matrix2d FastSlam::noise(double range) const {
@@ -107,8 +96,8 @@ const locsim_landmarks& FastSlam::landmarks_only(const locsim_landmarks& reading
   return landmarks_view_;
 }
 
-void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& reading,
-                         std::vector<Match>& matches) const {
+void FastSlam::associate(const sdk::Pose& pose, const LandmarkMap& map,
+                         const locsim_landmarks& reading, std::vector<Match>& matches) const {
   matches.clear();
   for (std::size_t d = 0; d < reading.count; ++d) {
     const locsim_detection& detection = reading.detections[d];
@@ -116,25 +105,24 @@ void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& r
     m.z = {detection.range_m, detection.bearing_rad};
     m.r = noise(detection.range_m);
     if (use_ids_ && detection.id >= 0) {
-      const auto it = std::find_if(particle.landmarks.begin(), particle.landmarks.end(),
+      const auto it = std::find_if(map.begin(), map.end(),
                                    [&](const MapLandmark& l) { return l.id == detection.id; });
-      if (it != particle.landmarks.end())
-        m.landmark = static_cast<int>(it - particle.landmarks.begin());
+      if (it != map.end()) m.landmark = static_cast<int>(it - map.begin());
     } else {
       // A Cartesian pre-gate before the full innovation: with J = d(point)/d(z), the innovation's
       // Cartesian image is the gap between the detected point and the landmark, with covariance
       // Sigma_l + J R J^T whose largest eigenvalue is at most trace(Sigma_l) + R_rr + r^2 R_bb;
       // so d^2 >= gap^2 / that. A landmark farther than sqrt(best d^2 x that) cannot win (twice
       // the bound, for the linearisation). Most landmarks in a map fail it at one subtraction.
-      const double bearing = particle.pose(2) + m.z(1);
-      const Eigen::Vector2d point(particle.pose(0) + m.z(0) * std::cos(bearing),
-                                  particle.pose(1) + m.z(0) * std::sin(bearing));
+      const double bearing = pose(2) + m.z(1);
+      const Eigen::Vector2d point(pose(0) + m.z(0) * std::cos(bearing),
+                                  pose(1) + m.z(0) * std::sin(bearing));
       const double spread = m.r(0, 0) + m.z(0) * m.z(0) * m.r(1, 1);
       double best = new_landmark_chi2_;
-      for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
-        const sdk::LandmarkEstimate& l = particle.landmarks[k].estimate;
+      for (std::size_t k = 0; k < map.size(); ++k) {
+        const sdk::LandmarkEstimate& l = map[k].estimate;
         if ((l.mean - point).squaredNorm() > 4.0 * best * (l.covariance.trace() + spread)) continue;
-        const double d2 = sdk::landmark_innovation(l, particle.pose, m.z, m.r).mahalanobis2;
+        const double d2 = sdk::landmark_innovation(l, pose, m.z, m.r).mahalanobis2;
         if (d2 < best) best = d2, m.landmark = static_cast<int>(k);
       }
     }
@@ -142,14 +130,14 @@ void FastSlam::associate(const SlamParticle& particle, const locsim_landmarks& r
   }
 }
 
-double FastSlam::fitness(const SlamParticle& particle, const std::vector<Match>& matches,
+double FastSlam::fitness(const LandmarkMap& map, const std::vector<Match>& matches,
                          const sdk::Pose& pose) const {
   // SPEC section 3: f = sum over the associated detections of exp(-1/2 nu^T R^-1 nu).
   double f = 0.0;
   for (const Match& m : matches) {
     if (m.landmark < 0) continue;
-    const Eigen::Vector2d predicted = sdk::range_bearing(
-        pose, particle.landmarks[static_cast<std::size_t>(m.landmark)].estimate.mean);
+    const Eigen::Vector2d predicted =
+        sdk::range_bearing(pose, map[static_cast<std::size_t>(m.landmark)].estimate.mean);
     const Eigen::Vector2d nu(m.z(0) - predicted(0), sdk::wrap(m.z(1) - predicted(1)));
     f += std::exp(-0.5 * (nu(0) * nu(0) / m.r(0, 0) + nu(1) * nu(1) / m.r(1, 1)));  // R diagonal
   }
@@ -166,15 +154,15 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& given) {
   // Negative evidence (prune) stays with the omnidirectional camera: the range-bearing sensor's
   // field of view is limited, and the SDK does not say what it is.
   const locsim_landmarks& reading = landmarks_only(given);
-  const std::size_t n = particles_.size();
+  const std::size_t n = pf_.size();
   std::vector<std::vector<Match>> matches(n);
-  for (std::size_t i = 0; i < n; ++i) associate(particles_[i], reading, matches[i]);
+  for (std::size_t i = 0; i < n; ++i) associate(pf_.pose(i), maps_[i], reading, matches[i]);
 
   // The second prediction: the swarm moves the poses uphill on the fitness, each particle
   // scoring a pose against its own map and associations.
   if (mover_ != Mover::kNone && reading.count > 0) {
     std::vector<sdk::Pose> poses(n);
-    for (std::size_t i = 0; i < n; ++i) poses[i] = particles_[i].pose;
+    for (std::size_t i = 0; i < n; ++i) poses[i] = pf_.pose(i);
     // A heading error of d rad moves a detection at range r by r d metres: scaled by the mean
     // range, a step in heading moves the predictions as far as a step in position.
     double scale = heading_scale_m_;
@@ -185,26 +173,27 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& given) {
     }
     afsa_.heading_scale_m = pso_.heading_scale_m = scale;
     const auto f = [&](std::size_t i, const sdk::Pose& pose) {
-      return fitness(particles_[i], matches[i], pose);
+      return fitness(maps_[i], matches[i], pose);
     };
-    evaluations_ += mover_ == Mover::kFishSwarm ? sdk::afsa_move(poses, f, afsa_, random_)
-                                                : sdk::pso_move(poses, f, pso_, random_);
-    for (std::size_t i = 0; i < n; ++i) particles_[i].pose = poses[i];
+    evaluations_ += mover_ == Mover::kFishSwarm ? sdk::afsa_move(poses, f, afsa_, pf_.random())
+                                                : sdk::pso_move(poses, f, pso_, pf_.random());
+    for (std::size_t i = 0; i < n; ++i) pf_.set(i, poses[i]);
   }
 
   // Landmark EKFs and weights at the (moved) poses. A new landmark weighs in at the gate's
   // density: what a detection just outside every known landmark would have scored.
-  std::vector<double> log_w(n);
+  std::vector<double> log_likelihoods(n);
   for (std::size_t i = 0; i < n; ++i) {
-    SlamParticle& p = particles_[i];
+    const sdk::Pose pose = pf_.pose(i);
+    LandmarkMap& map = maps_[i];
     double log_likelihood = 0.0;
     for (std::size_t d = 0; d < matches[i].size(); ++d) {
       const Match& m = matches[i][d];
       if (m.landmark >= 0) {
-        MapLandmark& mapped = p.landmarks[static_cast<std::size_t>(m.landmark)];
+        MapLandmark& mapped = map[static_cast<std::size_t>(m.landmark)];
         sdk::LandmarkEstimate& landmark = mapped.estimate;
         const sdk::LandmarkInnovation innovation =
-            sdk::landmark_innovation(landmark, p.pose, m.z, m.r);
+            sdk::landmark_innovation(landmark, pose, m.z, m.r);
         log_likelihood += innovation.log_likelihood();
         sdk::update_landmark(landmark, innovation, m.r);
         mapped.misses = 0;
@@ -212,52 +201,44 @@ void FastSlam::on_landmarks(double, const locsim_landmarks& given) {
         const Eigen::Matrix2d s = 2.0 * m.r;  // of the order of a known landmark's S
         log_likelihood += -0.5 * new_landmark_chi2_ - std::log(2.0 * std::numbers::pi) -
                           0.5 * std::log(s.determinant());
-        p.landmarks.push_back(
-            {sdk::init_landmark(p.pose, m.z, m.r), use_ids_ ? reading.detections[d].id : -1, 0});
+        map.push_back(
+            {sdk::init_landmark(pose, m.z, m.r), use_ids_ ? reading.detections[d].id : -1, 0});
       }
     }
-    if (reading.camera == LOCSIM_CAMERA_OMNI) prune(p, matches[i]);
-    log_w[i] = std::log(std::max(weights_[i], 1e-300)) + log_likelihood;
+    if (reading.camera == LOCSIM_CAMERA_OMNI) prune(map, pose, matches[i]);
+    log_likelihoods[i] = log_likelihood;
   }
-  const double top = *std::max_element(log_w.begin(), log_w.end());
-  for (std::size_t i = 0; i < n; ++i) weights_[i] = std::exp(log_w[i] - top);
-  sdk::normalize(weights_);
+  const double n_eff = pf_.weigh(log_likelihoods).n_eff;
 
   // The weighted mean pose (the estimate), then the N_eff test.
-  sdk::ParticleSet set;
-  set.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    set.x[i] = particles_[i].pose(0), set.y[i] = particles_[i].pose(1),
-    set.theta[i] = particles_[i].pose(2), set.weight[i] = weights_[i];
-  }
-  sdk::mean_and_covariance(set, mean_, covariance_);
-  const double n_eff = sdk::effective_sample_size(weights_);
+  sdk::mean_and_covariance(pf_.particles(), mean_, covariance_);
+  pf_.odometry().mark_now();
   n_eff_sum_ += n_eff;
   ++steps_;
-  const SlamParticle best = particles_[heaviest(weights_)];
+  const std::size_t best = heaviest(pf_.particles().weight);
+  Board board{pf_.pose(best), maps_[best], mean_};
   if (n_eff < resample_threshold_ * static_cast<double>(n)) resample();
   // The bulletin board: this step's best and this step's mean, for the next directed resampling.
-  if (mover_ == Mover::kFishSwarm) board_ = Board{best, mean_};
-  std::vector<sdk::Pose> poses(particles_.size());
-  for (std::size_t i = 0; i < particles_.size(); ++i) poses[i] = particles_[i].pose;
+  if (mover_ == Mover::kFishSwarm) board_ = std::move(board);
+  std::vector<sdk::Pose> poses(pf_.size());
+  for (std::size_t i = 0; i < pf_.size(); ++i) poses[i] = pf_.pose(i);
   diversity_sum_ += sdk::hamming_diversity(poses, diversity_cell_m_, diversity_cell_rad_);
 }
 
-void FastSlam::prune(SlamParticle& particle, const std::vector<Match>& matches) const {
+void FastSlam::prune(LandmarkMap& map, const sdk::Pose& pose,
+                     const std::vector<Match>& matches) const {
   // Negative evidence (Montemerlo et al. 2003): the omnidirectional camera sees all around, so
   // a landmark well inside its range that no detection went to is either occluded or was never
   // there: a duplicate left behind when the pose drifted past the association gate.
   if (prune_after_misses_ == 0) return;
-  std::vector<char> seen(particle.landmarks.size(), 0);
+  std::vector<char> seen(map.size(), 0);
   for (const Match& m : matches)
     if (m.landmark >= 0) seen[static_cast<std::size_t>(m.landmark)] = 1;
-  for (std::size_t k = 0; k < particle.landmarks.size(); ++k) {
-    MapLandmark& l = particle.landmarks[k];
-    if (!seen[k] && (l.estimate.mean - particle.pose.head<2>()).norm() < 0.9 * max_range_m_)
-      ++l.misses;
+  for (std::size_t k = 0; k < map.size(); ++k) {
+    MapLandmark& l = map[k];
+    if (!seen[k] && (l.estimate.mean - pose.head<2>()).norm() < 0.9 * max_range_m_) ++l.misses;
   }
-  std::erase_if(particle.landmarks,
-                [&](const MapLandmark& l) { return l.misses >= prune_after_misses_; });
+  std::erase_if(map, [&](const MapLandmark& l) { return l.misses >= prune_after_misses_; });
 }
 
 void FastSlam::resample() {
@@ -266,11 +247,11 @@ void FastSlam::resample() {
     // x^ = x_board + (mean_t - mean_t-1) + v: the previous step's best, moved as the mean moved
     // since (both means after their camera updates: the odometry between frames is in the
     // difference, or the board's copies would lag a frame's travel behind).
-    SlamParticle moved = board_->particle;
+    sdk::Pose moved = board_->pose;
     const sdk::Pose& then = board_->mean;
-    moved.pose(0) += mean_(0) - then(0);
-    moved.pose(1) += mean_(1) - then(1);
-    moved.pose(2) = sdk::wrap(moved.pose(2) + sdk::wrap(mean_(2) - then(2)));
+    moved(0) += mean_(0) - then(0);
+    moved(1) += mean_(1) - then(1);
+    moved(2) = sdk::wrap(moved(2) + sdk::wrap(mean_(2) - then(2)));
     // v ~ N(0, Sigma): the cloud's own spread by default, so that the board's copies scatter as
     // far as the posterior is wide (a fixed sigma is either wider than a precise sensor allows,
     // and the copies weigh nothing, or narrower than the motion, and they collapse).
@@ -286,38 +267,40 @@ void FastSlam::resample() {
     const Eigen::Matrix3d root = ldlt.transpositionsP().transpose() *
                                  Eigen::Matrix3d(ldlt.matrixL()) *
                                  ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
-    const auto from_board = [&](sdk::Random& random) {
-      SlamParticle p = moved;
-      // One draw per statement: a constructor's arguments are unsequenced and compilers differ.
-      // Last component first, as gcc drew them (the results so far are gcc's).
-      const double n2 = random.normal(), n1 = random.normal(), n0 = random.normal();
-      const Eigen::Vector3d v = root * Eigen::Vector3d(n0, n1, n2);
-      p.pose(0) += v(0);
-      p.pose(1) += v(1);
-      p.pose(2) = sdk::wrap(p.pose(2) + v(2));
-      return p;
-    };
-    sdk::directed_resample(particles_, weights_, moved, from_board, random_);
+    // The heavier half by low-variance draws, then the board's copies: itself, then with noise.
+    const std::size_t n = pf_.size();
+    std::vector<std::size_t> chosen;
+    sdk::directed_resample_indices(pf_.particles().weight, pf_.random(), chosen);
+    pf_.keep(chosen, maps_);
+    sdk::ParticleSet& p = pf_.particles();
+    for (std::size_t r = 0; p.size() < n; ++r) {
+      sdk::Pose copy = moved;
+      if (r > 0) {
+        // One draw per statement: a constructor's arguments are unsequenced and compilers
+        // differ. Last component first, as gcc drew them (the results so far are gcc's).
+        sdk::Random& random = pf_.random();
+        const double n2 = random.normal(), n1 = random.normal(), n0 = random.normal();
+        const Eigen::Vector3d v = root * Eigen::Vector3d(n0, n1, n2);
+        copy(0) += v(0);
+        copy(1) += v(1);
+        copy(2) = sdk::wrap(copy(2) + v(2));
+      }
+      p.x.push_back(copy(0)), p.y.push_back(copy(1)), p.theta.push_back(copy(2));
+      maps_.push_back(board_->map);
+    }
+    pf_.equalise_weights();
     return;
   }
-  std::vector<std::size_t> chosen;
-  sdk::low_variance_resample(weights_, random_, chosen);
-  std::vector<SlamParticle> next;
-  next.reserve(chosen.size());
-  for (const std::size_t k : chosen) next.push_back(particles_[k]);
-  particles_ = std::move(next);
-  weights_.assign(particles_.size(), 1.0 / static_cast<double>(particles_.size()));
+  pf_.resample(maps_);
 }
 
 sdk::Estimate FastSlam::estimate() const {
-  return {{mean_(0), mean_(1), mean_(2)}, covariance_};
+  const sdk::Pose mean = pf_.odometry().follow(mean_);
+  return {{mean(0), mean(1), mean(2)}, covariance_};
 }
 
 void FastSlam::particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const {
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
-    poses.push_back({particles_[i].pose(0), particles_[i].pose(1), particles_[i].pose(2)});
-    weights.push_back(weights_[i]);
-  }
+  pf_.export_particles(poses, weights);
 }
 
 std::vector<std::pair<std::string, double>> FastSlam::diagnostics() const {
@@ -327,13 +310,13 @@ std::vector<std::pair<std::string, double>> FastSlam::diagnostics() const {
           {"mean_diversity", diversity_sum_ / steps},
           {"resamples", static_cast<double>(resamples_)},
           {"fitness_evaluations", static_cast<double>(evaluations_)},
-          {"landmarks", static_cast<double>(particles_[heaviest(weights_)].landmarks.size())}};
+          {"landmarks", static_cast<double>(maps_[heaviest(pf_.particles().weight)].size())}};
 }
 
 void FastSlam::landmark_map(std::vector<locsim_mapped_landmark>& landmarks) const {
-  const SlamParticle& p = particles_[heaviest(weights_)];
-  for (std::size_t k = 0; k < p.landmarks.size(); ++k) {
-    const sdk::LandmarkEstimate& l = p.landmarks[k].estimate;
+  const LandmarkMap& map = maps_[heaviest(pf_.particles().weight)];
+  for (std::size_t k = 0; k < map.size(); ++k) {
+    const sdk::LandmarkEstimate& l = map[k].estimate;
     if (l.observations < map_min_observations_) continue;
     landmarks.push_back(
         {static_cast<std::int32_t>(k),

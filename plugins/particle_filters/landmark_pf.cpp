@@ -6,10 +6,11 @@
 
 namespace locsim::particle_filters {
 
-LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery recovery)
-    : recovery_(recovery), random_(init.seed) {
-  const sdk::Params params(init);
-  const auto n = static_cast<std::size_t>(params.integer("particles"));
+LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sdk::Params& params,
+                                               Recovery recovery)
+    : recovery_(recovery),
+      pf_(static_cast<std::size_t>(params.integer("particles")), init.seed,
+          sdk::resampler_from(params.string("resampler"))) {
   noise_ = {params.number("alpha1"),
             params.number("alpha2"),
             params.number("alpha3"),
@@ -35,12 +36,6 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
   reset_after_steps_ = params.integer("reset_after_steps");
   reset_min_detections_ = static_cast<std::size_t>(params.integer("reset_min_detections"));
   sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
-  const std::string resampler = params.string("resampler");
-  if (resampler != "roulette" && resampler != "low_variance") {
-    throw std::invalid_argument("resampler must be roulette or low_variance, not '" + resampler +
-                                "'");
-  }
-  low_variance_ = resampler == "low_variance";
   use_ptz_ = params.flag("use_ptz");
   use_omni_ = params.flag("use_omni");
   use_range_bearing_ = params.flag("use_range_bearing");
@@ -57,10 +52,10 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
       asrl_pt_ = params.number("p_t");
       break;
     case Recovery::kAugmented:
-      alpha_slow_ = params.number("alpha_slow");
-      alpha_fast_ = params.number("alpha_fast");
+      averages_.alpha_slow = params.number("alpha_slow");
+      averages_.alpha_fast = params.number("alpha_fast");
       injection_level_ = params.number("injection_level");
-      if (alpha_slow_ >= alpha_fast_)
+      if (averages_.alpha_slow >= averages_.alpha_fast)
         throw std::invalid_argument("alpha_slow must be below alpha_fast");
       {
         const std::string injection = params.string("injection");
@@ -77,38 +72,11 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, Recovery
   }
   if (landmarks_.empty())
     throw std::invalid_argument("needs a landmark map; this world has no landmarks");
-  grid_ = init.map->grid;
-  grid_cells_.assign(grid_.cells,
-                     grid_.cells + static_cast<std::size_t>(grid_.width) * grid_.height);
-  grid_.cells = grid_cells_.data();
-
-  particles_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (init.initial_pose_known) {
-      // Gaussian about the initial guess, with its covariance's standard deviations.
-      particles_.x[i] = init.initial_pose.x + random_.normal(std::sqrt(init.initial_covariance[0]));
-      particles_.y[i] = init.initial_pose.y + random_.normal(std::sqrt(init.initial_covariance[4]));
-      particles_.theta[i] = sdk::wrap(init.initial_pose.theta +
-                                      random_.normal(std::sqrt(init.initial_covariance[8])));
-    } else {
-      sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
-    }
-  }
-}
-
-void LandmarkParticleFilter::sample_uniform(double& x, double& y, double& theta) {
-  // Uniform over the free cells of the map (rejection; the map's extent if it is all walls).
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    x = grid_.origin_x + random_.uniform() * grid_.width * grid_.resolution_m;
-    y = grid_.origin_y + random_.uniform() * grid_.height * grid_.resolution_m;
-    const auto col = static_cast<int>((x - grid_.origin_x) / grid_.resolution_m);
-    const auto row = static_cast<int>((y - grid_.origin_y) / grid_.resolution_m);
-    if (col >= 0 && row >= 0 && col < grid_.width && row < grid_.height &&
-        grid_.cells[static_cast<std::size_t>(row) * grid_.width + col] == 0) {
-      break;
-    }
-  }
-  theta = random_.uniform(-std::numbers::pi, std::numbers::pi);
+  free_ = sdk::FreeSpace(init.map->grid);
+  if (recovery_ == Recovery::kAugmented && inject_uniform_ && free_.empty())
+    throw std::invalid_argument(
+        "injection uniform needs an occupancy grid with free cells; this world has none");
+  pf_.initialise(init, free_);
 }
 
 void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
@@ -158,8 +126,9 @@ double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) 
 }
 
 void LandmarkParticleFilter::weigh_particles() {
-  const auto n = static_cast<Eigen::Index>(particles_.size());
-  headings_.compute(particles_);
+  const sdk::ParticleSet& particles = pf_.particles();
+  const auto n = static_cast<Eigen::Index>(particles.size());
+  headings_.compute(particles);
   if (detection_match_.size() < step_count_) detection_match_.resize(step_count_);
   // Each detection's log match at every particle, with its best-matching candidate.
   for (std::size_t k = 0; k < step_count_; ++k) {
@@ -167,7 +136,7 @@ void LandmarkParticleFilter::weigh_particles() {
     std::vector<double>& match = detection_match_[k];
     for (std::size_t c = 0; c < d.candidates.size(); ++c) {
       const Landmark& l = landmarks_[d.candidates[c]];
-      sdk::landmark_log_match(particles_, headings_, d.range_m, d.bearing_rad, l.x, l.y,
+      sdk::landmark_log_match(particles, headings_, d.range_m, d.bearing_rad, l.x, l.y,
                               d.sigma_range_m, sigma_bearing_rad_,
                               c == 0 ? match : candidate_match_);
       if (c > 0) {  // an ambiguous colour: the best-matching landmark of that colour
@@ -210,8 +179,8 @@ void LandmarkParticleFilter::weigh_particles() {
       step_count_ = kept;
     }
   }
-  log_weights_.assign(particles_.size(), 0.0);
-  Eigen::Map<Eigen::ArrayXd> log_w(log_weights_.data(), n);
+  log_likelihood_.assign(particles.size(), 0.0);
+  Eigen::Map<Eigen::ArrayXd> log_w(log_likelihood_.data(), n);
   for (std::size_t k = 0; k < step_count_; ++k) {
     Eigen::Map<Eigen::ArrayXd> match(detection_match_[k].data(), n);
     if (std::isfinite(log_outlier_likelihood_)) {
@@ -223,23 +192,24 @@ void LandmarkParticleFilter::weigh_particles() {
   }
 }
 
-bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& theta) {
+sdk::Pose LandmarkParticleFilter::sample_from_sensors() {
   // A ring around one detected landmark, heading fixed by the bearing; with more detections,
   // several ring candidates weighted by all of them (their intersection, approximately).
+  sdk::Random& random = pf_.random();
   constexpr int kCandidates = 16;
   double best_x[kCandidates], best_y[kCandidates], best_theta[kCandidates], log_w[kCandidates];
   int made = 0;
   for (int c = 0; c < kCandidates; ++c) {
     const StepDetection& d =
         step_[std::min(step_count_ - 1, static_cast<std::size_t>(
-                                            random_.uniform() * static_cast<double>(step_count_)))];
+                                            random.uniform() * static_cast<double>(step_count_)))];
     const Landmark& l = landmarks_[d.candidates[std::min(
         d.candidates.size() - 1,
-        static_cast<std::size_t>(random_.uniform() * static_cast<double>(d.candidates.size())))]];
-    const double r = std::max(0.05, d.range_m + random_.normal(d.sigma_range_m));
-    const double phi = d.bearing_rad + random_.normal(sigma_bearing_rad_);
+        static_cast<std::size_t>(random.uniform() * static_cast<double>(d.candidates.size())))]];
+    const double r = std::max(0.05, d.range_m + random.normal(d.sigma_range_m));
+    const double phi = d.bearing_rad + random.normal(sigma_bearing_rad_);
     const double alpha =
-        random_.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
+        random.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
     best_x[made] = l.x - r * std::cos(alpha);
     best_y[made] = l.y - r * std::sin(alpha);
     best_theta[made] = sdk::wrap(alpha - phi);
@@ -251,34 +221,31 @@ bool LandmarkParticleFilter::sample_from_sensors(double& x, double& y, double& t
   const double top = *std::max_element(log_w, log_w + made);
   double sum = 0.0, w[kCandidates];
   for (int c = 0; c < made; ++c) sum += w[c] = std::exp(log_w[c] - top);
-  double u = random_.uniform() * sum;
+  double u = random.uniform() * sum;
   int pick = 0;
   while (pick + 1 < made && (u -= w[pick]) > 0.0) ++pick;
-  x = best_x[pick], y = best_y[pick], theta = best_theta[pick];
-  return true;
+  return {best_x[pick], best_y[pick], best_theta[pick]};
 }
 
 void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& odometry) {
-  odometry_now_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-  if (!odometry_applied_) odometry_applied_ = odometry_now_;
+  pf_.odometry().observe(odometry);
   if (wheel_motion_) {
     if (const auto step = wheels_->update(t_s, odometry)) {
-      sdk::sample_wheel_motion(particles_, step->d_left_m, step->d_right_m, wheel_base_m_, k_left_,
-                               k_right_, random_);
+      sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
+                               k_left_, k_right_, pf_.random());
     }
-    odometry_applied_ = odometry_now_;
+    pf_.odometry().mark_now();
   }
 }
 
 void LandmarkParticleFilter::apply_pending_motion() {
-  if (!odometry_now_ || !odometry_applied_) return;
+  if (!pf_.odometry().ready()) return;
   if (wheel_motion_) {  // moved at each odometry reading: only the step's floor is left
-    sdk::add_motion_floor(particles_, noise_, random_);
+    sdk::add_motion_floor(pf_.particles(), noise_, pf_.random());
     return;
   }
-  sdk::sample_motion(particles_, sdk::decompose(*odometry_applied_, *odometry_now_), noise_,
-                     random_);
-  odometry_applied_ = odometry_now_;
+  sdk::sample_motion(pf_.particles(), pf_.odometry().since_mark(), noise_, pf_.random());
+  pf_.odometry().mark_now();
 }
 
 void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
@@ -290,37 +257,21 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;
   apply_pending_motion();
-  const std::size_t n = particles_.size();
-  // Weight (in logs, then one shift and exp per particle: no underflow with many detections).
+  const std::size_t n = pf_.size();
   weigh_particles();
-  const Eigen::Map<const Eigen::ArrayXd> log_w(log_weights_.data(), static_cast<Eigen::Index>(n));
-  const double top = log_w.maxCoeff();
-  Eigen::Map<Eigen::ArrayXd>(particles_.weight.data(), static_cast<Eigen::Index>(n)) =
-      (log_w - top).exp();
-  double sum = 0.0;
-  for (const double w : particles_.weight) sum += w;
-  // log of the mean likelihood p~ = sum_i p(z | x_i) / n (each p scaled to 1 at a perfect match).
-  const double log_mean_likelihood = top + std::log(sum / static_cast<double>(n));
+  // The likelihood of the detections under the belief, p~ = sum_i p(z | x_i) / n (each p scaled
+  // to 1 at a perfect match), and the same over the belief's particles only, without those
+  // injected at the last step: Thrun's w_avg estimates p(z | belief), and the random guesses,
+  // which rarely fit, would pull it down by their share, so that injecting lowers w_fast, which
+  // injects more, until the whole set is random at every step and the filter never converges
+  // again (seen on MRCLAM: 199 of 200 particles replaced per step for the last 800 steps of a
+  // run).
+  const sdk::Evidence evidence = pf_.weigh(log_likelihood_, injected_ < n ? n - injected_ : n);
+  const double log_mean_likelihood = evidence.log_likelihood;
   mean_likelihood_ = std::exp(log_mean_likelihood);
-  // The same over the belief's particles only, without those injected at the last step: Thrun's
-  // w_avg estimates p(z | belief), and the random guesses, which rarely fit, would pull it down by
-  // their share, so that injecting lowers w_fast, which injects more, until the whole set is
-  // random at every step and the filter never converges again (seen on MRCLAM: 199 of 200
-  // particles replaced per step for the last 800 steps of a run).
-  const std::size_t belief = injected_ < n ? n - injected_ : n;
-  double belief_sum = 0.0;
-  for (std::size_t i = 0; i < belief; ++i) belief_sum += particles_.weight[i];
-  const double log_belief_likelihood = top + std::log(belief_sum / static_cast<double>(belief));
   injected_ = 0;
-  sdk::normalize(particles_.weight);
-  n_eff_ = sdk::effective_sample_size(particles_.weight);
-
-  if (low_variance_) {
-    sdk::low_variance_resample(particles_.weight, random_, chosen_);
-  } else {
-    sdk::roulette_resample(particles_.weight, random_, chosen_, spacings_);
-  }
-  sdk::apply_resample(particles_, chosen_, scratch_);
+  n_eff_ = evidence.n_eff;
+  pf_.resample();
 
   // How many to replace.
   double fraction = 0.0;
@@ -336,15 +287,12 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
       fraction =
           1.0 - std::exp(log_mean_likelihood - std::log(asrl_mu_) - 2.0 * m * std::log(asrl_pt_));
       break;
-    case Recovery::kAugmented: {
+    case Recovery::kAugmented:
       // Thrun's w_slow / w_fast on the per-detection (geometric mean) likelihood, so that steps
       // with different numbers of detections compare.
-      const double w_avg = std::exp(log_belief_likelihood / m);
-      w_slow_ = w_slow_ == 0.0 ? w_avg : w_slow_ + alpha_slow_ * (w_avg - w_slow_);
-      w_fast_ = w_fast_ == 0.0 ? w_avg : w_fast_ + alpha_fast_ * (w_avg - w_fast_);
-      fraction = 1.0 - w_fast_ / (injection_level_ * w_slow_);
+      averages_.update(std::exp(evidence.log_likelihood_head / m));
+      fraction = averages_.deficit(injection_level_);
       break;
-    }
   }
   // A lone false detection looks, for one frame, like a kidnapping; a kidnapping lasts.
   low_steps_ = fraction > 0.0 ? low_steps_ + 1 : 0;
@@ -354,54 +302,34 @@ void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& readin
   resets_ = static_cast<double>(resets);
   // Which ones: a random subset (a partial Fisher-Yates shuffle), moved to the tail so that the
   // estimate can leave them out until they have been weighted.
+  sdk::ParticleSet& p = pf_.particles();
+  sdk::Random& random = pf_.random();
   for (std::size_t k = 0; k < resets; ++k) {
     const std::size_t i = n - 1 - k;
     const std::size_t pick =
-        std::min(i, static_cast<std::size_t>(random_.uniform() * static_cast<double>(i + 1)));
-    std::swap(particles_.x[i], particles_.x[pick]);
-    std::swap(particles_.y[i], particles_.y[pick]);
-    std::swap(particles_.theta[i], particles_.theta[pick]);
-    if ((recovery_ == Recovery::kAugmented && inject_uniform_) ||
-        !sample_from_sensors(particles_.x[i], particles_.y[i], particles_.theta[i])) {
-      sample_uniform(particles_.x[i], particles_.y[i], particles_.theta[i]);
-    }
+        std::min(i, static_cast<std::size_t>(random.uniform() * static_cast<double>(i + 1)));
+    std::swap(p.x[i], p.x[pick]);
+    std::swap(p.y[i], p.y[pick]);
+    std::swap(p.theta[i], p.theta[pick]);
+    pf_.set(i, recovery_ == Recovery::kAugmented && inject_uniform_ ? free_.sample(random)
+                                                                    : sample_from_sensors());
   }
   injected_ = resets;
 }
 
 sdk::Estimate LandmarkParticleFilter::estimate() const {
-  sdk::Pose mean;
-  Eigen::Matrix3d covariance;
-  if (injected_ == 0 || injected_ >= particles_.size()) {
-    sdk::mean_and_covariance(particles_, mean, covariance);
-  } else {
-    // The weighted-and-resampled part only (copied: estimate() is const and rare).
-    sdk::ParticleSet evidence;
-    const std::size_t kept = particles_.size() - injected_;
-    evidence.x.assign(particles_.x.begin(), particles_.x.begin() + kept);
-    evidence.y.assign(particles_.y.begin(), particles_.y.begin() + kept);
-    evidence.theta.assign(particles_.theta.begin(), particles_.theta.begin() + kept);
-    evidence.weight.assign(kept, 1.0 / static_cast<double>(kept));
-    sdk::mean_and_covariance(evidence, mean, covariance);
-  }
-  if (odometry_now_ && odometry_applied_) {
-    // Moved by the odometry since the last step (its noise is in the next step's sampling).
-    mean = sdk::compose(mean, sdk::between(*odometry_applied_, *odometry_now_));
-  }
-  return {{mean(0), mean(1), mean(2)}, covariance};
+  // The weighted-and-resampled part only: the injected particles are not evidence yet.
+  return pf_.estimate(injected_ < pf_.size() ? pf_.size() - injected_ : pf_.size());
 }
 
 void LandmarkParticleFilter::particles(std::vector<locsim_pose2>& poses,
                                        std::vector<double>& weights) const {
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
-    poses.push_back({particles_.x[i], particles_.y[i], particles_.theta[i]});
-    weights.push_back(particles_.weight[i]);
-  }
+  pf_.export_particles(poses, weights);
 }
 
 std::vector<std::pair<std::string, double>> LandmarkParticleFilter::diagnostics() const {
   return {{"n_eff", n_eff_},
-          {"particles", static_cast<double>(particles_.size())},
+          {"particles", static_cast<double>(pf_.size())},
           {"resets", resets_},
           {"rejected", rejected_},
           {"mean_likelihood", mean_likelihood_},

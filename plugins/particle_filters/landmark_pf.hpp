@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <locsim/localizer.hpp>
+#include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
 #include <optional>
 #include <string>
@@ -77,7 +78,8 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
 
 class LandmarkParticleFilter : public sdk::Localizer {
  public:
-  LandmarkParticleFilter(const locsim_init& init, Recovery recovery);
+  LandmarkParticleFilter(const locsim_init& init, Recovery recovery)
+      : LandmarkParticleFilter(init, sdk::Params(init), recovery) {}
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override;
   void on_landmarks(double t_s, const locsim_landmarks& reading) override;
@@ -97,6 +99,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
     double range_m, bearing_rad, sigma_range_m;
     std::vector<std::size_t> candidates;  // indices into landmarks_
   };
+  LandmarkParticleFilter(const locsim_init& init, const sdk::Params& params, Recovery recovery);
   void prepare_step(const locsim_landmarks& reading);
   /// log of the match of all this step's detections at one pose (sdk::landmark_log_match, 0 =
   /// perfect), each with its best-matching candidate.
@@ -108,37 +111,33 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// step_count_ then hold the kept ones).
   void weigh_particles();
   /// A pose consistent with the detections (a ring around one landmark, weighted by the others).
-  bool sample_from_sensors(double& x, double& y, double& theta);
-  void sample_uniform(double& x, double& y, double& theta);
+  sdk::Pose sample_from_sensors();
 
   Recovery recovery_;
-  sdk::Random random_;
-  sdk::ParticleSet particles_, scratch_;
+  sdk::ParticleFilter pf_;
   sdk::OdometryNoise noise_;
   double sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_, sigma_bearing_rad_;
-  bool low_variance_, use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
+  bool use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   double log_outlier_likelihood_;  // log of outlier_likelihood; -inf when 0
   long reset_after_steps_ = 1, low_steps_ = 0;
   std::size_t reset_min_detections_ = 1;
   // Recovery parameters.
-  double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0, alpha_slow_ = 0.0, alpha_fast_ = 0.0;
-  double w_slow_ = 0.0, w_fast_ = 0.0, injection_level_ = 1.0;
+  double srl_threshold_ = 0.0, asrl_mu_ = 1.0, asrl_pt_ = 1.0;
+  sdk::LikelihoodAverages averages_;  // augmented_mcl
+  double injection_level_ = 1.0;
   bool inject_uniform_ = true;  // augmented_mcl: uniform (Thrun) or from the detections
   std::vector<Landmark> landmarks_;
-  locsim_occupancy_grid grid_{};
-  std::vector<std::uint8_t> grid_cells_;
+  sdk::FreeSpace free_;
   /// Odometry is applied once per step, just before weighting (the paper's steps 2 and 3): the
   /// alpha noise is per perception step, as in the paper, whatever the encoder rate. Between
-  /// steps the estimate is the particles' mean moved by the odometry since.
+  /// steps the estimate is the particles' mean moved by the odometry since (pf_.odometry()).
   void apply_pending_motion();
-  std::optional<sdk::Pose> odometry_now_, odometry_applied_;
   // motion_model wheels: the particles move at every odometry reading.
   bool wheel_motion_ = false;
   double k_left_ = 0.0, k_right_ = 0.0, wheel_base_m_ = 0.0;
   std::optional<sdk::OdometryTracker> wheels_;
-  std::vector<std::size_t> chosen_;
-  std::vector<double> spacings_, log_weights_, candidate_match_;
+  std::vector<double> log_likelihood_, candidate_match_;
   std::vector<std::vector<double>> detection_match_;  // per detection of the step, per particle
   sdk::Headings headings_;
   std::vector<StepDetection> step_;  // capacity reused from step to step

@@ -345,10 +345,12 @@ inline std::size_t kld_sample_count(std::size_t bins, double epsilon, double z) 
 }
 
 /// Weighted mean pose (circular mean of the headings) and its covariance (heading deviations
-/// taken about the circular mean).
-inline void mean_and_covariance(const ParticleSet& p, Pose& mean, Eigen::Matrix3d& covariance) {
+/// taken about the circular mean), of the first `count` particles (all by default).
+inline void mean_and_covariance(const ParticleSet& p, Pose& mean, Eigen::Matrix3d& covariance,
+                                std::size_t count = SIZE_MAX) {
+  const std::size_t n = std::min(count, p.size());
   double sw = 0, sx = 0, sy = 0, ss = 0, sc = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     const double w = p.weight[i];
     sw += w, sx += w * p.x[i], sy += w * p.y[i], ss += w * std::sin(p.theta[i]),
         sc += w * std::cos(p.theta[i]);
@@ -356,7 +358,7 @@ inline void mean_and_covariance(const ParticleSet& p, Pose& mean, Eigen::Matrix3
   if (!(sw > 0.0)) sw = 1.0;
   mean = {sx / sw, sy / sw, std::atan2(ss, sc)};
   covariance.setZero();
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d d(p.x[i] - mean(0), p.y[i] - mean(1), wrap(p.theta[i] - mean(2)));
     covariance += p.weight[i] / sw * d * d.transpose();
   }

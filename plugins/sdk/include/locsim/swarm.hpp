@@ -170,14 +170,13 @@ long pso_move(std::vector<Pose>& poses, Fitness&& fitness, const PsoDef& def, Ra
   return evaluations;
 }
 
-/// Directed resampling (paper 001): the lighter half of the particles is dropped and replaced
-/// by the board particle itself once and by from_board(random) for the rest (the board predicted
-/// to now, plus noise); the heavier half is resampled by weight (low variance) into the other
-/// slots. The count stays; weights become uniform. `Particle` is copyable.
-template <class Particle, class FromBoard>
-void directed_resample(std::vector<Particle>& particles, std::vector<double>& weights,
-                       const Particle& board, FromBoard&& from_board, Random& random) {
-  const std::size_t n = particles.size();
+/// Directed resampling's draws (paper 001): the heavier half of the particles resampled by
+/// weight (low variance), n - n/2 indices into `chosen`; the caller fills the other n/2 slots
+/// from the bulletin board (ParticleFilter::keep, then the board's copies; or directed_resample).
+inline void directed_resample_indices(const std::vector<double>& weights, Random& random,
+                                      std::vector<std::size_t>& chosen) {
+  const std::size_t n = weights.size();
+  chosen.clear();
   if (n == 0) return;
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -185,20 +184,34 @@ void directed_resample(std::vector<Particle>& particles, std::vector<double>& we
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return weights[a] > weights[b] || (weights[a] == weights[b] && a < b);
   });
-  const std::size_t replaced = n / 2, kept = n - replaced;
+  const std::size_t kept = n - n / 2;
   double heavy = 0.0;
   for (std::size_t k = 0; k < kept; ++k) heavy += weights[order[k]];
-  std::vector<Particle> next;
-  next.reserve(n);
-  // Low variance over the heavier half.
+  chosen.reserve(kept);
   const double spacing = heavy / static_cast<double>(kept);
   double pointer = random.uniform() * spacing, cumulative = weights[order[0]];
   std::size_t k = 0;
   for (std::size_t draw = 0; draw < kept; ++draw, pointer += spacing) {
     while (cumulative < pointer && k + 1 < kept) cumulative += weights[order[++k]];
-    next.push_back(particles[order[k]]);
+    chosen.push_back(order[k]);
   }
-  for (std::size_t r = 0; r < replaced; ++r) next.push_back(r == 0 ? board : from_board(random));
+}
+
+/// Directed resampling (paper 001) of a vector of particles: the lighter half is dropped and
+/// replaced by the board particle itself once and by from_board(random) for the rest (the board
+/// predicted to now, plus noise); the heavier half is resampled by weight (low variance) into
+/// the other slots. The count stays; weights become uniform. `Particle` is copyable.
+template <class Particle, class FromBoard>
+void directed_resample(std::vector<Particle>& particles, std::vector<double>& weights,
+                       const Particle& board, FromBoard&& from_board, Random& random) {
+  const std::size_t n = particles.size();
+  if (n == 0) return;
+  std::vector<std::size_t> chosen;
+  directed_resample_indices(weights, random, chosen);
+  std::vector<Particle> next;
+  next.reserve(n);
+  for (const std::size_t k : chosen) next.push_back(particles[k]);
+  for (std::size_t r = 0; next.size() < n; ++r) next.push_back(r == 0 ? board : from_board(random));
   particles = std::move(next);
   weights.assign(n, 1.0 / static_cast<double>(n));
 }

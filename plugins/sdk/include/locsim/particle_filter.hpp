@@ -1,0 +1,311 @@
+// The particle-filter skeleton that every particle filter of locsim is built on (mcl, srl, asrl,
+// augmented_mcl; amcl and ultrasonic_amcl's AMCL; fastslam, fastslam_afsa, pso_pf), and that a
+// plugin author's filter can be built on too (docs/plugins.md#a-particle-filter). As nav2 AMCL's
+// pf/: one small core with the models plugged in. The core owns the particles (poses and
+// weights), the filter's random stream and the odometry not yet applied, and does what every
+// particle filter does alike:
+//   initialise  known start: Gaussian about the host's guess; global: uniform over the free cells
+//   weigh       per-particle log likelihoods -> normalised weights, the measurement's likelihood
+//               under the belief (what SRL, ASRL and w_slow / w_fast act on), N_eff
+//   resample    low-variance or roulette draws; a filter's own per-particle data follows them
+//   recover     Thrun's w_slow / w_fast averages (LikelihoodAverages)
+//   report      the estimate moved by the odometry since the last update, the particles exported
+// The motion model (sample_motion, sample_wheel_motion, ...), the sensor model and what the filter
+// does with the likelihood (reset, inject, nothing) stay the filter's.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "locsim/localizer.h"
+#include "locsim/localizer.hpp"
+#include "locsim/models.hpp"
+#include "locsim/particles.hpp"
+#include "locsim/random.hpp"
+
+namespace locsim::sdk {
+
+/// How resample() draws: low-variance (systematic: one uniform, n evenly spaced pointers; the
+/// least resampling noise) or roulette (n independent draws, as paper 004).
+enum class Resampler { kLowVariance, kRoulette };
+
+/// A `resampler` parameter's value: "low_variance" or "roulette".
+inline Resampler resampler_from(std::string_view name) {
+  if (name == "low_variance") return Resampler::kLowVariance;
+  if (name == "roulette") return Resampler::kRoulette;
+  throw std::invalid_argument("resampler must be roulette or low_variance, not '" +
+                              std::string(name) + "'");
+}
+
+/// The free space of the host's occupancy grid (cells of value 0), for poses uniform over it:
+/// global localization's start, random injection. A copy: the grid need not outlive it.
+class FreeSpace {
+ public:
+  FreeSpace() = default;
+  explicit FreeSpace(const locsim_occupancy_grid& grid)
+      : origin_x_m_(grid.origin_x),
+        origin_y_m_(grid.origin_y),
+        resolution_m_(grid.resolution_m),
+        width_(grid.width > 0 ? static_cast<std::size_t>(grid.width) : 0) {
+    if (grid.cells == nullptr || grid.width <= 0 || grid.height <= 0) return;
+    const std::size_t cells = width_ * static_cast<std::size_t>(grid.height);
+    for (std::size_t i = 0; i < cells; ++i)
+      if (grid.cells[i] == 0) free_cells_.push_back(i);
+  }
+  /// No free cell (or no grid): nothing to sample from.
+  bool empty() const { return free_cells_.empty(); }
+  std::size_t free_cells() const { return free_cells_.size(); }
+
+  /// A pose uniform over the free space: a free cell, a point uniform in it, a heading uniform
+  /// in [-pi, pi). Exact however much of the grid is walls (no rejection). Not for an empty().
+  Pose sample(Random& random) const {
+    const std::size_t cell = free_cells_[std::min(
+        free_cells_.size() - 1,
+        static_cast<std::size_t>(random.uniform() * static_cast<double>(free_cells_.size())))];
+    const auto col = static_cast<double>(cell % width_);
+    const auto row = static_cast<double>(cell / width_);
+    // One draw per statement: the order is part of the filter's random stream.
+    const double x = origin_x_m_ + (col + random.uniform()) * resolution_m_;
+    const double y = origin_y_m_ + (row + random.uniform()) * resolution_m_;
+    const double theta = random.uniform(-std::numbers::pi, std::numbers::pi);
+    return {x, y, theta};
+  }
+
+ private:
+  double origin_x_m_ = 0.0, origin_y_m_ = 0.0, resolution_m_ = 1.0;
+  std::size_t width_ = 0;
+  std::vector<std::size_t> free_cells_;
+};
+
+/// The odometry a filter has seen and how much of it its particles have taken. A filter that
+/// moves its particles once per update (the odometry model's alphas are per update) keeps the
+/// mark at its last update; between updates its estimate is the particles' mean then, moved by
+/// the odometry since (follow: the motion's noise comes with the next update's sampling).
+class OdometryFollower {
+ public:
+  /// The latest odometry pose; the first also sets the mark.
+  void observe(const locsim_odometry& odometry) {
+    now_ = Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+    if (!mark_) mark_ = now_;
+  }
+  bool ready() const { return now_.has_value() && mark_.has_value(); }
+  /// Only when ready().
+  const Pose& now() const { return *now_; }
+  const Pose& mark() const { return *mark_; }
+  /// The motion since the mark, rotate-translate-rotate. Only when ready().
+  OdometryDelta since_mark() const { return decompose(*mark_, *now_); }
+  /// The particles have taken the odometry up to now.
+  void mark_now() { mark_ = now_; }
+  /// `at_mark` (a pose of the mark's time) moved by the odometry since the mark.
+  Pose follow(const Pose& at_mark) const {
+    return ready() ? compose(at_mark, between(*mark_, *now_)) : at_mark;
+  }
+
+ private:
+  std::optional<Pose> now_, mark_;
+};
+
+/// Thrun's w_slow / w_fast (Probabilistic Robotics table 8.3): two exponential averages of the
+/// measurement likelihood; w_fast falling below w_slow says the belief stopped explaining the
+/// measurements (a kidnapping), and 1 - w_fast / w_slow of the particles are worth replacing.
+struct LikelihoodAverages {
+  double alpha_slow = 0.0;  // rate of the long-term average [-]
+  double alpha_fast = 0.0;  // rate of the short-term average, above alpha_slow [-]
+  double w_slow = 0.0, w_fast = 0.0;
+
+  /// Takes one update's average likelihood w_avg (the first starts both averages at it).
+  void update(double w_avg) {
+    w_slow = w_slow == 0.0 ? w_avg : w_slow + alpha_slow * (w_avg - w_slow);
+    w_fast = w_fast == 0.0 ? w_avg : w_fast + alpha_fast * (w_avg - w_fast);
+  }
+  /// 1 - w_fast / (level w_slow): the share to replace when positive (level 1: Thrun's; below 1
+  /// it waits for a deeper fall).
+  double deficit(double level = 1.0) const { return 1.0 - w_fast / (level * w_slow); }
+  /// Forgets both (after the filter was restarted from elsewhere).
+  void reset() { w_slow = w_fast = 0.0; }
+};
+
+/// What an update's measurement said about the belief (ParticleFilter::weigh).
+struct Evidence {
+  /// log sum_i w_i p(z | x_i) with the weights before the update: the measurement's likelihood
+  /// under the belief (with equal weights, the mean likelihood over the particles).
+  double log_likelihood = 0.0;
+  /// The same over the first `head` particles only (their weights renormalised).
+  double log_likelihood_head = 0.0;
+  double n_eff = 0.0;  // effective sample size after the update, 1 / sum w^2 [-]
+};
+
+/// The particles, their random stream and odometry, and the steps every particle filter shares.
+/// A filter with data of its own per particle (FastSLAM's landmark maps) keeps it in vectors
+/// beside these and passes them to resample() or keep(), which reorder them alike.
+class ParticleFilter {
+ public:
+  ParticleFilter(std::size_t count, std::uint64_t seed,
+                 Resampler resampler = Resampler::kLowVariance)
+      : random_(seed), resampler_(resampler) {
+    particles_.resize(count);
+  }
+
+  ParticleSet& particles() { return particles_; }
+  const ParticleSet& particles() const { return particles_; }
+  std::size_t size() const { return particles_.size(); }
+  Random& random() { return random_; }
+  OdometryFollower& odometry() { return odometry_; }
+  const OdometryFollower& odometry() const { return odometry_; }
+
+  /// A known start (init.initial_pose_known): Gaussian about the host's initial pose with its
+  /// covariance's standard deviations; a global start: uniform over `free` (which must then not
+  /// be empty). Equal weights.
+  void initialise(const locsim_init& init, const FreeSpace& free) {
+    if (!init.initial_pose_known && free.empty())
+      throw std::invalid_argument(
+          "a global start (initial pose unknown) needs an occupancy grid with free cells; this "
+          "world has none");
+    const std::size_t n = particles_.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (init.initial_pose_known) {
+        particles_.x[i] =
+            init.initial_pose.x + random_.normal(std::sqrt(init.initial_covariance[0]));
+        particles_.y[i] =
+            init.initial_pose.y + random_.normal(std::sqrt(init.initial_covariance[4]));
+        particles_.theta[i] =
+            wrap(init.initial_pose.theta + random_.normal(std::sqrt(init.initial_covariance[8])));
+      } else {
+        set(i, free.sample(random_));
+      }
+    }
+    particles_.weight.assign(n, n > 0 ? 1.0 / static_cast<double>(n) : 0.0);
+  }
+
+  /// Every particle at `pose` (a SLAM filter's start: where the robot is defines the map).
+  void place_all(const Pose& pose) {
+    const std::size_t n = particles_.size();
+    for (std::size_t i = 0; i < n; ++i) set(i, pose);
+    particles_.weight.assign(n, n > 0 ? 1.0 / static_cast<double>(n) : 0.0);
+  }
+
+  /// `count` particles drawn from N(mean, covariance) with equal weights (a restart from another
+  /// estimator's belief). covariance must be positive definite.
+  void scatter(const Pose& mean, const Eigen::Matrix3d& covariance, std::size_t count) {
+    const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
+    const Eigen::Matrix3d l = llt.matrixL();
+    particles_.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // One draw per statement (a constructor's arguments are unsequenced and compilers differ),
+      // the last component first.
+      const double z2 = random_.normal(1.0), z1 = random_.normal(1.0), z0 = random_.normal(1.0);
+      const Eigen::Vector3d p = mean + l * Eigen::Vector3d(z0, z1, z2);
+      particles_.x[i] = p(0), particles_.y[i] = p(1), particles_.theta[i] = wrap(p(2));
+    }
+  }
+
+  /// Multiplies every weight by its particle's likelihood exp(log_likelihood[i]) and normalises,
+  /// in logs (one shift by the largest, then one exp per particle: no underflow, whatever the
+  /// number of measurements in the update). `head`: also the likelihood over the first `head`
+  /// particles (those that are not fresh guesses; all by default).
+  Evidence weigh(const std::vector<double>& log_likelihood, std::size_t head = SIZE_MAX) {
+    const std::size_t n = particles_.size();
+    if (log_likelihood.size() != n)
+      throw std::invalid_argument("weigh: one log likelihood per particle");
+    if (n == 0) return {};
+    head = std::min(head, n);
+    std::vector<double>& w = particles_.weight;
+    double prior_head = 0.0;
+    for (std::size_t i = 0; i < head; ++i) prior_head += w[i];
+    // The prior weight's log (tiny ones floored: a particle at weight 0 stays comparable);
+    // after resampling all are equal, and one log serves them all.
+    log_weight_.resize(n);
+    const bool equal = std::all_of(w.begin(), w.end(), [&](double v) { return v == w[0]; });
+    const double log_equal = std::log(std::max(w[0], 1e-300));
+    for (std::size_t i = 0; i < n; ++i)
+      log_weight_[i] = (equal ? log_equal : std::log(std::max(w[i], 1e-300))) + log_likelihood[i];
+    const double top = *std::max_element(log_weight_.begin(), log_weight_.end());
+    for (std::size_t i = 0; i < n; ++i) w[i] = std::exp(log_weight_[i] - top);
+    double sum_head = 0.0;
+    for (std::size_t i = 0; i < head; ++i) sum_head += w[i];
+    const double sum = normalize(w);
+    Evidence evidence;
+    evidence.log_likelihood = top + std::log(sum);
+    evidence.log_likelihood_head =
+        prior_head > 0.0 ? top + std::log(sum_head / prior_head) : evidence.log_likelihood;
+    evidence.n_eff = effective_sample_size(w);
+    return evidence;
+  }
+
+  /// Draws size() particles by the weights (the filter's Resampler), equal weights after.
+  /// `extra`: the filter's own per-particle vectors, reordered alike.
+  template <class... Extra>
+  void resample(std::vector<Extra>&... extra) {
+    if (resampler_ == Resampler::kRoulette)
+      roulette_resample(particles_.weight, random_, chosen_, spacings_);
+    else
+      low_variance_resample(particles_.weight, random_, chosen_);
+    keep(chosen_, extra...);
+  }
+
+  /// The particles `chosen` (indices, repeats allowed) become the set, with equal weights;
+  /// `extra` follows (a filter's own resampling scheme: KLD sampling, directed resampling).
+  template <class... Extra>
+  void keep(const std::vector<std::size_t>& chosen, std::vector<Extra>&... extra) {
+    apply_resample(particles_, chosen, scratch_);
+    (gather(extra, chosen), ...);
+  }
+
+  /// Weights all equal (after particles were added or replaced by hand).
+  void equalise_weights() {
+    const std::size_t n = particles_.size();
+    particles_.weight.assign(n, n > 0 ? 1.0 / static_cast<double>(n) : 0.0);
+  }
+
+  /// Particle i's pose.
+  Pose pose(std::size_t i) const { return {particles_.x[i], particles_.y[i], particles_.theta[i]}; }
+  void set(std::size_t i, const Pose& pose) {
+    particles_.x[i] = pose(0), particles_.y[i] = pose(1), particles_.theta[i] = pose(2);
+  }
+
+  /// The weighted mean (circular in heading) and covariance of the first `count` particles
+  /// (all by default), moved by the odometry since the mark.
+  Estimate estimate(std::size_t count = SIZE_MAX) const {
+    Pose mean;
+    Eigen::Matrix3d covariance;
+    mean_and_covariance(particles_, mean, covariance, count);
+    mean = odometry_.follow(mean);
+    return {{mean(0), mean(1), mean(2)}, covariance};
+  }
+
+  /// The particles for the host (locsim_localizer's particles call; videos and frames draw them).
+  void export_particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const {
+    for (std::size_t i = 0; i < particles_.size(); ++i) {
+      poses.push_back({particles_.x[i], particles_.y[i], particles_.theta[i]});
+      weights.push_back(particles_.weight[i]);
+    }
+  }
+
+ private:
+  template <class T>
+  static void gather(std::vector<T>& data, const std::vector<std::size_t>& chosen) {
+    std::vector<T> next;
+    next.reserve(chosen.size());
+    for (const std::size_t k : chosen) next.push_back(data[k]);
+    data = std::move(next);
+  }
+
+  Random random_;
+  Resampler resampler_;
+  ParticleSet particles_, scratch_;
+  OdometryFollower odometry_;
+  std::vector<std::size_t> chosen_;
+  std::vector<double> spacings_, log_weight_;
+};
+
+}  // namespace locsim::sdk
