@@ -30,6 +30,7 @@
 #include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
 #include "sim/run/session.hpp"
+#include "sim/world/generator.hpp"
 
 namespace {
 
@@ -624,6 +625,55 @@ int main(int argc, char** argv) {
                      "detections per second)");
   twin_cmd->add_flag("--overwrite", twin_overwrite, "Replace the world and path files");
   twin_cmd->add_flag("-q,--quiet", twin_quiet, "No summary");
+  locsim::GeneratorDef generate_def;
+  std::string generate_out, generate_seeds = "1", generate_landing = "alternate";
+  bool generate_overwrite = false, generate_quiet = false, generate_no_beacons = false;
+  CLI::App* generate_cmd = app.add_subcommand(
+      "generate",
+      "Write generated worlds: a family (room, corridor) drawn from each seed and a few knobs, "
+      "with a drive loop and kidnaps (docs/worlds.md#generated-worlds)");
+  generate_cmd->add_option("family", generate_def.family, "room or corridor")
+      ->required()
+      ->check(CLI::IsMember(locsim::generator_families()));
+  generate_cmd->add_option("--out", generate_out, "Folder for FAMILY_seedN.yaml")->required();
+  generate_cmd->add_option("--seeds", generate_seeds, "A seed N, or a range A-B (one world each)")
+      ->capture_default_str();
+  const auto count_option = [&](const char* name, int& value, const char* what) {
+    generate_cmd->add_option(name, value, what)->transform(whole_number_in(0, 100));
+  };
+  generate_cmd
+      ->add_option("--length", generate_def.length_m,
+                   "Room: x extent (default drawn in 8-20); corridor: length (20-40) [m]")
+      ->check(
+          number_in(locsim::GeneratorDef::kSizeRange.min, locsim::GeneratorDef::kSizeRange.max));
+  generate_cmd
+      ->add_option("--width", generate_def.width_m,
+                   "Room: y extent (default drawn in 6-12); corridor: width (2-3) [m]")
+      ->check(
+          number_in(locsim::GeneratorDef::kSizeRange.min, locsim::GeneratorDef::kSizeRange.max));
+  count_option("--landmarks", generate_def.landmarks,
+               "Landmarks (default: room 4-8 along the walls, corridor 3)");
+  generate_cmd->add_flag("--landmarks-anywhere", generate_def.landmarks_anywhere,
+                         "Room: landmarks standing free, not along the walls");
+  count_option("--obstacles", generate_def.obstacles,
+               "Pillars and cabinets (default: room 2-5, corridor 2-4)");
+  count_option("--people", generate_def.people, "People walking (default 1-3)");
+  count_option("--slippery", generate_def.slippery, "Slippery floor patches on the path (0-2)");
+  generate_cmd->add_flag("--no-beacons", generate_no_beacons, "No ultrasonic beacons");
+  count_option("--kidnaps", generate_def.kidnaps, "Kidnaps (default 2)");
+  generate_cmd->add_flag("--quick-kidnaps", generate_def.quick_kidnaps,
+                         "The second kidnap 3-6 s after the first lands");
+  generate_cmd
+      ->add_option("--landing", generate_landing,
+                   "Where kidnaps land: alternate (in view, blind, ...), in_view, blind, any")
+      ->check(CLI::IsMember({"alternate", "in_view", "blind", "any"}))
+      ->capture_default_str();
+  generate_cmd->add_option("--duration", generate_def.duration_s, "Scenario length [s]")
+      ->check(number_in(locsim::GeneratorDef::kDurationRange.min,
+                        locsim::GeneratorDef::kDurationRange.max))
+      ->capture_default_str();
+  generate_cmd->add_flag("--overwrite", generate_overwrite, "Replace existing world files");
+  generate_cmd->add_flag("-q,--quiet", generate_quiet, "No list of the files written");
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
@@ -724,6 +774,51 @@ int main(int argc, char** argv) {
       locsim::write_json_atomically(out / "calibration.json", result.to_json());
       locsim::write_file(out / "calibration.yaml", result.to_yaml());
       if (!calibrate_quiet) std::printf("%s", locsim::describe(result).c_str());
+      return locsim::kExitOk;
+    }
+    if (*generate_cmd) {
+      std::uint64_t first = 0, last = 0;
+      {
+        const std::string& text = generate_seeds;
+        const auto dash = text.find('-');
+        const auto parse = [&](std::string_view part, std::uint64_t& out) {
+          const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), out);
+          return ec == std::errc() && end == part.data() + part.size() && !part.empty();
+        };
+        const bool ok = dash == std::string::npos
+                            ? parse(text, first) && (last = first, true)
+                            : parse(std::string_view(text).substr(0, dash), first) &&
+                                  parse(std::string_view(text).substr(dash + 1), last);
+        if (!ok || last < first || last - first >= 10000)
+          throw locsim::InputError(
+              "--seeds: expected N or A-B (A <= B, at most 10000 seeds), got '" + text + "'");
+      }
+      generate_def.beacons = !generate_no_beacons;
+      generate_def.landing = generate_landing == "in_view" ? locsim::KidnapLanding::kInView
+                             : generate_landing == "blind" ? locsim::KidnapLanding::kBlind
+                             : generate_landing == "any"   ? locsim::KidnapLanding::kAny
+                                                           : locsim::KidnapLanding::kAlternate;
+      const std::filesystem::path out(generate_out);
+      // Every world first, then the files: a knob that fails fails before anything is written.
+      std::vector<std::pair<std::filesystem::path, locsim::GeneratedWorld>> worlds;
+      for (std::uint64_t seed = first;; ++seed) {
+        generate_def.seed = seed;
+        const std::filesystem::path file =
+            out / (generate_def.family + "_seed" + std::to_string(seed) + ".yaml");
+        if (!generate_overwrite && std::filesystem::exists(file))
+          throw locsim::InputError("--out: " + file.string() +
+                                   " exists (pass --overwrite to replace it)");
+        worlds.emplace_back(file, locsim::generate_world(generate_def));
+        if (seed == last) break;
+      }
+      std::filesystem::create_directories(out);
+      for (const auto& [file, world] : worlds) {
+        locsim::write_file(file, world.yaml);
+        if (!generate_quiet) {
+          std::printf("%s\n", file.c_str());
+          for (const std::string& note : world.notes) std::printf("  note: %s\n", note.c_str());
+        }
+      }
       return locsim::kExitOk;
     }
     if (*twin_cmd) {

@@ -1,0 +1,585 @@
+#include "sim/world/generator.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include "sim/common/errors.hpp"
+#include "sim/common/math.hpp"
+#include "sim/common/random.hpp"
+#include "sim/common/yaml_node.hpp"
+#include "sim/world/world_loader.hpp"
+
+namespace locsim {
+namespace {
+
+// The generated robot: the demo's (a 0.2 m footprint, every sensor at its defaults, phantom
+// detections included). Clearances below are from its footprint.
+constexpr double kRobotRadiusM = 0.2;
+constexpr double kDriveSpeedMps = 0.4;
+// The PTZ camera's defaults (sim/sensors/sensor_defs.hpp): what "a landmark in view" means for a
+// landing, with margins so that a landing in view is in view however the pan sweep starts.
+constexpr double kViewHalfAngleRad = deg_to_rad(65.0 / 2.0 - 5.0);
+constexpr double kViewMinRangeM = 0.6, kViewMaxRangeM = 7.0;
+// A landing is "blind" when no landmark is within this range and half-angle: the pan sweep
+// (+-90 deg) does not find one before the robot turns.
+constexpr double kBlindHalfAngleRad = deg_to_rad(100.0);
+constexpr const char* kColors[] = {"red",    "green",  "blue", "yellow", "magenta", "cyan",
+                                   "orange", "purple", "pink", "brown",  "white",   "black"};
+
+/// A pillar (circle) or a cabinet (axis-aligned box).
+struct Obstacle {
+  bool circle = true;
+  Vec2 center{0.0, 0.0};
+  double radius_m = 0.0;                  // circle
+  Vec2 half_size{0.0, 0.0};               // box
+  double distance(const Vec2& p) const {  // from its surface (negative inside)
+    if (circle) return (p - center).norm() - radius_m;
+    const Vec2 d = (p - center).cwiseAbs() - half_size;
+    return d.cwiseMax(0.0).norm() + std::min(0.0, d.maxCoeff());
+  }
+};
+
+double to_mm(double v) {
+  return std::round(v * 1000.0) / 1000.0;
+}
+
+double segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 ab = b - a;
+  const double t = std::clamp((p - a).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
+  return (p - (a + t * ab)).norm();
+}
+
+/// A rectangular room or corridor [0, L] x [0, W] and what is placed in it.
+class Layout {
+ public:
+  Layout(const GeneratorDef& def, double length, double width)
+      : def_(def), length_(length), width_(width) {}
+
+  RandomStream stream(std::string_view what) const {
+    return make_stream(def_.seed, "generate/" + std::string(what));
+  }
+  double wall_distance(const Vec2& p) const {
+    return std::min({p.x(), length_ - p.x(), p.y(), width_ - p.y()});
+  }
+  double obstacle_distance(const Vec2& p) const {
+    double d = std::numeric_limits<double>::infinity();
+    for (const Obstacle& o : obstacles) d = std::min(d, o.distance(p));
+    return d;
+  }
+  double path_distance(const Vec2& p) const {
+    double d = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < path.size(); ++i)
+      d = std::min(d, segment_distance(p, path[i], path[(i + 1) % path.size()]));
+    return d;
+  }
+  /// Free for the robot's centre with `margin` to spare from walls, obstacles and landmarks
+  /// (cylinders of 0.1 m).
+  bool free(const Vec2& p, double margin) const {
+    bool clear = wall_distance(p) >= kRobotRadiusM + margin &&
+                 obstacle_distance(p) >= kRobotRadiusM + margin;
+    for (const Vec2& l : landmarks) clear = clear && (l - p).norm() >= 0.1 + kRobotRadiusM + margin;
+    return clear;
+  }
+  /// The segment a-b clear of obstacles by `clearance` (sampled every 5 cm).
+  bool segment_clear(const Vec2& a, const Vec2& b, double clearance) const {
+    const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.05)));
+    for (int i = 0; i <= steps; ++i) {
+      const Vec2 p = a + (b - a) * (static_cast<double>(i) / steps);
+      if (obstacle_distance(p) < clearance) return false;
+    }
+    return true;
+  }
+  /// Landmarks straight ahead of `pose` within `max_range` and `half_angle` of its heading; with
+  /// `sight`, only those whose line of sight is clear of obstacles (a landing "in view" needs
+  /// one; a "blind" one has none even behind a pillar, which the robot would soon see past).
+  int landmarks_seen(const Pose2& pose, double half_angle, double max_range, bool sight) const {
+    int seen = 0;
+    for (const Vec2& l : landmarks) {
+      const Vec2 d = l - pose.position();
+      const double r = d.norm();
+      const double bearing = wrap_angle(std::atan2(d.y(), d.x()) - pose.theta);
+      if ((sight && r < kViewMinRangeM) || r > max_range || std::abs(bearing) > half_angle)
+        continue;
+      if (sight && !segment_clear(pose.position(), l, 0.0)) continue;
+      ++seen;
+    }
+    return seen;
+  }
+
+  const GeneratorDef& def_;
+  double length_, width_;
+  std::vector<Vec2> path;  // the drive loop's waypoints
+  std::vector<Vec2> landmarks;
+  std::vector<Obstacle> obstacles;
+  struct Walker {
+    Vec2 a, b;
+    double speed_mps;
+  };
+  std::vector<Walker> people;
+  struct Patch {
+    Vec2 min, max;
+    double friction;
+  };
+  std::vector<Patch> patches;
+  std::vector<Vec2> beacons;
+  struct Kidnap {
+    double at_s;
+    Pose2 to;
+    std::string landing;  // "in view", "blind", "any"
+  };
+  std::vector<Kidnap> kidnaps;
+  std::vector<std::string> notes;
+};
+
+int count_or(int asked, RandomStream& random, int lo, int hi) {
+  if (asked >= 0) return asked;
+  return lo + static_cast<int>(std::floor(random.uniform() * (hi - lo + 1)));
+}
+
+void place_obstacles(Layout& layout, int count, bool against_walls) {
+  RandomStream random = layout.stream("obstacles");
+  int placed = 0;
+  for (int k = 0; k < count; ++k) {
+    for (int attempt = 0; attempt < 500; ++attempt) {
+      Obstacle o;
+      o.circle = random.uniform() < 0.5;
+      o.radius_m = random.uniform(0.15, 0.4);
+      o.half_size = {random.uniform(0.15, 0.6), random.uniform(0.15, 0.6)};
+      const double x = random.uniform(0.0, layout.length_);
+      const double y = random.uniform(0.0, layout.width_);
+      o.center = {x, y};
+      if (against_walls) {  // a cabinet or a bin standing at a corridor wall
+        o.circle = false;
+        o.half_size.y() = std::min(o.half_size.y(), 0.25);
+        o.center.y() =
+            y < layout.width_ / 2 ? o.half_size.y() + 0.03 : layout.width_ - o.half_size.y() - 0.03;
+      }
+      const double extent = o.circle ? o.radius_m : o.half_size.norm();
+      // Clear of the drive path (the robot passes), of the landmarks (the camera sees them),
+      // of the walls unless standing against one, and of the other obstacles.
+      bool ok = layout.path_distance(o.center) >= extent + kRobotRadiusM + 0.35;
+      for (const Vec2& l : layout.landmarks) ok = ok && (l - o.center).norm() >= extent + 0.5;
+      if (!against_walls) ok = ok && layout.wall_distance(o.center) >= extent + 0.3;
+      ok = ok && layout.obstacle_distance(o.center) >= extent + 0.5;
+      if (!ok) continue;
+      layout.obstacles.push_back(o);
+      ++placed;
+      break;
+    }
+  }
+  if (placed < count)
+    layout.notes.push_back("placed " + std::to_string(placed) + " of " + std::to_string(count) +
+                           " obstacles (no room clear of the path)");
+}
+
+void place_patches(Layout& layout, int count) {
+  RandomStream random = layout.stream("slippery");
+  for (int k = 0; k < count; ++k) {
+    // On the drive path: a patch the robot never crosses would test nothing.
+    const std::size_t leg = std::min(
+        layout.path.size() - 1,
+        static_cast<std::size_t>(random.uniform() * static_cast<double>(layout.path.size())));
+    const Vec2 a = layout.path[leg], b = layout.path[(leg + 1) % layout.path.size()];
+    const Vec2 c = a + (b - a) * random.uniform(0.2, 0.8);
+    const Vec2 half(random.uniform(0.4, 0.8), random.uniform(0.4, 0.8));
+    const Vec2 lo = c - half, hi = c + half;
+    layout.patches.push_back({lo.cwiseMax(Vec2(0.05, 0.05)),
+                              hi.cwiseMin(Vec2(layout.length_ - 0.05, layout.width_ - 0.05)),
+                              random.uniform(0.05, 0.15)});
+  }
+}
+
+void place_kidnaps(Layout& layout) {
+  const GeneratorDef& def = layout.def_;
+  RandomStream random = layout.stream("kidnaps");
+  double t = def.duration_s * random.uniform(0.2, 0.35);
+  for (int k = 0; k < def.kidnaps; ++k) {
+    if (k > 0)
+      t += def.quick_kidnaps && k == 1 ? random.uniform(3.0, 6.0)
+                                       : def.duration_s * random.uniform(0.15, 0.25);
+    if (t > def.duration_s - 10.0) {
+      layout.notes.push_back("only " + std::to_string(k) + " of " + std::to_string(def.kidnaps) +
+                             " kidnaps fit in the run (each needs 10 s after it)");
+      break;
+    }
+    std::string want = "any";
+    if (def.landing == KidnapLanding::kInView ||
+        (def.landing == KidnapLanding::kAlternate && k % 2 == 0))
+      want = "in view";
+    else if (def.landing == KidnapLanding::kBlind ||
+             (def.landing == KidnapLanding::kAlternate && k % 2 == 1))
+      want = "blind";
+    std::optional<Pose2> landing;
+    for (int attempt = 0; attempt < 2000 && !landing; ++attempt) {
+      const Pose2 p{random.uniform(0.0, layout.length_), random.uniform(0.0, layout.width_),
+                    random.uniform(-std::numbers::pi, std::numbers::pi)};
+      // Far from where the robot was (a carry, not a nudge is not known here: far from the
+      // path's nearest point is not required; clear of obstacles with room to turn).
+      if (!layout.free(p.position(), 0.3)) continue;
+      if (want == "in view" &&
+          layout.landmarks_seen(p, kViewHalfAngleRad, kViewMaxRangeM, true) == 0)
+        continue;
+      if (want == "blind" && layout.landmarks_seen(p, kBlindHalfAngleRad, 8.5, false) > 0) continue;
+      landing = p;
+    }
+    if (!landing) {
+      layout.notes.push_back("kidnap " + std::to_string(k + 1) + ": no landing " + want +
+                             " found; it lands anywhere free");
+      for (int attempt = 0; attempt < 2000 && !landing; ++attempt) {
+        const Pose2 p{random.uniform(0.0, layout.length_), random.uniform(0.0, layout.width_),
+                      random.uniform(-std::numbers::pi, std::numbers::pi)};
+        if (layout.free(p.position(), 0.3)) landing = p;
+      }
+      want = "any";
+      if (!landing) throw std::logic_error("generate: no free landing in the world");
+    }
+    layout.kidnaps.push_back({t, *landing, want});
+    t += 2.0;  // the carry
+  }
+}
+
+/// `count` landmarks drawn by `draw` (a candidate, or nullopt to draw again), 1 m apart.
+template <class Draw>
+void place_landmarks(Layout& layout, int count, Draw&& draw) {
+  for (int k = 0; k < count; ++k) {
+    for (int attempt = 0; attempt < 500; ++attempt) {
+      const std::optional<Vec2> p = draw();
+      if (!p) continue;
+      bool ok = true;
+      for (const Vec2& q : layout.landmarks) ok = ok && (q - *p).norm() >= 1.0;
+      if (!ok) continue;
+      layout.landmarks.push_back(*p);
+      break;
+    }
+  }
+  if (static_cast<int>(layout.landmarks.size()) < count)
+    layout.notes.push_back("placed " + std::to_string(layout.landmarks.size()) + " of " +
+                           std::to_string(count) + " landmarks (1 m apart)");
+}
+
+void draw_room(Layout& layout) {
+  const GeneratorDef& def = layout.def_;
+  RandomStream random = layout.stream("path");
+  // A loop inset from each wall by 1-2 m, its corners jittered.
+  const double l = layout.length_, w = layout.width_;
+  const auto inset = [&](double size) {
+    return std::min(random.uniform(1.0, 2.0), std::max(0.6, size / 2 - 1.0));
+  };
+  const double x0 = inset(l), x1 = l - inset(l), y0 = inset(w), y1 = w - inset(w);
+  const auto jitter = [&] { return random.uniform(-0.3, 0.3); };
+  layout.path = {{x0 + jitter(), y0 + jitter()},
+                 {x1 + jitter(), y0 + jitter()},
+                 {x1 + jitter(), y1 + jitter()},
+                 {x0 + jitter(), y1 + jitter()}};
+  if (random.uniform() < 0.5) std::reverse(layout.path.begin() + 1, layout.path.end());
+
+  RandomStream lm = layout.stream("landmarks");
+  const int count = count_or(def.landmarks, lm, 4, 8);
+  place_landmarks(layout, count, [&]() -> std::optional<Vec2> {
+    if (def.landmarks_anywhere) {
+      const Vec2 p(lm.uniform(0.5, l - 0.5), lm.uniform(0.5, w - 0.5));
+      if (layout.path_distance(p) < kRobotRadiusM + 0.5) return std::nullopt;
+      return p;
+    }
+    // On the perimeter, 0.3 m in from the wall.
+    const double s = lm.uniform(0.0, 2.0 * (l + w));
+    const Vec2 p = s < l           ? Vec2(s, 0.3)
+                   : s < l + w     ? Vec2(l - 0.3, s - l)
+                   : s < 2 * l + w ? Vec2(2 * l + w - s, w - 0.3)
+                                   : Vec2(0.3, 2 * (l + w) - s);
+    return p.cwiseMax(Vec2(0.3, 0.3)).cwiseMin(Vec2(l - 0.3, w - 0.3));
+  });
+  RandomStream counts = layout.stream("counts");
+  place_obstacles(layout, count_or(def.obstacles, counts, 2, 5), false);
+  // People cross the room from wall to wall, through the drive loop.
+  RandomStream walkers = layout.stream("people");
+  const int people = count_or(def.people, counts, 1, 3);
+  for (int k = 0; k < people; ++k) {
+    for (int attempt = 0; attempt < 500; ++attempt) {
+      const bool across_x = walkers.uniform() < 0.5;
+      const Vec2 a = across_x ? Vec2(0.5, walkers.uniform(0.5, w - 0.5))
+                              : Vec2(walkers.uniform(0.5, l - 0.5), 0.5);
+      const Vec2 b = across_x ? Vec2(l - 0.5, walkers.uniform(0.5, w - 0.5))
+                              : Vec2(walkers.uniform(0.5, l - 0.5), w - 0.5);
+      const double speed = walkers.uniform(0.5, 1.1);
+      if (!layout.segment_clear(a, b, 0.4)) continue;
+      layout.people.push_back({a, b, speed});
+      break;
+    }
+  }
+  if (static_cast<int>(layout.people.size()) < people)
+    layout.notes.push_back("placed " + std::to_string(layout.people.size()) + " of " +
+                           std::to_string(people) + " people (no clear walk across the room)");
+  place_patches(layout, count_or(def.slippery, counts, 0, 2));
+  if (def.beacons)
+    layout.beacons = {{0.1, 0.1}, {l - 0.1, 0.1}, {l - 0.1, w - 0.1}, {0.1, w - 0.1}};
+}
+
+void draw_corridor(Layout& layout) {
+  const GeneratorDef& def = layout.def_;
+  const double l = layout.length_, w = layout.width_;
+  RandomStream random = layout.stream("path");
+  // Up and down the corridor's centre line, turning 1.5 m from each end.
+  const double y = w / 2 + random.uniform(-0.1, 0.1);
+  layout.path = {{1.5, y}, {l - 1.5, y}};
+  RandomStream lm = layout.stream("landmarks");
+  place_landmarks(layout, count_or(def.landmarks, lm, 3, 3), [&]() -> std::optional<Vec2> {
+    // On a side wall, 0.2 m in.
+    const double x = lm.uniform(0.3, l - 0.3);
+    return Vec2(x, lm.uniform() < 0.5 ? 0.2 : w - 0.2);
+  });
+  RandomStream counts = layout.stream("counts");
+  place_obstacles(layout, count_or(def.obstacles, counts, 2, 4), true);
+  RandomStream walkers = layout.stream("people");
+  const int people = count_or(def.people, counts, 1, 3);
+  for (int k = 0; k < people; ++k) {
+    // Along one side of the corridor (a person is 0.25 m in radius); a cabinet in that lane:
+    // the other one.
+    const double lane = walkers.uniform() < 0.5 ? w * 0.35 : w * 0.65;
+    const double speed = walkers.uniform(0.5, 1.1);
+    for (const double y_lane : {lane, w - lane}) {
+      const Vec2 a(0.6, y_lane), b(l - 0.6, y_lane);
+      if (!layout.segment_clear(a, b, 0.27)) continue;
+      layout.people.push_back({a, b, speed});
+      break;
+    }
+  }
+  if (static_cast<int>(layout.people.size()) < people)
+    layout.notes.push_back("placed " + std::to_string(layout.people.size()) + " of " +
+                           std::to_string(people) + " people (cabinets block both lanes)");
+  place_patches(layout, count_or(def.slippery, counts, 0, 2));
+  if (def.beacons) {
+    for (double x = 0.1; x < l; x += 8.0)
+      layout.beacons.push_back({x, layout.beacons.size() % 2 == 0 ? 0.1 : w - 0.1});
+  }
+}
+
+void emit_point(YAML::Emitter& out, const Vec2& p) {
+  out << YAML::Flow << YAML::BeginSeq << to_mm(p.x()) << to_mm(p.y()) << YAML::EndSeq;
+}
+
+std::string emit(const Layout& layout, const std::string& header) {
+  const GeneratorDef& def = layout.def_;
+  const double l = layout.length_, w = layout.width_;
+  YAML::Emitter out;
+  out.SetDoublePrecision(10);
+  out << YAML::Comment(header);
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << def.family + "_seed" + std::to_string(def.seed);
+  out << YAML::Key << "walls" << YAML::Value << YAML::BeginSeq << YAML::BeginMap;
+  out << YAML::Key << "points" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (const Vec2& c : {Vec2(0, 0), Vec2(l, 0), Vec2(l, w), Vec2(0, w)}) emit_point(out, c);
+  out << YAML::EndSeq << YAML::Key << "closed" << YAML::Value << true;
+  out << YAML::EndMap << YAML::EndSeq;
+  if (!layout.patches.empty()) {
+    out << YAML::Key << "floor" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "friction" << YAML::Value << 0.8;
+    out << YAML::Key << "regions" << YAML::Value << YAML::BeginSeq;
+    for (std::size_t k = 0; k < layout.patches.size(); ++k) {
+      const auto& patch = layout.patches[k];
+      out << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "name" << YAML::Value << "slippery" + std::to_string(k + 1);
+      out << YAML::Key << "friction" << YAML::Value << to_mm(patch.friction);
+      out << YAML::Key << "box" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "min" << YAML::Value;
+      emit_point(out, patch.min);
+      out << YAML::Key << "max" << YAML::Value;
+      emit_point(out, patch.max);
+      out << YAML::EndMap << YAML::EndMap;
+    }
+    out << YAML::EndSeq << YAML::EndMap;
+  }
+  std::vector<const Obstacle*> circles, boxes;
+  for (const Obstacle& o : layout.obstacles) (o.circle ? circles : boxes).push_back(&o);
+  if (!boxes.empty()) {
+    out << YAML::Key << "boxes" << YAML::Value << YAML::BeginSeq;
+    for (const Obstacle* o : boxes) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+      emit_point(out, o->center);
+      out << YAML::Key << "size" << YAML::Value;
+      emit_point(out, 2.0 * o->half_size);
+      out << YAML::Key << "height_m" << YAML::Value << 1.2 << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  if (!circles.empty()) {
+    out << YAML::Key << "circles" << YAML::Value << YAML::BeginSeq;
+    for (const Obstacle* o : circles) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+      emit_point(out, o->center);
+      out << YAML::Key << "radius_m" << YAML::Value << to_mm(o->radius_m) << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::Key << "landmarks" << YAML::Value << YAML::BeginSeq;
+  for (std::size_t k = 0; k < layout.landmarks.size(); ++k) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "id" << YAML::Value << k + 1;
+    out << YAML::Key << "position" << YAML::Value;
+    emit_point(out, layout.landmarks[k]);
+    out << YAML::Key << "color" << YAML::Value << kColors[k % std::size(kColors)] << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!layout.beacons.empty()) {
+    out << YAML::Key << "beacons" << YAML::Value << YAML::BeginSeq;
+    for (std::size_t k = 0; k < layout.beacons.size(); ++k) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "id" << YAML::Value << k + 1;
+      out << YAML::Key << "position" << YAML::Value;
+      emit_point(out, layout.beacons[k]);
+      out << YAML::Key << "height_m" << YAML::Value << 2.5 << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  if (!layout.people.empty()) {
+    out << YAML::Key << "movers" << YAML::Value << YAML::BeginSeq;
+    for (std::size_t k = 0; k < layout.people.size(); ++k) {
+      const auto& p = layout.people[k];
+      out << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "name" << YAML::Value << "person" + std::to_string(k + 1);
+      out << YAML::Key << "kind" << YAML::Value << "person";
+      out << YAML::Key << "path" << YAML::Value << YAML::BeginSeq;
+      emit_point(out, p.a);
+      emit_point(out, p.b);
+      out << YAML::EndSeq << YAML::Key << "speed_mps" << YAML::Value << to_mm(p.speed_mps);
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  // The robot: the demo's, every sensor at its own defaults.
+  const Vec2 start = layout.path[0], next = layout.path[1];
+  const double heading = std::atan2(next.y() - start.y(), next.x() - start.x());
+  out << YAML::Key << "robots" << YAML::Value << YAML::BeginSeq << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << "robot";
+  out << YAML::Key << "footprint" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+      << "radius_m" << YAML::Value << kRobotRadiusM << YAML::EndMap;
+  out << YAML::Key << "mass_kg" << YAML::Value << 10;
+  out << YAML::Key << "wheel_base_m" << YAML::Value << 0.33;
+  out << YAML::Key << "wheel_radius_m" << YAML::Value << 0.05;
+  out << YAML::Key << "start" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "x"
+      << YAML::Value << to_mm(start.x()) << YAML::Key << "y" << YAML::Value << to_mm(start.y())
+      << YAML::Key << "theta_deg" << YAML::Value << to_mm(rad_to_deg(heading)) << YAML::EndMap;
+  out << YAML::Key << "sensors" << YAML::Value << YAML::BeginMap;
+  const auto sensor = [&](const char* name, double rate_hz, bool mount, double mount_x) {
+    out << YAML::Key << name << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "rate_hz" << YAML::Value << rate_hz;
+    if (mount)
+      out << YAML::Key << "mount" << YAML::Value << YAML::BeginMap << YAML::Key << "x"
+          << YAML::Value << mount_x << YAML::Key << "y" << YAML::Value << 0 << YAML::Key << "theta"
+          << YAML::Value << 0 << YAML::EndMap;
+    out << YAML::EndMap;
+  };
+  sensor("encoders", 50, false, 0);
+  sensor("imu", 100, false, 0);
+  sensor("ptz_camera", 10, true, 0.1);
+  sensor("omni_camera", 10, false, 0);
+  if (!layout.beacons.empty()) sensor("ultrasonic", 20, false, 0);
+  sensor("laser", 10, true, 0.12);
+  out << YAML::EndMap << YAML::EndMap << YAML::EndSeq;
+
+  out << YAML::Key << "scenario" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << (layout.kidnaps.empty() ? "tracking" : "kidnap");
+  out << YAML::Key << "duration_s" << YAML::Value << def.duration_s;
+  out << YAML::Key << "drive" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "mode" << YAML::Value << "waypoints";
+  out << YAML::Key << "path" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (std::size_t k = 1; k <= layout.path.size(); ++k)
+    emit_point(out, layout.path[k % layout.path.size()]);
+  out << YAML::EndSeq;
+  out << YAML::Key << "loop" << YAML::Value << true;
+  out << YAML::Key << "speed_mps" << YAML::Value << kDriveSpeedMps << YAML::EndMap;
+  out << YAML::Key << "ptz" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "policy"
+      << YAML::Value << "sweep" << YAML::EndMap;
+  if (!layout.kidnaps.empty()) {
+    out << YAML::Key << "events" << YAML::Value << YAML::BeginSeq;
+    for (const auto& k : layout.kidnaps) {
+      out << YAML::BeginMap << YAML::Key << "at_s" << YAML::Value << to_mm(k.at_s);
+      out << YAML::Key << "kidnap" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "to" << YAML::Value << YAML::BeginMap << YAML::Key << "x" << YAML::Value
+          << to_mm(k.to.x) << YAML::Key << "y" << YAML::Value << to_mm(k.to.y) << YAML::Key
+          << "theta_deg" << YAML::Value << to_mm(rad_to_deg(k.to.theta)) << YAML::EndMap;
+      out << YAML::Key << "carry_s" << YAML::Value << 2.0 << YAML::EndMap << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndMap;
+  out << YAML::EndMap;
+  if (!out.good()) throw std::logic_error("generate: YAML emitter: " + out.GetLastError());
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+const std::vector<std::string>& generator_families() {
+  static const std::vector<std::string> families = {"room", "corridor"};
+  return families;
+}
+
+GeneratedWorld generate_world(const GeneratorDef& def) {
+  const auto& families = generator_families();
+  if (std::find(families.begin(), families.end(), def.family) == families.end())
+    throw InputError("generate: no family '" + def.family + "' (room or corridor)");
+  const auto check = [](double value, const Range& range, const char* what) {
+    if (!range.contains(value))
+      throw InputError("generate: " + std::string(what) + ": " + out_of_range(value, range));
+  };
+  if (def.length_m != 0.0) check(def.length_m, GeneratorDef::kSizeRange, "--length");
+  if (def.width_m != 0.0) check(def.width_m, GeneratorDef::kSizeRange, "--width");
+  check(def.duration_s, GeneratorDef::kDurationRange, "--duration");
+  for (const auto& [value, what] : {std::pair{def.landmarks, "--landmarks"},
+                                    {def.obstacles, "--obstacles"},
+                                    {def.people, "--people"},
+                                    {def.slippery, "--slippery"},
+                                    {def.kidnaps, "--kidnaps"}}) {
+    if (value >= 0) check(value, GeneratorDef::kCountRange, what);
+  }
+  const bool room = def.family == "room";
+  RandomStream size = make_stream(def.seed, "generate/size");
+  const double length = def.length_m != 0.0
+                            ? def.length_m
+                            : (room ? size.uniform(8.0, 20.0) : size.uniform(20.0, 40.0));
+  const double width =
+      def.width_m != 0.0 ? def.width_m : (room ? size.uniform(6.0, 12.0) : size.uniform(2.0, 3.0));
+  if (room && std::min(length, width) < 4.0)
+    throw InputError("generate: a room needs at least 4 m x 4 m for its drive loop");
+  if (!room && (length < 6.0 || width < 1.5))
+    throw InputError("generate: a corridor needs at least 6 m x 1.5 m");
+  Layout layout(def, to_mm(length), to_mm(width));
+  if (room)
+    draw_room(layout);
+  else
+    draw_corridor(layout);
+  place_kidnaps(layout);
+
+  std::ostringstream header;
+  header << "Generated by `locsim generate " << def.family << " --seed " << def.seed
+         << "` (docs/worlds.md#generated-worlds): " << (room ? "a room" : "a corridor") << " of "
+         << to_mm(length) << " m x " << to_mm(width) << " m, " << layout.landmarks.size()
+         << " landmarks" << (def.landmarks_anywhere ? " standing free" : " along the walls") << ", "
+         << layout.obstacles.size() << " obstacles, " << layout.people.size() << " people, "
+         << layout.patches.size() << " slippery patches, " << layout.beacons.size() << " beacons, "
+         << layout.kidnaps.size() << " kidnaps.";
+  for (std::size_t k = 0; k < layout.kidnaps.size(); ++k) {
+    const auto& kidnap = layout.kidnaps[k];
+    header << "\nKidnap " << k + 1 << " at " << to_mm(kidnap.at_s) << " s lands "
+           << (kidnap.landing == "in view" ? "with a landmark in the camera's view"
+               : kidnap.landing == "blind" ? "with no landmark within 100 deg of its heading"
+                                           : "anywhere free")
+           << ".";
+  }
+  for (const std::string& note : layout.notes) header << "\nNote: " << note << ".";
+  GeneratedWorld world{emit(layout, header.str()), layout.notes};
+  // The loader is the judge: a generated world it refuses is this generator's bug.
+  try {
+    parse_world(YamlNode::load_string(world.yaml, "generated world"), ".");
+  } catch (const InputError& e) {
+    throw std::logic_error(std::string("generate: the drawn world does not load: ") + e.what());
+  }
+  return world;
+}
+
+}  // namespace locsim
