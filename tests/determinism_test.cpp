@@ -317,9 +317,10 @@ struct Pins {
   std::uint64_t output_hash = 0;
 };
 
-Pins pinned_run(const fs::path& world_file, const fs::path& out) {
+Pins pinned_run(const fs::path& world_file, const fs::path& out, bool no_variation = false) {
   RunOptions options;
   options.world_file = world_file;
+  options.no_variation = no_variation;
   options.seed = 7;
   options.duration_s = 30.0;
   options.out_dir = out;
@@ -368,6 +369,10 @@ TEST(Determinism, WithoutVariationTheDemoWritesWhatItDidBeforeVariationExisted) 
   const Pins pins = pinned_run(dir / "demo.yaml", dir / "out");
   EXPECT_EQ(pins.state_hash, "e8179cbeba8d3c97");
   EXPECT_EQ(pins.output_hash, 0x3b36950487de6263ULL) << std::hex << "0x" << pins.output_hash;
+  // `locsim run --no-variation` on the unchanged file: the same, byte for byte.
+  const Pins option = pinned_run(testing::kDemo, dir / "out_option", true);
+  EXPECT_EQ(option.state_hash, pins.state_hash);
+  EXPECT_EQ(option.output_hash, pins.output_hash) << std::hex << "0x" << option.output_hash;
 }
 
 }  // namespace

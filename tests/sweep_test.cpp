@@ -64,6 +64,38 @@ fs::path write_short_experiment(const fs::path& dir, const std::string& localize
 
 using testing::test_plugin;
 
+TEST(Sweep, VariationNoneRunsEverySeedOnTheDeclaredWorld) {
+  // Seeds vary the world by default (each its own ground truth); `variation: none` in the
+  // experiment runs every seed on the world as declared (the same ground truth), and a log
+  // experiment refuses the key (a log holds its world).
+  const fs::path dir = testing::temp_dir("sweep-variation");
+  for (const bool none : {false, true}) {
+    const fs::path sub = dir / (none ? "none" : "varied");
+    fs::create_directories(sub);
+    std::ofstream(sub / "experiment.yaml")
+        << "name: v\nworld: " << LOCSIM_SOURCE_DIR << "/worlds/demo/demo.yaml\nduration_s: 1.5\n"
+        << (none ? "variation: none\n" : "")
+        << "seeds: {from: 1, to: 2}\nlocalizers:\n  - plugin: odometry\n";
+    const SweepSummary s = sweep(sub / "experiment.yaml", sub / "out", 2);
+    ASSERT_EQ(s.not_ok, 0u);
+    const std::string one = testing::read_file(sub / "out/logs/seed-1/groundtruth.tum");
+    const std::string two = testing::read_file(sub / "out/logs/seed-2/groundtruth.tum");
+    if (none) {
+      EXPECT_EQ(one, two);
+    } else {
+      EXPECT_NE(one, two);
+    }
+  }
+  std::ofstream(dir / "logs.yaml") << "name: l\nlogs: [x.locsimlog]\nvariation: none\n"
+                                   << "localizers:\n  - plugin: odometry\n";
+  try {
+    load_experiment(dir / "logs.yaml");
+    FAIL() << "variation with logs was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("variation"), std::string::npos) << e.what();
+  }
+}
+
 /// A stand-in for the locsim binary that each run executes (SweepOptions::locsim_binary): a shell
 /// script doing `cases` (a `case "$*" in` body matched against the run's arguments) and handing
 /// every other run to the real locsim. It makes a run end in error or crash at run time, after

@@ -60,8 +60,8 @@ void read_seeds(const YamlNode& seeds, std::vector<std::uint64_t>& out) {
 ExperimentDef load_experiment(const fs::path& file) {
   const Activity reading("reading the experiment " + file.string());
   const YamlNode root = YamlNode::load_file(file);
-  root.allow_keys({"name", "world", "scenario", "duration_s", "logs", "seeds", "localizers",
-                   "convergence", "timeout_s", "params_file"});
+  root.allow_keys({"name", "world", "scenario", "duration_s", "variation", "logs", "seeds",
+                   "localizers", "convergence", "timeout_s", "params_file"});
   ExperimentDef e;
   e.source = file;
   const fs::path base = file.parent_path();
@@ -77,10 +77,10 @@ ExperimentDef load_experiment(const fs::path& file) {
   const auto logs = root.find("logs");
   if (logs) {
     // A log carries its world, scenario and duration: one given too would be ignored.
-    for (const char* key : {"world", "scenario", "duration_s"}) {
+    for (const char* key : {"world", "scenario", "duration_s", "variation"}) {
       if (const auto node = root.find(key)) {
         node->fail("give either logs (each log holds its world, scenario and duration) or " +
-                   std::string("world, scenario and duration_s, not both"));
+                   std::string("world, scenario, duration_s and variation, not both"));
       }
     }
     for (const YamlNode& item : logs->items()) {
@@ -143,6 +143,11 @@ ExperimentDef load_experiment(const fs::path& file) {
     }
     if (const auto duration = root.find("duration_s"))
       e.duration_s = duration->as_double(ScenarioDef::kDurationRange);
+    if (const auto variation = root.find("variation")) {
+      if (!variation->is_scalar() || variation->as_string() != "none")
+        variation->fail("give `none` (the world as declared on every seed), or leave it out");
+      e.no_variation = true;
+    }
   }
   e.timeout_s = root.get_double("timeout_s", e.timeout_s, ExperimentDef::kTimeoutRange);
   // The parameter file every localizer entry gets unless it names its own.

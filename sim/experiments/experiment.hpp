@@ -45,6 +45,7 @@ struct ExperimentDef {
   std::filesystem::path world;  // resolved against the experiment file
   std::optional<std::filesystem::path> scenario;
   std::optional<double> duration_s;  // ScenarioDef::kDurationRange [s]
+  bool no_variation = false;         // `variation: none`: every seed runs the world as declared
   /// With `logs:`: the logs replayed instead of simulating `world` (which is then empty).
   std::vector<ExperimentLog> logs;
   /// Without logs: the seeds simulated. With logs: the localizers' seeds each log is replayed

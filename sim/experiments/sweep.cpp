@@ -712,6 +712,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
         task.args.insert(task.args.end(), {"--scenario", experiment.scenario->string()});
       if (experiment.duration_s)
         task.args.insert(task.args.end(), {"--duration", fixed(*experiment.duration_s, 9)});
+      if (experiment.no_variation) task.args.push_back("--no-variation");
       // Recordings first: the replays of a seed wait for its log.
       queue.push_front(task);
     }

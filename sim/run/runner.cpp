@@ -100,6 +100,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   // Everything that can be wrong with the input is found before the folder is made.
   RunInputs inputs = load_run_inputs(options.world_file, options.scenario_file, options.duration_s);
   // This seed's world: everything downstream (the localizers' start guesses, the log) sees it.
+  if (options.no_variation) inputs.world.variation.enabled = false;
   vary_world(inputs.world, inputs.scenario, options.seed);
   RunResult result;
   result.out_dir =

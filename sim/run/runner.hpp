@@ -22,7 +22,8 @@ struct RunOptions : SessionOptions {
   std::filesystem::path world_file;
   std::optional<std::filesystem::path> scenario_file;  // else the world's `scenario:` section
   std::uint64_t seed = 1;
-  std::optional<double> duration_s;               // overrides the scenario's duration [s]
+  std::optional<double> duration_s;  // overrides the scenario's duration [s]
+  bool no_variation = false;  // the world as declared, whatever its `variation:` (--no-variation)
   std::filesystem::path out_dir;                  // empty: a new folder under runs/
   bool realtime = false;                          // pace the simulation to the wall clock
   bool progress = false;                          // progress line on stderr

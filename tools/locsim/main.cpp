@@ -403,6 +403,9 @@ int main(int argc, char** argv) {
   run->add_option("--duration", options.duration_s, "Simulated seconds (overrides the scenario)")
       ->check(number_in(locsim::ScenarioDef::kDurationRange.min,
                         locsim::ScenarioDef::kDurationRange.max));
+  run->add_flag("--no-variation", options.no_variation,
+                "Run the world as declared: no per-seed variation, whatever its `variation:` "
+                "(docs/worlds.md#variation)");
   run->add_option("--out", out_dir, "Output folder (default: a new folder under runs/)");
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
