@@ -219,8 +219,8 @@ void place_kidnaps(Layout& layout) {
     for (int attempt = 0; attempt < 2000 && !landing; ++attempt) {
       const Pose2 p{random.uniform(0.0, layout.length_), random.uniform(0.0, layout.width_),
                     random.uniform(-std::numbers::pi, std::numbers::pi)};
-      // Far from where the robot was (a carry, not a nudge is not known here: far from the
-      // path's nearest point is not required; clear of obstacles with room to turn).
+      // Clear of everything with room to turn. Not kept away from where the robot is then
+      // (the generator does not simulate the drive): a landing may be a short carry.
       if (!layout.free(p.position(), 0.3)) continue;
       if (want == "in view" &&
           layout.landmarks_seen(p, kViewHalfAngleRad, kViewMaxRangeM, true) == 0)
