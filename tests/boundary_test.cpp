@@ -187,7 +187,7 @@ bool finite_pose(const Pose2& p) {
     RunInputs inputs;
     if (experiment) {
       const ExperimentDef e = load_experiment(*experiment);
-      inputs = load_run_inputs(e.world, e.scenario, e.duration_s);
+      inputs = load_run_inputs(e.worlds.front().file, e.scenario, e.duration_s);
     } else {
       inputs = load_run_inputs(world, scenario, duration_s);
     }

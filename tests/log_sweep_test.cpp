@@ -289,7 +289,7 @@ TEST(LogExperiment, BadLogsAreReportedWhereTheExperimentNamesThem) {
                 "world: " + std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml\n")),
             (dir / "experiment.yaml").string() +
                 ":2:8: 'world': give either logs (each log holds its world, scenario and "
-                "duration) or world, scenario, duration_s and variation, not both");
+                "duration) or world (or worlds), scenario, duration_s and variation, not both");
   testing::expect_contains(
       experiment_error(write_log_experiment(dir, "[a.locsimlog]", "[1]", "duration_s: 10\n")),
       "experiment.yaml:2:13: 'duration_s': give either logs");

@@ -6,11 +6,14 @@
 #include <sys/wait.h>
 
 #include <Eigen/Cholesky>
+#include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "locsim/models.hpp"
 #include "locsim/numeric_jacobian.hpp"
+#include "sim/common/math.hpp"
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/runner.hpp"
@@ -299,6 +302,11 @@ TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   EXPECT_NEAR(s.time_lost_s, 1.0 + 0.02, 1e-9);  // the carried gap counts one interval, not 2 s
   EXPECT_DOUBLE_EQ(s.position_max_m, 2.0);
   EXPECT_NEAR(s.x_rms_m, std::sqrt((50 * 1.0 + 4.0) / 152.0), 1e-12);
+  // Tracking: from the convergence at 1 s on, the 2 m sample after the gap included.
+  EXPECT_EQ(s.tracking_samples, 102u);
+  EXPECT_NEAR(s.tracking_position_rms_m, std::sqrt(4.0 / 102.0), 1e-12);
+  const ErrorSummary never = summarize_errors({samples.begin(), samples.begin() + 50});
+  EXPECT_EQ(never.tracking_samples, 0u);
 }
 
 TEST(Models, ComposeAndBetweenAreInverse) {
@@ -324,6 +332,27 @@ TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
   EXPECT_GT(ekf["segments"][1]["position_error_m"]["rms"].get<double>(), 1.0);
   EXPECT_TRUE(ekf["segments"][1]["recovery_s"].is_null());
   EXPECT_GT(ekf["diagnostics"]["updates_accepted"].get<double>(), 100.0);
+  // How far the kidnap carried the robot: from where it was lifted to where it was put down,
+  // as events.csv has them, to within what the robot drives between samples.
+  const std::string events = testing::read_file(out / "events.csv");
+  double from_x = 0, from_y = 0, from_theta = 0, to_x = 0, to_y = 0, to_theta = 0;
+  ASSERT_EQ(std::sscanf(events.c_str() + events.find("from=("), "from=(%lf,%lf,%lf)", &from_x,
+                        &from_y, &from_theta),
+            3);
+  ASSERT_EQ(std::sscanf(events.c_str() + events.find("put_down,robot,\"to=("),
+                        "put_down,robot,\"to=(%lf,%lf,%lf)", &to_x, &to_y, &to_theta),
+            3);
+  for (const auto* l : {&odometry, &ekf}) {
+    EXPECT_FALSE((*l)["segments"][0].contains("carried_m"));  // no kidnap before the first
+    EXPECT_NEAR((*l)["segments"][1]["carried_m"].get<double>(),
+                std::hypot(to_x - from_x, to_y - from_y), 0.05);
+    EXPECT_NEAR((*l)["segments"][1]["turned_deg"].get<double>(),
+                std::abs(rad_to_deg(wrap_angle(to_theta - from_theta))), 1.0);
+  }
+  // The EKF tracks before the kidnap: its tracking RMS is that of the converged samples.
+  EXPECT_GT(ekf["segments"][0]["tracking"]["samples"].get<int>(), 100);
+  EXPECT_LT(ekf["segments"][0]["tracking"]["position_rms_m"].get<double>(), ekf_rms + 1e-9);
+  EXPECT_TRUE(ekf["segments"][1]["tracking"]["position_rms_m"].is_null());
 }
 
 }  // namespace

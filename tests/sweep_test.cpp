@@ -650,6 +650,109 @@ TEST(Experiment, GridsExpandToEveryCombinationInOrder) {
   EXPECT_EQ(runs[1].id, "ekf-sigma_range_m=0.1-gate_chi2=5/seed-1");
 }
 
+TEST(Sweep, ASuiteOfWorldsRunsAsOneSweepTabledByFamily) {
+  // Three generated worlds in two families: each world's seed is recorded once and replayed to
+  // every configuration; runs and results name the world and its family; summary_by_family.csv
+  // has each configuration on each family and on all.
+  const fs::path dir = testing::temp_dir("sweep-suite");
+  for (const char* family : {"room", "corridor"}) {
+    const std::string command = std::string(LOCSIM_BINARY) + " generate " + family + " --seeds 1-" +
+                                (family == std::string("room") ? "2" : "1") + " --out " +
+                                (dir / "suite").string() + " > /dev/null";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  }
+  std::ofstream(dir / "experiment.yaml")
+      << "name: suite\nworlds:\n  - {family: rooms, files: suite/room_*.yaml}\n"
+      << "  - {family: corridors, files: [suite/corridor_seed1.yaml]}\n"
+      << "duration_s: 3\nseeds: [1, 2]\nlocalizers:\n  - plugin: odometry\n"
+      << "  - {plugin: ekf_landmarks, label: ekf}\n";
+  const ExperimentDef e = load_experiment(dir / "experiment.yaml");
+  ASSERT_EQ(e.worlds.size(), 3u);
+  EXPECT_EQ(e.worlds[0].stem, "room_seed1");
+  EXPECT_EQ(e.worlds[2].family, "corridors");
+  const auto runs = expand_runs(e);
+  ASSERT_EQ(runs.size(), 12u);
+  EXPECT_EQ(runs[3].id, "odometry/room_seed2/seed-2");
+  EXPECT_EQ(runs[6].id, "ekf/room_seed1/seed-1");
+
+  const SweepSummary s = sweep(dir / "experiment.yaml", dir / "out", 2);
+  EXPECT_EQ(s.not_ok, 0u);
+  for (const char* world : {"room_seed1", "room_seed2", "corridor_seed1"}) {
+    for (const char* seed : {"seed-1", "seed-2"}) {
+      EXPECT_TRUE(fs::exists(dir / "out/logs" / world / (std::string(seed) + ".locsimlog")));
+      EXPECT_TRUE(fs::exists(dir / "out/runs/ekf" / world / seed / "metrics.json"));
+    }
+  }
+  // Each world's own ground truth: two worlds differ, and so do two seeds of one.
+  const auto truth = [&](const std::string& world, const std::string& seed) {
+    return testing::read_file(dir / "out/logs" / world / seed / "groundtruth.tum");
+  };
+  EXPECT_NE(truth("room_seed1", "seed-1"), truth("room_seed2", "seed-1"));
+  EXPECT_NE(truth("room_seed1", "seed-1"), truth("room_seed1", "seed-2"));
+  const nlohmann::json r = result_of_run(dir / "out", "ekf/corridor_seed1/seed-2");
+  EXPECT_EQ(r["world"], "corridor_seed1");
+  EXPECT_EQ(r["family"], "corridors");
+
+  const std::string table = testing::read_file(dir / "out/summary_by_family.csv");
+  std::vector<std::string> rows;
+  std::istringstream lines(table);
+  for (std::string line; std::getline(lines, line);) {
+    std::size_t end = 0;  // after the fourth field: config, family, worlds, runs
+    for (int field = 0; field < 4 && end != std::string::npos; ++field)
+      end = line.find(',', end + (field > 0 ? 1 : 0));
+    rows.push_back(line.substr(0, end));
+  }
+  ASSERT_EQ(rows.size(), 7u) << table;
+  EXPECT_EQ(rows[1], "odometry,rooms,2,4");
+  EXPECT_EQ(rows[2], "odometry,corridors,1,2");
+  EXPECT_EQ(rows[3], "odometry,all,3,6");
+  EXPECT_EQ(rows[6], "ekf,all,3,6");
+  EXPECT_NE(testing::read_file(dir / "out/summary.md").find("### Per world family"),
+            std::string::npos);
+  // An experiment of one world has no family table.
+  std::ofstream(dir / "one.yaml") << "worlds: [suite/room_seed1.yaml]\nduration_s: 1\nseeds: [1]\n"
+                                  << "localizers: [{plugin: odometry}]\n";
+  EXPECT_EQ(expand_runs(load_experiment(dir / "one.yaml")).front().id,
+            "odometry/room_seed1/seed-1");
+}
+
+TEST(Experiment, ASuitesWorldsAreCheckedWhereTheExperimentNamesThem) {
+  const fs::path dir = testing::temp_dir("experiment-suite");
+  fs::create_directories(dir / "a");
+  const fs::path every_key = fs::path(LOCSIM_SOURCE_DIR) / "tests/data/every_key";
+  fs::copy_file(every_key / "world.yaml", dir / "a/w.yaml");  // three robots
+  for (const char* map : {"map.yaml", "map.pgm"}) fs::copy_file(every_key / map, dir / "a" / map);
+  const auto error = [&](const std::string& worlds) {
+    std::ofstream(dir / "bad.yaml") << worlds << "seeds: [1]\nlocalizers: [{plugin: odometry}]\n";
+    try {
+      load_experiment(dir / "bad.yaml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string demo = std::string(LOCSIM_SOURCE_DIR) + "/worlds/demo/demo.yaml";
+  EXPECT_NE(error("worlds: [{family: f, files: nothing_*.yaml}]\n")
+                .find("bad.yaml:1:29: 'worlds[0].files': no world file matches '"),
+            std::string::npos);
+  EXPECT_NE(error("world: " + demo + "\nworlds: [" + demo + "]\n")
+                .find("'worlds': give world (one) or worlds (a list), not both"),
+            std::string::npos);
+  EXPECT_NE(error("worlds: [{family: 'a b', files: " + demo + "}]\n")
+                .find("'worlds[0].family': a family name may hold only"),
+            std::string::npos);
+  EXPECT_NE(error("worlds: [" + demo + ", {family: f, files: [" + demo + "]}]\n")
+                .find("'worlds[1].files[0]': the file name 'demo' is also that of"),
+            std::string::npos);
+  EXPECT_NE(error("worlds: []\n").find("'worlds': give at least one world"), std::string::npos);
+  // A world of several robots among them: named as the entry that brought it in.
+  EXPECT_NE(error("worlds: [" + demo + ", {family: f, files: a/w*.yaml}]\n").find("bad.yaml:1:"),
+            std::string::npos);
+  EXPECT_NE(error("worlds: [" + demo + ", {family: f, files: a/w*.yaml}]\n")
+                .find("'worlds[1].files': the world '"),
+            std::string::npos);
+}
+
 TEST(Statistics, MeanConfidenceIntervalAndMedian) {
   const Aggregate a = aggregate({1, 2, 3, 4, 10});
   EXPECT_DOUBLE_EQ(a.mean, 4.0);

@@ -1,5 +1,7 @@
 #include "sim/experiments/experiment.hpp"
 
+#include <glob.h>
+
 #include <algorithm>
 #include <set>
 
@@ -34,6 +36,12 @@ bool valid_label(const std::string& s) {
   });
 }
 
+bool valid_family(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+  });
+}
+
 /// A `seeds:` list or {from, to} range, checked.
 void read_seeds(const YamlNode& seeds, std::vector<std::uint64_t>& out) {
   if (seeds.is_sequence()) {
@@ -55,13 +63,78 @@ void read_seeds(const YamlNode& seeds, std::vector<std::uint64_t>& out) {
   }
 }
 
+/// The files a `worlds:` pattern names, sorted: shell wildcards (`suite/room-*.yaml`) against
+/// the experiment's folder; a pattern without wildcards is one file.
+std::vector<fs::path> matching_files(const YamlNode& node, const fs::path& base) {
+  const std::string pattern = (base / node.as_string()).string();
+  glob_t found{};
+  const int status = ::glob(pattern.c_str(), GLOB_ERR, nullptr, &found);
+  std::vector<fs::path> files;
+  for (std::size_t i = 0; status == 0 && i < found.gl_pathc; ++i) {
+    std::error_code error;
+    if (!fs::is_directory(found.gl_pathv[i], error)) files.emplace_back(found.gl_pathv[i]);
+  }
+  globfree(&found);
+  if (status != 0 && status != GLOB_NOMATCH)
+    node.fail("cannot read the folders of '" + pattern + "'");
+  if (files.empty()) node.fail("no world file matches '" + pattern + "'");
+  std::sort(files.begin(), files.end());  // glob's order is the locale's
+  return files;
+}
+
+/// `world: FILE` (one world, runs LABEL/seed-N) or `worlds:` (runs LABEL/STEM/seed-N), a list
+/// whose items are a world file (its own family, named by its stem) or {family: NAME, files:
+/// PATTERN or [PATTERN, ...]}.
+template <typename InputFile>
+void read_worlds(const YamlNode& root, const fs::path& base, const InputFile& input_file,
+                 std::vector<ExperimentWorld>& out) {
+  const auto one = root.find("world");
+  const auto many = root.find("worlds");
+  if (one && many) many->fail("give world (one) or worlds (a list), not both");
+  if (!many) {
+    out.push_back({input_file(root["world"]), "", "", root["world"].place()});
+    return;
+  }
+  if (!many->is_sequence()) many->fail("expected a list of world files or {family, files}");
+  std::map<std::string, fs::path> stems;
+  const auto add = [&](const YamlNode& at, const fs::path& file, const std::string& family) {
+    const std::string stem = file.stem().string();
+    if (const auto [it, fresh] = stems.emplace(stem, file); !fresh) {
+      at.fail("the file name '" + stem + "' is also that of '" + it->second.string() +
+              "'; the runs are named after it: rename one");
+    }
+    if (stems.size() > ExperimentDef::kMaxWorlds)
+      at.fail("more than " + std::to_string(ExperimentDef::kMaxWorlds) + " worlds");
+    out.push_back({file, stem, family, at.place()});
+  };
+  for (const YamlNode& item : many->items()) {
+    if (item.is_scalar()) {
+      const fs::path file = input_file(item);
+      add(item, file, file.stem().string());
+      continue;
+    }
+    item.allow_keys({"family", "files"});
+    const std::string family = item["family"].as_string();
+    if (!valid_family(family))
+      item["family"].fail("a family name may hold only a-z, A-Z, 0-9, '_', '-', '.'");
+    const YamlNode files = item["files"];
+    const std::vector<YamlNode> patterns =
+        files.is_sequence() ? files.items() : std::vector<YamlNode>{files};
+    if (patterns.empty()) files.fail("give at least one file or pattern");
+    for (const YamlNode& pattern : patterns) {
+      for (const fs::path& file : matching_files(pattern, base)) add(pattern, file, family);
+    }
+  }
+  if (out.empty()) many->fail("give at least one world");
+}
+
 }  // namespace
 
 ExperimentDef load_experiment(const fs::path& file) {
   const Activity reading("reading the experiment " + file.string());
   const YamlNode root = YamlNode::load_file(file);
-  root.allow_keys({"name", "world", "scenario", "duration_s", "variation", "logs", "seeds",
-                   "localizers", "convergence", "timeout_s", "params_file"});
+  root.allow_keys({"name", "world", "worlds", "scenario", "duration_s", "variation", "logs",
+                   "seeds", "localizers", "convergence", "timeout_s", "params_file"});
   ExperimentDef e;
   e.source = file;
   const fs::path base = file.parent_path();
@@ -77,10 +150,10 @@ ExperimentDef load_experiment(const fs::path& file) {
   const auto logs = root.find("logs");
   if (logs) {
     // A log carries its world, scenario and duration: one given too would be ignored.
-    for (const char* key : {"world", "scenario", "duration_s", "variation"}) {
+    for (const char* key : {"world", "worlds", "scenario", "duration_s", "variation"}) {
       if (const auto node = root.find(key)) {
         node->fail("give either logs (each log holds its world, scenario and duration) or " +
-                   std::string("world, scenario, duration_s and variation, not both"));
+                   std::string("world (or worlds), scenario, duration_s and variation, not both"));
       }
     }
     for (const YamlNode& item : logs->items()) {
@@ -137,7 +210,7 @@ ExperimentDef load_experiment(const fs::path& file) {
     }
     if (e.logs.empty()) logs->fail("give at least one log");
   } else {
-    e.world = input_file(root["world"]);
+    read_worlds(root, base, input_file, e.worlds);
     if (const auto scenario = root.find("scenario"); scenario && !scenario->is_null()) {
       e.scenario = input_file(*scenario);
     }
@@ -212,10 +285,12 @@ ExperimentDef load_experiment(const fs::path& file) {
     // Runs per configuration: one per seed, on each log (each log's own seed by default).
     const double inputs =
         e.logs.empty()
-            ? static_cast<double>(e.seeds.size())
+            ? static_cast<double>(e.worlds.size() * e.seeds.size())
             : static_cast<double>(e.logs.size() * std::max<std::size_t>(e.seeds.size(), 1));
     const std::string inputs_text =
-        e.logs.empty() ? std::to_string(e.seeds.size()) + " seeds"
+        e.logs.empty() ? (e.worlds.size() > 1 ? std::to_string(e.worlds.size()) + " worlds x "
+                                              : std::string()) +
+                             std::to_string(e.seeds.size()) + " seeds"
                        : std::to_string(e.logs.size()) + " logs x " +
                              std::to_string(std::max<std::size_t>(e.seeds.size(), 1)) + " seeds";
     if (configurations * inputs > static_cast<double>(ExperimentDef::kMaxRuns)) {
@@ -262,19 +337,24 @@ ExperimentDef load_experiment(const fs::path& file) {
     e.convergence.hold_samples = static_cast<int>(convergence->get_int(
         "hold_samples", e.convergence.hold_samples, ConvergenceCriterion::kHoldRange));
   }
-  // The world and scenario must load now, not in every run (a log's were checked above).
-  if (e.logs.empty()) {
-    const RunInputs inputs = load_run_inputs(e.world, e.scenario, e.duration_s);
+  // The worlds and scenario must load now, not in every run (a log's were checked above).
+  for (const ExperimentWorld& world : e.worlds) {
+    const RunInputs inputs = load_run_inputs(world.file, e.scenario, e.duration_s);
     if (inputs.world.robots.size() != 1) {
       // Each run's result is one robot's metrics (its run folder's metrics.json); a run of
       // several robots writes a folder per robot, which no run of a sweep would be scored by.
-      root["world"].fail("the world has " + std::to_string(inputs.world.robots.size()) +
-                         " robots; an experiment scores one robot per run: give it a world with "
-                         "one robot, or record this one (`locsim run WORLD --seed N --log "
-                         "FILE`) and list the log with the robots to score as logs: [{file: "
-                         "FILE, robots: [...]}]");
+      throw InputError(
+          world.place,
+          (world.stem.empty() ? "the world has " : "the world '" + world.file.string() + "' has ") +
+              std::to_string(inputs.world.robots.size()) +
+              " robots; an experiment scores one robot per run: give it a world with one robot, "
+              "or record this one (`locsim run WORLD --seed N --log FILE`) and list the log with "
+              "the robots to score as logs: [{file: FILE, robots: [...]}]");
     }
-    e.files = inputs.files;
+    for (const fs::path& input : inputs.files) {
+      if (std::find(e.files.begin(), e.files.end(), input) == e.files.end())
+        e.files.push_back(input);
+    }
   }
   e.files.insert(e.files.begin(), file);
   // The parameter files too: a resume must see them change like the world.
@@ -295,12 +375,13 @@ ExperimentDef load_experiment(const fs::path& file) {
 std::vector<RunUnit> expand_runs(const ExperimentDef& experiment) {
   std::vector<RunUnit> runs;
   for (const LocalizerConfig& config : experiment.localizers) {
-    if (experiment.logs.empty()) {
+    for (const ExperimentWorld& world : experiment.worlds) {
       for (const std::uint64_t seed : experiment.seeds) {
-        runs.push_back(
-            {runs.size(), config.label + "/seed-" + std::to_string(seed), &config, nullptr, seed});
+        runs.push_back({runs.size(),
+                        config.label + "/" + (world.stem.empty() ? "" : world.stem + "/") +
+                            "seed-" + std::to_string(seed),
+                        &config, nullptr, &world, seed});
       }
-      continue;
     }
     for (const ExperimentLog& log : experiment.logs) {
       const std::vector<std::uint64_t> seeds =
@@ -308,7 +389,7 @@ std::vector<RunUnit> expand_runs(const ExperimentDef& experiment) {
       for (const std::uint64_t seed : seeds) {
         runs.push_back({runs.size(),
                         config.label + "/" + log.stem + "/seed-" + std::to_string(seed), &config,
-                        &log, seed});
+                        &log, nullptr, seed});
       }
     }
   }

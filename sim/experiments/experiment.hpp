@@ -39,14 +39,28 @@ struct ExperimentLog {
   std::string robot;  // of a log of several robots, the one replayed (`replay --robots`)
 };
 
+/// A world an experiment simulates: its `world:`, or one of its `worlds:` (a suite of worlds,
+/// e.g. ones `locsim generate` drew, whose results are also grouped by family).
+struct ExperimentWorld {
+  std::filesystem::path file;  // resolved against the experiment file
+  // Its file name without extension: names its runs ("LABEL/STEM/seed-N") and recordings
+  // ("logs/STEM/seed-N"). Empty for the one world of `world:` ("LABEL/seed-N", "logs/seed-N").
+  std::string stem;
+  std::string family;  // the group its results are tabled in; empty for `world:`
+  InputPlace place;    // of the entry that names it
+};
+
 struct ExperimentDef {
   std::string name = "experiment";
   std::filesystem::path source;
-  std::filesystem::path world;  // resolved against the experiment file
-  std::optional<std::filesystem::path> scenario;
-  std::optional<double> duration_s;  // ScenarioDef::kDurationRange [s]
-  bool no_variation = false;         // `variation: none`: every seed runs the world as declared
-  /// With `logs:`: the logs replayed instead of simulating `world` (which is then empty).
+  /// The worlds simulated: the one of `world:`, or those of `worlds:`, in file order; empty
+  /// with `logs:`.
+  std::vector<ExperimentWorld> worlds;
+  static constexpr std::size_t kMaxWorlds = 100000;
+  std::optional<std::filesystem::path> scenario;  // for every world
+  std::optional<double> duration_s;               // ScenarioDef::kDurationRange [s]
+  bool no_variation = false;  // `variation: none`: every seed runs the world as declared
+  /// With `logs:`: the logs replayed instead of simulating worlds (`worlds` is then empty).
   std::vector<ExperimentLog> logs;
   /// Without logs: the seeds simulated. With logs: the localizers' seeds each log is replayed
   /// with (`replay --seed`); empty when not given: each log once, with its own seed.
@@ -70,10 +84,13 @@ struct ExperimentDef {
 ExperimentDef load_experiment(const std::filesystem::path& file);  // throws InputError
 
 struct RunUnit {
-  std::size_t index = 0;  // in the full expansion: localizers outer, then logs, seeds inner
-  std::string id;         // "LABEL/seed-N", or "LABEL/LOGSTEM/seed-N": also its folder in runs/
+  // In the full expansion: localizers outer, then worlds (or logs), seeds inner.
+  std::size_t index = 0;
+  // "LABEL/seed-N", "LABEL/WORLDSTEM/seed-N" or "LABEL/LOGSTEM/seed-N": also its folder in runs/.
+  std::string id;
   const LocalizerConfig* config = nullptr;
-  const ExperimentLog* log = nullptr;  // the recorded log it replays; null: the seed's simulation
+  const ExperimentLog* log = nullptr;      // the recorded log it replays; null: a simulation
+  const ExperimentWorld* world = nullptr;  // the world simulated, with this seed; null: a log
   std::uint64_t seed = 0;
 };
 

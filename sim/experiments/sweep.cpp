@@ -223,6 +223,10 @@ json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int
   for (const auto& [k, v] : run.config->params) params[k] = v;
   r["params"] = params;
   if (run.log != nullptr) r["source_log"] = run.log->stem;  // the recorded log it replayed
+  if (run.world != nullptr && !run.world->stem.empty()) {   // one of the experiment's worlds
+    r["world"] = run.world->stem;
+    r["family"] = run.world->family;
+  }
   r["seed"] = run.seed;
   r["log"] = log.generic_string();
   json metrics;
@@ -290,6 +294,139 @@ std::string number(const json& value, int decimals = 6) {
   return value.is_number() ? fixed(value.get<double>(), decimals) : std::string();
 }
 
+/// A run's kidnaps as a test of recovery, from its metrics: those that moved the robot beyond
+/// the convergence criterion (a carry within it leaves a tracking filter converged, testing
+/// nothing), and how many of those it recovered from; and how well it tracked once converged,
+/// pooled over its segments.
+struct RunRecovery {
+  std::size_t kidnaps = 0, recovered = 0;
+  std::size_t tracking_samples = 0;
+  double tracking_sum_sq = 0.0;
+  std::optional<double> tracking_rms_m() const {
+    if (tracking_samples == 0) return std::nullopt;
+    return std::sqrt(tracking_sum_sq / static_cast<double>(tracking_samples));
+  }
+};
+
+RunRecovery recovery_of(const json& metrics) {
+  RunRecovery out;
+  const json convergence = metrics.value("convergence", json::object());
+  const double position_m = convergence.value("position_m", 0.0),
+               heading_deg = convergence.value("heading_deg", 0.0);
+  const json segments = metrics.value("segments", json::array());
+  for (std::size_t k = 0; k < segments.size(); ++k) {
+    const json& segment = segments[k];
+    if (const json tracking = segment.value("tracking", json()); tracking.is_object()) {
+      const auto n = tracking.value("samples", std::size_t{0});
+      const json rms = tracking.value("position_rms_m", json());
+      if (n > 0 && rms.is_number()) {
+        out.tracking_samples += n;
+        out.tracking_sum_sq += rms.get<double>() * rms.get<double>() * static_cast<double>(n);
+      }
+    }
+    if (k == 0) continue;
+    const json carried = segment.value("carried_m", json()),
+               turned = segment.value("turned_deg", json());
+    // Without the carry's measure (metrics of an older locsim): counted.
+    const bool moved = !carried.is_number() || !turned.is_number() ||
+                       carried.get<double>() > position_m || turned.get<double>() > heading_deg;
+    if (!moved) continue;
+    ++out.kidnaps;
+    out.recovered += segment["recovery_s"].is_null() ? 0 : 1;
+  }
+  return out;
+}
+
+/// Wilson's 95 % interval of a proportion k/n: unlike k/n +- 1.96 se, it stays within [0, 1]
+/// and is not empty at 0 or n.
+std::pair<double, double> wilson_95(std::size_t k, std::size_t n) {
+  if (n == 0) return {0.0, 1.0};
+  const double z = 1.959963984540054, nn = static_cast<double>(n);
+  const double p = static_cast<double>(k) / nn;
+  const double centre = (p + z * z / (2 * nn)) / (1 + z * z / nn);
+  const double half = z / (1 + z * z / nn) * std::sqrt(p * (1 - p) / nn + z * z / (4 * nn * nn));
+  return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
+}
+
+/// A suite of worlds (`worlds:`): each configuration on each family of worlds, and over all of
+/// them, in summary_by_family.csv and a section of summary.md. Nothing for an experiment of one
+/// world or of logs.
+void write_family_tables(const fs::path& out_dir, const std::vector<json>& results,
+                         const std::vector<std::string>& configs, std::ostream& md) {
+  std::vector<std::string> families;
+  for (const json& r : results) {
+    const std::string family = r.value("family", "");
+    if (!family.empty() && std::find(families.begin(), families.end(), family) == families.end())
+      families.push_back(family);
+  }
+  if (families.empty()) return;
+  if (families.size() > 1) families.push_back("");  // "": every family
+  std::ofstream csv(out_dir / "summary_by_family.csv", std::ios::binary);
+  csv << "config,family,worlds,runs,ok,kidnaps,kidnaps_recovered,kidnaps_recovered_share,"
+         "kidnaps_recovered_ci95_low,kidnaps_recovered_ci95_high,position_rms_m_mean,"
+         "position_rms_m_ci95,tracking_runs,tracking_position_rms_m_mean,"
+         "tracking_position_rms_m_ci95,tracking_position_rms_m_median,inside_95_ellipse_mean\n";
+  md << "\n### Per world family\n\n"
+        "Each configuration on each family of the experiment's worlds, over worlds and seeds. "
+        "Kidnaps: those that moved the robot beyond the convergence criterion (a shorter carry "
+        "tests no recovery), recovered when the error came back within the criterion; the "
+        "share with Wilson's 95 % interval. Tracking: the position RMS from each segment's "
+        "convergence on (later losses included), over the runs that converged; mean ± 95 % "
+        "confidence interval; median after ';'.\n\n"
+        "| config | family | worlds | runs | ok | kidnaps recovered | position RMS [m] | "
+        "tracking RMS [m] | truth in the 95 % ellipse |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& config : configs) {
+    for (const std::string& family : families) {
+      std::set<std::string> worlds;
+      std::size_t runs = 0, ok = 0, kidnaps = 0, recovered = 0;
+      std::vector<double> position, tracking, inside;
+      for (const json& r : results) {
+        if (r["config"] != config || r.value("family", "").empty()) continue;
+        if (!family.empty() && r.value("family", "") != family) continue;
+        ++runs;
+        worlds.insert(r.value("world", ""));
+        if (r["status"] != "ok") continue;
+        ++ok;
+        const json& m = r["metrics"];
+        position.push_back(m["position_error_m"]["rms"]);
+        const RunRecovery recovery = recovery_of(m);
+        kidnaps += recovery.kidnaps;
+        recovered += recovery.recovered;
+        if (const auto rms = recovery.tracking_rms_m()) tracking.push_back(*rms);
+        if (const json c = m.value("consistency", json()); c.is_object())
+          inside.push_back(c["inside_95_ellipse"]);
+      }
+      if (runs == 0) continue;
+      const Aggregate p = aggregate(position), t = aggregate(tracking), in = aggregate(inside);
+      const auto [low, high] = wilson_95(recovered, kidnaps);
+      const std::string share =
+          kidnaps > 0 ? fixed(static_cast<double>(recovered) / static_cast<double>(kidnaps), 4)
+                      : std::string();
+      const std::string name = family.empty() ? "all" : family;
+      csv << csv_field(config) << ',' << csv_field(name) << ',' << worlds.size() << ',' << runs
+          << ',' << ok << ',' << kidnaps << ',' << recovered << ',' << share << ','
+          << (kidnaps > 0 ? fixed(low, 4) + ',' + fixed(high, 4) : std::string(",")) << ','
+          << fixed(p.mean, 6) << ',' << fixed(p.ci95, 6) << ',' << t.n << ','
+          << (t.n > 0 ? fixed(t.mean, 6) + ',' + fixed(t.ci95, 6) + ',' + fixed(t.median, 6)
+                      : std::string(",,"))
+          << ',' << (in.n > 0 ? fixed(in.mean, 4) : std::string()) << '\n';
+      md << "| " << config << " | " << (family.empty() ? "**all**" : family) << " | "
+         << worlds.size() << " | " << runs << " | " << ok << " | "
+         << (kidnaps > 0 ? std::to_string(recovered) + "/" + std::to_string(kidnaps) + " (" +
+                               fixed(low, 2) + "–" + fixed(high, 2) + ")"
+                         : std::string("—"))
+         << " | " << fixed(p.mean, 3) << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3)
+         << " | "
+         << (t.n > 0 ? fixed(t.mean, 3) + " ± " + fixed(t.ci95, 3) + "; " + fixed(t.median, 3) +
+                           (t.n < ok ? " (" + std::to_string(t.n) + " runs)" : std::string())
+                     : std::string("—"))
+         << " | " << (in.n > 0 ? fixed(in.mean, 2) + " ± " + fixed(in.ci95, 2) : std::string("—"))
+         << " |\n";
+    }
+  }
+}
+
 }  // namespace
 
 void write_tables(const fs::path& out_dir) {
@@ -302,7 +439,8 @@ void write_tables(const fs::path& out_dir) {
     csv << "index,id,config,log,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
            "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m,nees_mean,"
-           "nees_median,inside_95_ellipse\n";
+           "nees_median,inside_95_ellipse,world,family,kidnaps,kidnaps_recovered,"
+           "tracking_position_rms_m\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
       std::string recoveries, recovery_steps;  // one per kidnap: the segments after the first
@@ -342,7 +480,14 @@ void write_tables(const fs::path& out_dir) {
                                                    : std::string())
           << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
           << recovery_steps << ',' << number(landmark_error.value("rms", json())) << ','
-          << number(nees, 4) << ',' << number(nees_median, 4) << ',' << number(inside, 4) << '\n';
+          << number(nees, 4) << ',' << number(nees_median, 4) << ',' << number(inside, 4) << ',';
+      const RunRecovery recovery = recovery_of(m);
+      const std::optional<double> tracking = recovery.tracking_rms_m();
+      csv << csv_field(r.value("world", "")) << ',' << csv_field(r.value("family", "")) << ','
+          << (m.is_object() && !m.empty()
+                  ? std::to_string(recovery.kidnaps) + ',' + std::to_string(recovery.recovered)
+                  : std::string(","))
+          << ',' << (tracking ? fixed(*tracking, 6) : std::string()) << '\n';
     }
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).
@@ -408,6 +553,7 @@ void write_tables(const fs::path& out_dir) {
        << " | " << (in.n > 0 ? fixed(in.mean, 2) + " ± " + fixed(in.ci95, 2) : std::string("—"))
        << " | " << (ne.n > 0 ? fixed(ne.median, 1) : std::string("—")) << " |\n";
   }
+  write_family_tables(out_dir, results, order, md);
 }
 
 namespace {
@@ -620,8 +766,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   struct Task {
     std::vector<std::string> args;
     fs::path log;
-    bool recording = false;
-    std::uint64_t seed = 0;
+    std::string recording;  // of a world's seed, "[WORLDSTEM/]seed-N"; empty: a replay
     const RunUnit* run = nullptr;
   };
   struct Active {
@@ -650,29 +795,32 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   };
   std::map<pid_t, Active> active;
   std::deque<Task> queue;
-  const auto log_of = [&](std::uint64_t seed) {
-    return out / "logs" / ("seed-" + std::to_string(seed) + ".locsimlog");
+  // A world's seed is simulated once, recorded as logs/[WORLDSTEM/]seed-N.locsimlog, with its
+  // run's files in the folder of that name.
+  const auto recording_of = [](const RunUnit& run) {
+    return (run.world->stem.empty() ? "" : run.world->stem + "/") + "seed-" +
+           std::to_string(run.seed);
   };
-  const auto recording_dir = [&](std::uint64_t seed) {
-    return out / "logs" / ("seed-" + std::to_string(seed));
+  const auto log_of = [&](const std::string& recording) {
+    return out / "logs" / (recording + ".locsimlog");
   };
+  const auto recording_dir = [&](const std::string& recording) { return out / "logs" / recording; };
   const auto run_dir_of = [&](const RunUnit& run) { return out / "runs" / run.id; };
-  const auto recorded = [&](std::uint64_t seed) {
+  const auto recorded = [&](const std::string& recording) {
     try {
-      return fs::exists(log_of(seed)) &&
-             json::parse(read_text(recording_dir(seed) / "run.json"))["status"] == "completed";
+      return fs::exists(log_of(recording)) &&
+             json::parse(read_text(recording_dir(recording) / "run.json"))["status"] == "completed";
     } catch (const std::exception&) {
       return false;
     }
   };
-  std::map<std::uint64_t, std::vector<const RunUnit*>>
-      waiting;  // runs whose seed is being recorded
+  std::map<std::string, std::vector<const RunUnit*>> waiting;  // runs whose log is being recorded
   const auto replay_task = [&](const RunUnit& run) {
     Task task;
     task.run = &run;
     task.log = run_dir_of(run) / "log.txt";
     task.args = {binary.string(), "replay",
-                 run.log != nullptr ? run.log->file.string() : log_of(run.seed).string(),
+                 run.log != nullptr ? run.log->file.string() : log_of(recording_of(run)).string(),
                  "--localizer", run.config->spec(), "--out", run_dir_of(run).string(),
                  // The seed's recording folder has the readings already; a recorded log is
                  // its own readings (`locsim replay` of it writes them as CSV).
@@ -689,25 +837,29 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     return task;
   };
   for (const RunUnit* run : pending) {
-    if (run->log != nullptr || recorded(run->seed)) {
+    if (run->log != nullptr) {
       queue.push_back(replay_task(*run));
       continue;
     }
-    if (!waiting.count(run->seed)) {
+    const std::string recording = recording_of(*run);
+    if (recorded(recording)) {
+      queue.push_back(replay_task(*run));
+      continue;
+    }
+    if (!waiting.count(recording)) {
       Task task;
-      task.recording = true;
-      task.seed = run->seed;
-      task.log = recording_dir(run->seed) / "log.txt";
+      task.recording = recording;
+      task.log = recording_dir(recording) / "log.txt";
       task.args = {binary.string(),
                    "run",
-                   experiment.world.string(),
+                   run->world->file.string(),
                    "--seed",
                    std::to_string(run->seed),
                    "--out",
-                   recording_dir(run->seed).string(),
+                   recording_dir(recording).string(),
                    "-q",
                    "--log",
-                   log_of(run->seed).string()};
+                   log_of(recording).string()};
       if (experiment.scenario)
         task.args.insert(task.args.end(), {"--scenario", experiment.scenario->string()});
       if (experiment.duration_s)
@@ -716,7 +868,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       // Recordings first: the replays of a seed wait for its log.
       queue.push_front(task);
     }
-    waiting[run->seed].push_back(run);
+    waiting[recording].push_back(run);
   }
 
   // Wake the moment a child ends (SIGCHLD, blocked and waited for) rather than polling: with
@@ -792,9 +944,9 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       write_file(a.task.log, a.output.kept());
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - a.start).count();
-      if (a.task.recording) {
+      if (!a.task.recording.empty()) {
         const bool ok = !a.timed_out && completed(status);
-        for (const RunUnit* run : waiting[a.task.seed]) {
+        for (const RunUnit* run : waiting[a.task.recording]) {
           if (ok) {
             queue.push_back(replay_task(*run));
             continue;
@@ -803,9 +955,12 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
           json result =
               result_of(*run, out, a.task.log.lexically_relative(out), status, a.timed_out, wall);
           if (result["status"] != "ok") {
-            result["reason"] = "simulating seed " + std::to_string(a.task.seed) +
-                               " failed: " + result["status"].get<std::string>() + ", " +
-                               result.value("reason", "");
+            result["reason"] =
+                "simulating " +
+                (run->world->stem.empty() ? std::string() : "world " + run->world->stem + ", ") +
+                "seed " + std::to_string(run->seed) +
+                " failed: " + result["status"].get<std::string>() + ", " +
+                result.value("reason", "");
             result["status"] = "error";
           }
           append_result(*run, result);

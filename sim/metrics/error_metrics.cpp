@@ -54,13 +54,19 @@ void ErrorAccumulator::add(const ErrorSample& e) {
   }
   position_max_m_ = std::max(position_max_m_, position);
   heading_max_rad_ = std::max(heading_max_rad_, heading);
-  if (!converged_at_s_) {
+  if (converged_at_s_) {
+    ++tracking_samples_;
+    tracking_sum_sq_ += position * position;
+  } else {
     const bool in = position <= criterion_.position_m && heading <= criterion_.heading_rad;
     run_ = in ? run_ + 1 : 0;
+    run_sum_sq_ = in ? run_sum_sq_ + position * position : 0.0;
     if (run_ == 1) run_start_ = e;
     if (in && run_ >= criterion_.hold_samples) {
       converged_at_s_ = run_start_.t_s;
       converged_at_steps_ = run_start_.steps - first_.steps;
+      tracking_samples_ = static_cast<std::size_t>(run_);  // tracking since the run's start
+      tracking_sum_sq_ = run_sum_sq_;
     }
   }
   last_ = e;
@@ -75,6 +81,10 @@ ErrorSummary ErrorAccumulator::summary() const {
   s.converged_at_s = converged_at_s_;
   s.converged_at_steps = converged_at_steps_;
   s.time_lost_s = time_lost_s_;
+  s.tracking_samples = tracking_samples_;
+  if (tracking_samples_ > 0)
+    s.tracking_position_rms_m =
+        std::sqrt(tracking_sum_sq_ / static_cast<double>(tracking_samples_));
   if (!within(last_)) {
     s.time_lost_s += samples_ > 1 ? typical_interval_s_ : 0.0;  // the last stands for a typical one
   }

@@ -63,6 +63,10 @@ struct ErrorSummary {
   double heading_rms_rad = 0.0, heading_mean_rad = 0.0, heading_max_rad = 0.0;  // of |error|
   std::optional<double> converged_at_s;    // start of the first run that holds the criterion
   std::optional<long> converged_at_steps;  // perception updates from the first sample to then
+  // How well it tracks once it has converged: the position RMS over the samples from
+  // converged_at_s on (a later loss included), and how many they are. 0 samples: never converged.
+  std::size_t tracking_samples = 0;
+  double tracking_position_rms_m = 0.0;
   double time_lost_s =
       0.0;  // time with the error outside the criterion's bounds (carried time aside)
   // Whether the covariance is honest, over the samples whose covariance is positive definite
@@ -92,7 +96,10 @@ class ErrorAccumulator {
   std::size_t samples_ = 0;
   double sum_sq_ = 0, sum_ = 0, sum_sq_x_ = 0, sum_sq_y_ = 0, sum_sq_h_ = 0, sum_h_ = 0;
   double position_max_m_ = 0, heading_max_rad_ = 0;
-  int run_ = 0;                    // consecutive samples within the bounds
+  int run_ = 0;                       // consecutive samples within the bounds
+  double run_sum_sq_ = 0;             // of their position errors
+  std::size_t tracking_samples_ = 0;  // from convergence on
+  double tracking_sum_sq_ = 0;
   ErrorSample run_start_;          // the first of them
   ErrorSample first_, last_;       // first and latest sample
   double typical_interval_s_ = 0;  // between the first two samples

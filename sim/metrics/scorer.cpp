@@ -1,5 +1,6 @@
 #include "sim/metrics/scorer.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 
@@ -72,7 +73,10 @@ void write_landmark_map_csv(const fs::path& file,
 
 Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
                const ConvergenceCriterion& criterion)
-    : criterion_(criterion), kidnaps_(world.robots.size()), observed_(world.robots.size()) {
+    : criterion_(criterion),
+      kidnaps_(world.robots.size()),
+      put_downs_(world.robots.size()),
+      observed_(world.robots.size()) {
   for (const LandmarkDef& l : world.landmarks) {
     true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
   }
@@ -87,9 +91,11 @@ Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
 
 void Scorer::consume(const Record& record) {
   if (record.type == Record::Type::kEvent) {
-    if (record.event.kind != "kidnap") return;
+    const bool kidnap = record.event.kind == "kidnap";
+    if (!kidnap && record.event.kind != "put_down") return;
     for (std::size_t r = 0; r < robot_names_.size(); ++r) {
-      if (robot_names_[r] == record.event.robot) kidnaps_[r].push_back(record.event.t_s);
+      if (robot_names_[r] == record.event.robot)
+        (kidnap ? kidnaps_ : put_downs_)[r].push_back(record.event.t_s);
     }
     return;
   }
@@ -108,7 +114,8 @@ void Scorer::consume(const Record& record) {
   }
 }
 
-json Scorer::segment_json(const ErrorAccumulator& segment) const {
+json Scorer::segment_json(const Track& track) const {
+  const ErrorAccumulator& segment = track.segment;
   const ErrorSummary summary = segment.summary();
   json out = {{"from_s", segment.first_t_s()}, {"to_s", segment.last_t_s()}};
   out.update(error_json(summary));
@@ -116,6 +123,14 @@ json Scorer::segment_json(const ErrorAccumulator& segment) const {
       summary.converged_at_s ? json(*summary.converged_at_s - segment.first_t_s()) : json(nullptr);
   out["recovery_steps"] =
       summary.converged_at_steps ? json(*summary.converged_at_steps) : json(nullptr);
+  out["tracking"] = {
+      {"samples", summary.tracking_samples},
+      {"position_rms_m",
+       summary.tracking_samples > 0 ? json(summary.tracking_position_rms_m) : json(nullptr)}};
+  if (track.kidnaps_passed > 0) {
+    out["carried_m"] = track.carried_m ? json(*track.carried_m) : json(nullptr);
+    out["turned_deg"] = track.turned_rad ? json(rad_to_deg(*track.turned_rad)) : json(nullptr);
+  }
   return out;
 }
 
@@ -125,10 +140,22 @@ void Scorer::estimate(const EstimateSample& s) {
   // kidnap's event came earlier in the stream than any estimate of that time.
   const std::vector<double>& kidnaps = kidnaps_[track.info.robot];
   while (track.kidnaps_passed < kidnaps.size() && s.t_s >= kidnaps[track.kidnaps_passed]) {
-    if (!track.segment.empty()) track.closed_segments.push_back(segment_json(track.segment));
+    if (!track.segment.empty()) track.closed_segments.push_back(segment_json(track));
     track.segment = ErrorAccumulator(criterion_);
     ++track.kidnaps_passed;
+    track.before_kidnap = track.last_truth;
+    track.carried_m.reset();
+    track.turned_rad.reset();
   }
+  // The kidnap's put-down event, too, came before any estimate of its time.
+  const std::vector<double>& put_downs = put_downs_[track.info.robot];
+  if (track.kidnaps_passed > 0 && !track.carried_m && track.before_kidnap &&
+      put_downs.size() >= track.kidnaps_passed && s.t_s >= put_downs[track.kidnaps_passed - 1]) {
+    track.carried_m =
+        std::hypot(s.truth.x - track.before_kidnap->x, s.truth.y - track.before_kidnap->y);
+    track.turned_rad = std::abs(wrap_angle(s.truth.theta - track.before_kidnap->theta));
+  }
+  track.last_truth = s.truth;
   const ErrorSample error{s.t_s,
                           s.pose.x - s.truth.x,
                           s.pose.y - s.truth.y,
@@ -172,7 +199,7 @@ json Scorer::metrics_json(const Track& track, const LocalizerFinal& end) const {
       {"time_s", e.converged_at_s ? json(*e.converged_at_s) : json(nullptr)},
       {"steps", e.converged_at_steps ? json(*e.converged_at_steps) : json(nullptr)}};
   json segments = track.closed_segments;
-  if (!track.segment.empty()) segments.push_back(segment_json(track.segment));
+  if (!track.segment.empty()) segments.push_back(segment_json(track));
   out["segments"] = segments;
   json diagnostics = json::object(), means = json::object();
   for (const auto& [name, value] : track.last_diagnostics) diagnostics[name] = value;

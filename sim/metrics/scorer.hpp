@@ -44,19 +44,26 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
     ErrorAccumulator all;
     ErrorAccumulator segment;
     nlohmann::ordered_json closed_segments = nlohmann::ordered_json::array();
-    std::size_t kidnaps_passed = 0;  // kidnaps of its robot before the current segment
+    std::size_t kidnaps_passed = 0;      // kidnaps of its robot before the current segment
+    std::optional<Pose2> last_truth;     // at its latest sample
+    std::optional<Pose2> before_kidnap;  // at its last sample before the current segment's kidnap
+    // How far the current segment's kidnap moved the robot, from before_kidnap to the truth at
+    // the first sample after the put-down: a carry within the convergence criterion tests no
+    // recovery (the generator's landings may be a short carry).
+    std::optional<double> carried_m, turned_rad;
     std::optional<LocalizerFailure> failure;
     std::vector<std::pair<std::string, double>> last_diagnostics;
     std::map<std::string, std::pair<double, long>> diagnostic_sums;  // sum, samples
   };
-  nlohmann::ordered_json segment_json(const ErrorAccumulator& segment) const;
+  nlohmann::ordered_json segment_json(const Track& track) const;
   nlohmann::ordered_json metrics_json(const Track& track, const LocalizerFinal& end) const;
 
   ConvergenceCriterion criterion_;
   std::vector<LandmarkPoint> true_landmarks_;
   std::vector<std::string> robot_names_;
-  std::vector<std::vector<double>> kidnaps_;  // by robot: kidnap times [s]
-  std::vector<std::set<int>> observed_;       // by robot: true landmarks its cameras detected
+  std::vector<std::vector<double>> kidnaps_;    // by robot: kidnap times [s]
+  std::vector<std::vector<double>> put_downs_;  // by robot: when each kidnap landed [s]
+  std::vector<std::set<int>> observed_;         // by robot: true landmarks its cameras detected
   std::vector<Track> tracks_;
 };
 
