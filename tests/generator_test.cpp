@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "run_support.hpp"
@@ -43,21 +44,40 @@ double clearance(const WorldDef& world, const Vec2& p) {
   return d;
 }
 
-/// Landmarks within `range` and `half_angle` of the pose's heading (line of sight not checked:
-/// an upper bound for "blind", and "in view" is checked with its own margin below).
+/// Whether the segment a-b crosses one of the world's walls.
+bool crosses_wall(const WorldDef& world, const Vec2& a, const Vec2& b) {
+  const auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+  for (const WallDef& wall : world.walls) {
+    const std::size_t n = wall.points_m.size();
+    for (std::size_t i = 0; i + 1 < n + (wall.closed ? 1 : 0); ++i) {
+      const Vec2 c = wall.points_m[i], d = wall.points_m[(i + 1) % n];
+      const double denominator = cross(b - a, d - c);
+      if (std::abs(denominator) < 1e-12) continue;
+      const double t = cross(c - a, d - c) / denominator, u = cross(c - a, b - a) / denominator;
+      if (t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0) return true;
+    }
+  }
+  return false;
+}
+
+/// Landmarks within `range` and `half_angle` of the pose's heading and not behind a wall (line
+/// of sight past obstacles not checked: an upper bound for "blind", and "in view" is checked
+/// with its own margin below).
 int landmarks_near_heading(const WorldDef& world, const Pose2& pose, double range,
                            double half_angle) {
   int n = 0;
   for (const LandmarkDef& l : world.landmarks) {
     const Vec2 d = l.position_m - pose.position();
     const double bearing = wrap_angle(std::atan2(d.y(), d.x()) - pose.theta);
-    if (d.norm() <= range && std::abs(bearing) <= half_angle) ++n;
+    if (d.norm() <= range && std::abs(bearing) <= half_angle &&
+        !crosses_wall(world, pose.position(), l.position_m))
+      ++n;
   }
   return n;
 }
 
 TEST(Generator, TheSameSeedGivesTheSameFileAndAnotherSeedAnotherWorld) {
-  for (const std::string family : {"room", "corridor"}) {
+  for (const std::string family : {"room", "corridor", "office"}) {
     GeneratorDef def;
     def.family = family;
     def.seed = 7;
@@ -73,7 +93,7 @@ TEST(Generator, TheSameSeedGivesTheSameFileAndAnotherSeedAnotherWorld) {
 }
 
 TEST(Generator, EveryDrawnWorldHasAFreePathAndLandingsAsAsked) {
-  for (const std::string family : {"room", "corridor"}) {
+  for (const std::string family : {"room", "corridor", "office"}) {
     for (std::uint64_t seed = 1; seed <= 25; ++seed) {
       SCOPED_TRACE(family + " seed " + std::to_string(seed));
       GeneratorDef def;
@@ -95,11 +115,23 @@ TEST(Generator, EveryDrawnWorldHasAFreePathAndLandingsAsAsked) {
               << "leg " << i << " at " << k << " %";
       }
       EXPECT_GE(world.landmarks.size(), family == "room" ? 4u : 3u);
+      const auto drivable = [&](const Vec2& from) {  // a waypoint in a straight line, no wall
+        return std::any_of(path.begin(), path.end(), [&](const Vec2& waypoint) {
+          if (crosses_wall(world, from, waypoint)) return false;
+          for (int k = 0; k <= 100; ++k)
+            if (clearance(world, from + (waypoint - from) * (k / 100.0)) < radius) return false;
+          return true;
+        });
+      };
       int kidnap = 0;
       for (const EventDef& e : world.scenario->events) {
         if (e.kind != EventDef::Kind::kKidnap) continue;
         ASSERT_TRUE(e.to.has_value());
         EXPECT_GE(clearance(world, e.to->position()), radius + 0.3);
+        // In an office the robot heads for the nearest waypoint it can drive to: there is one.
+        if (family == "office") {
+          EXPECT_TRUE(drivable(e.to->position())) << "kidnap " << kidnap;
+        }
         EXPECT_LE(e.at_s, world.scenario->duration_s - 10.0);
         // A landing that could not be had as asked says so in a note (and lands anywhere).
         const bool noted = std::any_of(
@@ -127,7 +159,7 @@ TEST(Generator, EveryDrawnWorldHasAFreePathAndLandingsAsAsked) {
 }
 
 TEST(Generator, ADrawnWorldRunsWithEverySensorAndTheRobotDrivesItsLoop) {
-  for (const std::string family : {"room", "corridor"}) {
+  for (const std::string family : {"room", "corridor", "office"}) {
     GeneratorDef def;
     def.family = family;
     def.seed = 3;
@@ -184,6 +216,27 @@ TEST(Generator, BadKnobsAreRefusedAndTheCliWritesNothingThen) {
   // What is written loads and validates as any world file.
   const auto valid = testing::locsim("validate " + (dir / "room_seed3.yaml").string());
   EXPECT_EQ(valid.exit_code, 0) << valid.output;
+}
+
+TEST(Generator, TheShippedSuiteIsWhatTheGeneratorDrawsToday) {
+  // worlds/suite/FAMILY_seedN.yaml were written by `locsim generate FAMILY --seeds 1-8` with
+  // the default knobs: a change to the generator that moves them must regenerate them (and the
+  // suite's report), not leave a suite that no command reproduces.
+  const fs::path suite = fs::path(LOCSIM_SOURCE_DIR) / "worlds/suite";
+  std::map<std::string, int> per_family;
+  for (const auto& entry : fs::directory_iterator(suite)) {
+    const std::string name = entry.path().filename().string();
+    const std::size_t at = name.find("_seed");
+    if (entry.path().extension() != ".yaml" || at == std::string::npos) continue;
+    GeneratorDef def;
+    def.family = name.substr(0, at);
+    def.seed = std::stoull(name.substr(at + 5));
+    EXPECT_EQ(generate_world(def).yaml, testing::read_file(entry.path()))
+        << name << ": regenerate with `locsim generate " << def.family << " --seeds 1-8 --out "
+        << "worlds/suite` (remove the old files first)";
+    ++per_family[def.family];
+  }
+  EXPECT_EQ(per_family, (std::map<std::string, int>{{"corridor", 8}, {"office", 8}, {"room", 8}}));
 }
 
 }  // namespace

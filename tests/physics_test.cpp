@@ -309,6 +309,52 @@ scenario:
   EXPECT_LT((sim.robot(0).pose().position() - targets[2]).norm(), 0.06);  // stopped at the end
 }
 
+TEST(Drivers, AfterAKidnapNearestInSightHeadsForAWaypointItCanReach) {
+  // Two rooms split by a wall at x = 4 with a doorway at y in [3, 4.2]. The robot loops
+  // between (1, 1) and (2, 1) in the west room and is carried into the east room at 2 s.
+  // Continuing to its old target, it drives into the wall; with nearest_in_sight it heads for
+  // the nearest waypoint it can reach in a straight line: (3, 3.6), through the doorway (the
+  // other two are behind the wall). Static contacts are counted from the put-down on.
+  const auto run = [](const std::string& after_kidnap) {
+    Simulation sim = make_sim(R"(
+walls:
+  - points: [[0, 0], [8, 0], [8, 5], [0, 5]]
+    closed: true
+  - points: [[4, 0], [4, 3]]
+  - points: [[4, 4.2], [4, 5]]
+robots:
+  - start: {x: 1, y: 1}
+scenario:
+  duration_s: 20
+  drive: {mode: waypoints, path: [[2, 1], [1, 1], [3, 3.6]], loop: true, speed_mps: 0.4,
+          after_kidnap: )" + after_kidnap +
+                              R"(}
+  events:
+    - at_s: 2
+      kidnap: {to: {x: 6, y: 3.6, theta_deg: 0}, carry_s: 0.5}
+)");
+    int static_contacts = 0;
+    double closest_m = 1e9;  // to (3, 3.6), after the put-down
+    while (!sim.done()) {
+      sim.step();
+      for (const auto& e : sim.take_events()) {
+        if (e.kind == "collision" && e.details.find("with=static") != std::string::npos &&
+            sim.time_s() > 2.5)
+          ++static_contacts;
+      }
+      if (sim.time_s() > 2.5)
+        closest_m = std::min(closest_m, (sim.robot(0).pose().position() - Vec2(3, 3.6)).norm());
+    }
+    return std::pair{static_contacts, closest_m};
+  };
+  const auto [stuck_contacts, stuck_closest] = run("continue");
+  EXPECT_GT(stuck_contacts, 0);   // into the wall, towards (2, 1) or (1, 1)
+  EXPECT_GT(stuck_closest, 1.0);  // and never through the doorway (its centre stays east)
+  const auto [contacts, closest] = run("nearest_in_sight");
+  EXPECT_EQ(contacts, 0);
+  EXPECT_LT(closest, 0.06);  // through the doorway to (3, 3.6), then on round the loop
+}
+
 TEST(Drivers, StartAfterHoldsTheRobotStillThenDrives) {
   Simulation sim = make_sim(R"(
 robots:

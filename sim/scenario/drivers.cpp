@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 namespace locsim {
 
@@ -20,9 +22,15 @@ class WaypointDriver final : public Driver {
  public:
   explicit WaypointDriver(DriveDef def) : def_(std::move(def)) {}
 
-  VelocityCommand update(double t_s, const DiffDriveRobot& robot, const PhysicsWorld&) override {
+  VelocityCommand update(double t_s, const DiffDriveRobot& robot,
+                         const PhysicsWorld& world) override {
     if (done_) return {t_s, 0.0, 0.0};
     const Pose2 pose = robot.pose();
+    // Put down far from where it was at the last step: it was carried (no step drives 0.5 m).
+    const bool carried = last_position_ && (pose.position() - *last_position_).norm() > kCarriedM;
+    last_position_ = pose.position();
+    if (carried && def_.after_kidnap == DriveDef::AfterKidnap::kNearestInSight)
+      next_ = nearest_in_sight(pose.position(), robot, world);
     Vec2 to_target = def_.path_m[next_] - pose.position();
     // Skips the waypoints already reached; a looping path that lies wholly within the tolerance
     // of the robot is passed through once per step, not forever.
@@ -50,9 +58,40 @@ class WaypointDriver final : public Driver {
   }
 
  private:
+  static constexpr double kCarriedM = 0.5;
+  static constexpr double kSightStepM = 0.05;
+
+  /// The nearest waypoint the robot's footprint can slide to in a straight line without
+  /// touching static geometry (people move on); the nearest of all when none can be.
+  std::size_t nearest_in_sight(const Vec2& from, const DiffDriveRobot& robot,
+                               const PhysicsWorld& world) const {
+    const b2Fixture* fixture = robot.body()->GetFixtureList();
+    const auto reachable = [&](const Vec2& to) {
+      if (fixture == nullptr) return true;
+      const Vec2 d = to - from;
+      const double heading = std::atan2(d.y(), d.x());
+      const int steps = std::max(1, static_cast<int>(std::ceil(d.norm() / kSightStepM)));
+      for (int i = 1; i <= steps; ++i) {
+        const Vec2 p = from + d * (static_cast<double>(i) / steps);
+        if (!world.is_free_of_static(*fixture->GetShape(), Pose2{p.x(), p.y(), heading}))
+          return false;
+      }
+      return true;
+    };
+    std::size_t best = next_, best_any = next_;
+    double best_m = std::numeric_limits<double>::infinity(), best_any_m = best_m;
+    for (std::size_t k = 0; k < def_.path_m.size(); ++k) {
+      const double m = (def_.path_m[k] - from).norm();
+      if (m < best_any_m) best_any_m = m, best_any = k;
+      if (m < best_m && reachable(def_.path_m[k])) best_m = m, best = k;
+    }
+    return std::isfinite(best_m) ? best : best_any;
+  }
+
   DriveDef def_;
   std::size_t next_ = 0;
   bool done_ = false;
+  std::optional<Vec2> last_position_;  // at the last update
 };
 
 /// Piecewise-constant commands; the last one holds until the end.

@@ -40,6 +40,11 @@ struct DriveDef {
   static constexpr Range kToleranceRange{0.001, 100.0, "m"};
   double heading_gain = 2.0;  // turn rate per heading error [1/s]
   static constexpr Range kHeadingGainRange{0.001, 1000.0, "1/s"};
+  // After a kidnap: on to the waypoint it was heading for (kContinue), or to the nearest one it
+  // can drive to in a straight line, its footprint clear of walls and static shapes
+  // (kNearestInSight: a world with inner walls, where the old target may be behind one).
+  enum class AfterKidnap { kContinue, kNearestInSight };
+  AfterKidnap after_kidnap = AfterKidnap::kContinue;
   // kVelocity
   std::vector<VelocityCommand> commands;
   // kWander

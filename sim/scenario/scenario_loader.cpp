@@ -32,8 +32,8 @@ InputPlace place_of(const YamlNode& node, const std::string& key) {
 
 DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir) {
   node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
-                   "tolerance_m", "heading_gain", "commands", "clearance_m", "start_after_s",
-                   "poses", "poses_file"});
+                   "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
+                   "start_after_s", "poses", "poses_file"});
   DriveDef drive;
   drive.where = node.where();
   drive.key_path = node.path();
@@ -43,8 +43,8 @@ DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir
   const std::string mode_name = mode.as_string();
   const auto only = [&](std::initializer_list<std::string_view> keys) {
     for (const std::string_view key :
-         {"path", "loop", "tolerance_m", "heading_gain", "commands", "clearance_m", "speed_mps",
-          "max_turn_rate_radps", "poses", "poses_file"}) {
+         {"path", "loop", "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
+          "speed_mps", "max_turn_rate_radps", "poses", "poses_file"}) {
       if (node.has(key) && std::find(keys.begin(), keys.end(), key) == keys.end()) {
         node[key].fail("not used by mode '" + mode_name + "'");
       }
@@ -58,13 +58,22 @@ DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir
     only({});
   } else if (mode_name == "waypoints") {
     drive.mode = DriveDef::Mode::kWaypoints;
-    only({"path", "loop", "speed_mps", "max_turn_rate_radps", "tolerance_m", "heading_gain"});
+    only({"path", "loop", "speed_mps", "max_turn_rate_radps", "tolerance_m", "heading_gain",
+          "after_kidnap"});
     drive.path_m = node["path"].as_points(1, kWorldCoordinateRange);
     drive.loop = node.get_bool("loop", drive.loop);
     drive.tolerance_m =
         node.get_double("tolerance_m", drive.tolerance_m, DriveDef::kToleranceRange);
     drive.heading_gain =
         node.get_double("heading_gain", drive.heading_gain, DriveDef::kHeadingGainRange);
+    if (const auto after = node.find("after_kidnap")) {
+      const std::string value = after->as_string();
+      if (value == "nearest_in_sight") {
+        drive.after_kidnap = DriveDef::AfterKidnap::kNearestInSight;
+      } else if (value != "continue") {
+        after->fail("expected continue or nearest_in_sight, got '" + value + "'");
+      }
+    }
   } else if (mode_name == "velocity") {
     drive.mode = DriveDef::Mode::kVelocity;
     only({"commands"});

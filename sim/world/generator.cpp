@@ -65,7 +65,21 @@ class Layout {
     return make_stream(def_.seed, "generate/" + std::string(what));
   }
   double wall_distance(const Vec2& p) const {
-    return std::min({p.x(), length_ - p.x(), p.y(), width_ - p.y()});
+    double d = std::min({p.x(), length_ - p.x(), p.y(), width_ - p.y()});
+    for (const auto& [a, b] : inner_walls) d = std::min(d, segment_distance(p, a, b));
+    return d;
+  }
+  /// Whether the segment a-b passes through an inner wall (an office's).
+  bool crosses_inner_wall(const Vec2& a, const Vec2& b) const {
+    const auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+    for (const auto& [c, d] : inner_walls) {
+      const Vec2 r = b - a, s = d - c;
+      const double denominator = cross(r, s);
+      if (std::abs(denominator) < 1e-12) continue;  // parallel: the clearance checks see it
+      const double t = cross(c - a, s) / denominator, u = cross(c - a, r) / denominator;
+      if (t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0) return true;
+    }
+    return false;
   }
   double obstacle_distance(const Vec2& p) const {
     double d = std::numeric_limits<double>::infinity();
@@ -88,6 +102,7 @@ class Layout {
   }
   /// The segment a-b clear of obstacles by `clearance` (sampled every 5 cm).
   bool segment_clear(const Vec2& a, const Vec2& b, double clearance) const {
+    if (crosses_inner_wall(a, b)) return false;
     const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.05)));
     for (int i = 0; i <= steps; ++i) {
       const Vec2 p = a + (b - a) * (static_cast<double>(i) / steps);
@@ -95,9 +110,27 @@ class Layout {
     }
     return true;
   }
-  /// Landmarks straight ahead of `pose` within `max_range` and `half_angle` of its heading; with
-  /// `sight`, only those whose line of sight is clear of obstacles (a landing "in view" needs
-  /// one; a "blind" one has none even behind a pillar, which the robot would soon see past).
+  /// Whether the robot can drive from a to b in a straight line, its footprint clear of walls
+  /// and obstacles: after a kidnap in an office it heads for the nearest waypoint it can reach
+  /// so (drive.after_kidnap: nearest_in_sight), and a landing must have one.
+  bool drivable(const Vec2& a, const Vec2& b) const {
+    if (crosses_inner_wall(a, b)) return false;
+    const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.05)));
+    for (int i = 0; i <= steps; ++i) {
+      const Vec2 p = a + (b - a) * (static_cast<double>(i) / steps);
+      if (wall_distance(p) < kRobotRadiusM + 0.05 || obstacle_distance(p) < kRobotRadiusM + 0.05)
+        return false;
+    }
+    return true;
+  }
+  bool waypoint_drivable(const Vec2& from) const {
+    return std::any_of(path.begin(), path.end(),
+                       [&](const Vec2& waypoint) { return drivable(from, waypoint); });
+  }
+  /// Landmarks straight ahead of `pose` within `max_range` and `half_angle` of its heading, not
+  /// behind an inner wall; with `sight`, only those whose line of sight is clear of obstacles
+  /// too (a landing "in view" needs one; a "blind" one has none even behind a pillar, which the
+  /// robot would soon see past, but may have one behind an office's wall).
   int landmarks_seen(const Pose2& pose, double half_angle, double max_range, bool sight) const {
     int seen = 0;
     for (const Vec2& l : landmarks) {
@@ -107,6 +140,7 @@ class Layout {
       if ((sight && r < kViewMinRangeM) || r > max_range || std::abs(bearing) > half_angle)
         continue;
       if (sight && !segment_clear(pose.position(), l, 0.0)) continue;
+      if (crosses_inner_wall(pose.position(), l)) continue;
       ++seen;
     }
     return seen;
@@ -114,7 +148,8 @@ class Layout {
 
   const GeneratorDef& def_;
   double length_, width_;
-  std::vector<Vec2> path;  // the drive loop's waypoints
+  std::vector<Vec2> path;                          // the drive loop's waypoints
+  std::vector<std::pair<Vec2, Vec2>> inner_walls;  // an office's, besides the outer rectangle
   std::vector<Vec2> landmarks;
   std::vector<Obstacle> obstacles;
   struct Walker {
@@ -136,6 +171,11 @@ class Layout {
   std::vector<Kidnap> kidnaps;
   std::vector<std::string> notes;
 };
+
+/// One of `n` indices, each as likely.
+std::size_t pick(RandomStream& random, std::size_t n) {
+  return std::min(n - 1, static_cast<std::size_t>(random.uniform() * static_cast<double>(n)));
+}
 
 int count_or(int asked, RandomStream& random, int lo, int hi) {
   if (asked >= 0) return asked;
@@ -222,6 +262,7 @@ void place_kidnaps(Layout& layout) {
       // Clear of everything with room to turn. Not kept away from where the robot is then
       // (the generator does not simulate the drive): a landing may be a short carry.
       if (!layout.free(p.position(), 0.3)) continue;
+      if (!layout.inner_walls.empty() && !layout.waypoint_drivable(p.position())) continue;
       if (want == "in view" &&
           layout.landmarks_seen(p, kViewHalfAngleRad, kViewMaxRangeM, true) == 0)
         continue;
@@ -234,7 +275,9 @@ void place_kidnaps(Layout& layout) {
       for (int attempt = 0; attempt < 2000 && !landing; ++attempt) {
         const Pose2 p{random.uniform(0.0, layout.length_), random.uniform(0.0, layout.width_),
                       random.uniform(-std::numbers::pi, std::numbers::pi)};
-        if (layout.free(p.position(), 0.3)) landing = p;
+        if (layout.free(p.position(), 0.3) &&
+            (layout.inner_walls.empty() || layout.waypoint_drivable(p.position())))
+          landing = p;
       }
       want = "any";
       if (!landing) throw std::logic_error("generate: no free landing in the world");
@@ -309,6 +352,8 @@ void draw_room(Layout& layout) {
                               : Vec2(walkers.uniform(0.5, l - 0.5), w - 0.5);
       const double speed = walkers.uniform(0.5, 1.1);
       if (!layout.segment_clear(a, b, 0.4)) continue;
+      // Not through where the robot starts: a shove before the filters have seen anything.
+      if (segment_distance(layout.path[0], a, b) < kRobotRadiusM + 1.0) continue;
       layout.people.push_back({a, b, speed});
       break;
     }
@@ -319,6 +364,26 @@ void draw_room(Layout& layout) {
   place_patches(layout, count_or(def.slippery, counts, 0, 2));
   if (def.beacons)
     layout.beacons = {{0.1, 0.1}, {l - 0.1, 0.1}, {l - 0.1, w - 0.1}, {0.1, w - 0.1}};
+}
+
+/// `people` walking up and down a corridor between y0 and y0 + width, each along one side (a
+/// person is 0.25 m in radius); a cabinet in that lane: the other one.
+void place_corridor_walkers(Layout& layout, double y0, double width, int people) {
+  RandomStream walkers = layout.stream("people");
+  const double l = layout.length_;
+  for (int k = 0; k < people; ++k) {
+    const double lane = walkers.uniform() < 0.5 ? width * 0.35 : width * 0.65;
+    const double speed = walkers.uniform(0.5, 1.1);
+    for (const double y_lane : {lane, width - lane}) {
+      const Vec2 a(0.6, y0 + y_lane), b(l - 0.6, y0 + y_lane);
+      if (!layout.segment_clear(a, b, 0.27)) continue;
+      layout.people.push_back({a, b, speed});
+      break;
+    }
+  }
+  if (static_cast<int>(layout.people.size()) < people)
+    layout.notes.push_back("placed " + std::to_string(layout.people.size()) + " of " +
+                           std::to_string(people) + " people (cabinets block both lanes)");
 }
 
 void draw_corridor(Layout& layout) {
@@ -336,27 +401,120 @@ void draw_corridor(Layout& layout) {
   });
   RandomStream counts = layout.stream("counts");
   place_obstacles(layout, count_or(def.obstacles, counts, 2, 4), true);
-  RandomStream walkers = layout.stream("people");
-  const int people = count_or(def.people, counts, 1, 3);
-  for (int k = 0; k < people; ++k) {
-    // Along one side of the corridor (a person is 0.25 m in radius); a cabinet in that lane:
-    // the other one.
-    const double lane = walkers.uniform() < 0.5 ? w * 0.35 : w * 0.65;
-    const double speed = walkers.uniform(0.5, 1.1);
-    for (const double y_lane : {lane, w - lane}) {
-      const Vec2 a(0.6, y_lane), b(l - 0.6, y_lane);
-      if (!layout.segment_clear(a, b, 0.27)) continue;
-      layout.people.push_back({a, b, speed});
-      break;
-    }
-  }
-  if (static_cast<int>(layout.people.size()) < people)
-    layout.notes.push_back("placed " + std::to_string(layout.people.size()) + " of " +
-                           std::to_string(people) + " people (cabinets block both lanes)");
+  place_corridor_walkers(layout, 0.0, w, count_or(def.people, counts, 1, 3));
   place_patches(layout, count_or(def.slippery, counts, 0, 2));
   if (def.beacons) {
     for (double x = 0.1; x < l; x += 8.0)
       layout.beacons.push_back({x, layout.beacons.size() % 2 == 0 ? 0.1 : w - 0.1});
+  }
+}
+
+/// An office: a corridor along x with a row of rooms on each side, each room entered by a
+/// doorway from the corridor. The robot drives the corridor and into some of the rooms, round
+/// a leg inside each and out again; landmarks hang on the rooms' walls and the corridor's.
+void draw_office(Layout& layout) {
+  const GeneratorDef& def = layout.def_;
+  const double l = layout.length_, w = layout.width_;
+  RandomStream random = layout.stream("plan");
+  const double corridor = random.uniform(1.8, 2.4);
+  const double y0 = to_mm(random.uniform(0.4, 0.6) * (w - corridor)), y1 = to_mm(y0 + corridor);
+  const double yc = (y0 + y1) / 2;
+  struct Room {
+    double xa, xb, door;  // extent along x, doorway centre [m]
+    bool south;
+  };
+  std::vector<Room> rooms;
+  for (const bool south : {true, false}) {
+    double xa = 0.0;
+    while (xa < l - 0.1) {
+      double xb = to_mm(xa + random.uniform(3.5, 6.0));
+      if (xb > l - 3.5) xb = l;  // the last room takes what is left
+      const double door = to_mm(random.uniform(xa + 1.0, xb - 1.0));
+      rooms.push_back({xa, xb, door, south});
+      if (xb < l) {  // the partition to the next room
+        layout.inner_walls.push_back(south ? std::pair{Vec2(xb, 0.0), Vec2(xb, y0)}
+                                           : std::pair{Vec2(xb, y1), Vec2(xb, w)});
+      }
+      xa = xb;
+    }
+  }
+  // The corridor's walls, broken by the doorways (1.2 m: the robot passes 0.4 m from each jamb).
+  constexpr double kDoorHalfM = 0.6;
+  for (const bool south : {true, false}) {
+    double from = 0.0;
+    for (const Room& room : rooms) {
+      if (room.south != south) continue;
+      layout.inner_walls.push_back(
+          {Vec2(from, south ? y0 : y1), Vec2(room.door - kDoorHalfM, south ? y0 : y1)});
+      from = room.door + kDoorHalfM;
+    }
+    layout.inner_walls.push_back({Vec2(from, south ? y0 : y1), Vec2(l, south ? y0 : y1)});
+  }
+  // The drive: along the corridor, into each visited room through its doorway, to the room's
+  // far end and back out; rooms visited in the order of their doorways.
+  std::vector<const Room*> visited;
+  for (const Room& room : rooms)
+    if (random.uniform() < 0.5) visited.push_back(&room);
+  if (visited.size() < 2) {  // at least two rooms, one on each side
+    visited.clear();
+    for (const bool south : {true, false}) {
+      std::vector<const Room*> side;
+      for (const Room& room : rooms)
+        if (room.south == south) side.push_back(&room);
+      visited.push_back(side[pick(random, side.size())]);
+    }
+  }
+  std::sort(visited.begin(), visited.end(),
+            [](const Room* a, const Room* b) { return a->door < b->door; });
+  layout.path.push_back({1.2, yc});
+  for (const Room* room : visited) {
+    const double depth = room->south ? y0 : w - y1;
+    const double y_in = room->south ? y0 - std::min(1.5, depth / 2) : y1 + std::min(1.5, depth / 2);
+    const double x_far =
+        room->door - room->xa > room->xb - room->door ? room->xa + 1.0 : room->xb - 1.0;
+    layout.path.push_back({room->door, yc});
+    layout.path.push_back({room->door, y_in});
+    layout.path.push_back({x_far, y_in});
+    layout.path.push_back({room->door, y_in});
+    layout.path.push_back({room->door, yc});
+  }
+  layout.path.push_back({l - 1.2, yc});
+
+  // Landmarks: on the rooms' walls away from the corridor (their far wall and partitions) and
+  // on the corridor's walls clear of the doorways. About one per room and two in the corridor.
+  RandomStream lm = layout.stream("landmarks");
+  const int count = count_or(def.landmarks, lm, static_cast<int>(rooms.size()) / 2 + 2,
+                             static_cast<int>(rooms.size()) + 2);
+  place_landmarks(layout, count, [&]() -> std::optional<Vec2> {
+    if (lm.uniform() < 0.25) {  // the corridor
+      const double x = lm.uniform(0.3, l - 0.3);
+      const bool south = lm.uniform() < 0.5;
+      for (const Room& room : rooms)
+        if (room.south == south && std::abs(x - room.door) < kDoorHalfM + 0.5) return std::nullopt;
+      return Vec2(x, south ? y0 + 0.2 : y1 - 0.2);
+    }
+    const Room& room = rooms[pick(lm, rooms.size())];
+    const double width = room.xb - room.xa, depth = room.south ? y0 : w - y1;
+    // 0.3 m in from the far wall or a partition; not on the corridor's side (the doorway's).
+    const double s = lm.uniform(0.0, width + 2.0 * depth);
+    const double y_far = room.south ? 0.3 : w - 0.3;
+    const double y_side = room.south ? lm.uniform(0.3, y0 - 0.5) : lm.uniform(y1 + 0.5, w - 0.3);
+    const Vec2 q = s < width           ? Vec2(room.xa + std::clamp(s, 0.3, width - 0.3), y_far)
+                   : s < width + depth ? Vec2(room.xa + 0.3, y_side)
+                                       : Vec2(room.xb - 0.3, y_side);
+    if (layout.path_distance(q) < kRobotRadiusM + 0.5) return std::nullopt;
+    return q;
+  });
+  RandomStream counts = layout.stream("counts");
+  place_obstacles(layout, count_or(def.obstacles, counts, 3, 8), false);
+  place_corridor_walkers(layout, y0, corridor, count_or(def.people, counts, 1, 3));
+  place_patches(layout, count_or(def.slippery, counts, 0, 2));
+  if (def.beacons) {
+    // On the corridor's ceiling every 6 m, and one in each room's far corner.
+    for (double x = 0.1; x < l; x += 6.0)
+      layout.beacons.push_back({x, layout.beacons.size() % 2 == 0 ? y0 + 0.1 : y1 - 0.1});
+    for (const Room& room : rooms)
+      layout.beacons.push_back({room.xa + 0.1, room.south ? 0.1 : w - 0.1});
   }
 }
 
@@ -376,7 +534,14 @@ std::string emit(const Layout& layout, const std::string& header) {
   out << YAML::Key << "points" << YAML::Value << YAML::Flow << YAML::BeginSeq;
   for (const Vec2& c : {Vec2(0, 0), Vec2(l, 0), Vec2(l, w), Vec2(0, w)}) emit_point(out, c);
   out << YAML::EndSeq << YAML::Key << "closed" << YAML::Value << true;
-  out << YAML::EndMap << YAML::EndSeq;
+  out << YAML::EndMap;
+  for (const auto& [a, b] : layout.inner_walls) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
+    emit_point(out, a);
+    emit_point(out, b);
+    out << YAML::EndSeq << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
   if (!layout.patches.empty()) {
     out << YAML::Key << "floor" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "friction" << YAML::Value << 0.8;
@@ -491,7 +656,11 @@ std::string emit(const Layout& layout, const std::string& header) {
     emit_point(out, layout.path[k % layout.path.size()]);
   out << YAML::EndSeq;
   out << YAML::Key << "loop" << YAML::Value << true;
-  out << YAML::Key << "speed_mps" << YAML::Value << kDriveSpeedMps << YAML::EndMap;
+  out << YAML::Key << "speed_mps" << YAML::Value << kDriveSpeedMps;
+  // Put down in one room, the waypoint it was heading for may be behind a wall.
+  if (!layout.inner_walls.empty())
+    out << YAML::Key << "after_kidnap" << YAML::Value << "nearest_in_sight";
+  out << YAML::EndMap;
   out << YAML::Key << "ptz" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "policy"
       << YAML::Value << "sweep" << YAML::EndMap;
   if (!layout.kidnaps.empty()) {
@@ -515,14 +684,14 @@ std::string emit(const Layout& layout, const std::string& header) {
 }  // namespace
 
 const std::vector<std::string>& generator_families() {
-  static const std::vector<std::string> families = {"room", "corridor"};
+  static const std::vector<std::string> families = {"room", "corridor", "office"};
   return families;
 }
 
 GeneratedWorld generate_world(const GeneratorDef& def) {
   const auto& families = generator_families();
   if (std::find(families.begin(), families.end(), def.family) == families.end())
-    throw InputError("generate: no family '" + def.family + "' (room or corridor)");
+    throw InputError("generate: no family '" + def.family + "' (room, corridor or office)");
   const auto check = [](double value, const Range& range, const char* what) {
     if (!range.contains(value))
       throw InputError("generate: " + std::string(what) + ": " + out_of_range(value, range));
@@ -537,28 +706,40 @@ GeneratedWorld generate_world(const GeneratorDef& def) {
                                     {def.kidnaps, "--kidnaps"}}) {
     if (value >= 0) check(value, GeneratorDef::kCountRange, what);
   }
-  const bool room = def.family == "room";
+  const bool room = def.family == "room", office = def.family == "office";
   RandomStream size = make_stream(def.seed, "generate/size");
-  const double length = def.length_m != 0.0
-                            ? def.length_m
-                            : (room ? size.uniform(8.0, 20.0) : size.uniform(20.0, 40.0));
-  const double width =
-      def.width_m != 0.0 ? def.width_m : (room ? size.uniform(6.0, 12.0) : size.uniform(2.0, 3.0));
+  const double length = def.length_m != 0.0 ? def.length_m
+                        : room              ? size.uniform(8.0, 20.0)
+                        : office            ? size.uniform(16.0, 30.0)
+                                            : size.uniform(20.0, 40.0);
+  const double width = def.width_m != 0.0 ? def.width_m
+                       : room             ? size.uniform(6.0, 12.0)
+                       : office           ? size.uniform(9.0, 14.0)
+                                          : size.uniform(2.0, 3.0);
   if (room && std::min(length, width) < 4.0)
     throw InputError("generate: a room needs at least 4 m x 4 m for its drive loop");
-  if (!room && (length < 6.0 || width < 1.5))
+  if (office && (length < 8.0 || width < 8.5))
+    throw InputError(
+        "generate: an office needs at least 8 m x 8.5 m (rooms 3 m deep either side of the "
+        "corridor)");
+  if (!room && !office && (length < 6.0 || width < 1.5))
     throw InputError("generate: a corridor needs at least 6 m x 1.5 m");
   Layout layout(def, to_mm(length), to_mm(width));
   if (room)
     draw_room(layout);
+  else if (office)
+    draw_office(layout);
   else
     draw_corridor(layout);
   place_kidnaps(layout);
 
   std::ostringstream header;
   header << "Generated by `locsim generate " << def.family << " --seed " << def.seed
-         << "` (docs/worlds.md#generated-worlds): " << (room ? "a room" : "a corridor") << " of "
-         << to_mm(length) << " m x " << to_mm(width) << " m, " << layout.landmarks.size()
+         << "` (docs/worlds.md#generated-worlds): "
+         << (room     ? "a room"
+             : office ? "an office (rooms off a corridor)"
+                      : "a corridor")
+         << " of " << to_mm(length) << " m x " << to_mm(width) << " m, " << layout.landmarks.size()
          << " landmarks" << (def.landmarks_anywhere ? " standing free" : " along the walls") << ", "
          << layout.obstacles.size() << " obstacles, " << layout.people.size() << " people, "
          << layout.patches.size() << " slippery patches, " << layout.beacons.size() << " beacons, "

@@ -137,6 +137,7 @@ void BM_GenerateWorld(benchmark::State& state, const char* family) {
 }
 BENCHMARK_CAPTURE(BM_GenerateWorld, room, "room")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_GenerateWorld, corridor, "corridor")->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_GenerateWorld, office, "office")->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -631,11 +631,12 @@ int main(int argc, char** argv) {
   locsim::GeneratorDef generate_def;
   std::string generate_out, generate_seeds = "1", generate_landing = "alternate";
   bool generate_overwrite = false, generate_quiet = false, generate_no_beacons = false;
-  CLI::App* generate_cmd = app.add_subcommand(
-      "generate",
-      "Write generated worlds: a family (room, corridor) drawn from each seed and a few knobs, "
-      "with a drive loop and kidnaps (docs/worlds.md#generated-worlds)");
-  generate_cmd->add_option("family", generate_def.family, "room or corridor")
+  CLI::App* generate_cmd =
+      app.add_subcommand("generate",
+                         "Write generated worlds: a family (room, corridor, office) drawn from "
+                         "each seed and a few knobs, "
+                         "with a drive loop and kidnaps (docs/worlds.md#generated-worlds)");
+  generate_cmd->add_option("family", generate_def.family, "room, corridor or office")
       ->required()
       ->check(CLI::IsMember(locsim::generator_families()));
   generate_cmd->add_option("--out", generate_out, "Folder for FAMILY_seedN.yaml")->required();
@@ -645,21 +646,24 @@ int main(int argc, char** argv) {
     generate_cmd->add_option(name, value, what)->transform(whole_number_in(0, 100));
   };
   generate_cmd
-      ->add_option("--length", generate_def.length_m,
-                   "Room: x extent (default drawn in 8-20); corridor: length (20-40) [m]")
+      ->add_option(
+          "--length", generate_def.length_m,
+          "Room: x extent (default drawn in 8-20); corridor: length (20-40); office: 16-30 [m]")
       ->check(
           number_in(locsim::GeneratorDef::kSizeRange.min, locsim::GeneratorDef::kSizeRange.max));
   generate_cmd
-      ->add_option("--width", generate_def.width_m,
-                   "Room: y extent (default drawn in 6-12); corridor: width (2-3) [m]")
+      ->add_option(
+          "--width", generate_def.width_m,
+          "Room: y extent (default drawn in 6-12); corridor: width (2-3); office: 9-14 [m]")
       ->check(
           number_in(locsim::GeneratorDef::kSizeRange.min, locsim::GeneratorDef::kSizeRange.max));
-  count_option("--landmarks", generate_def.landmarks,
-               "Landmarks (default: room 4-8 along the walls, corridor 3)");
+  count_option(
+      "--landmarks", generate_def.landmarks,
+      "Landmarks (default: room 4-8 along the walls, corridor 3, office one per 1-2 rooms + 2)");
   generate_cmd->add_flag("--landmarks-anywhere", generate_def.landmarks_anywhere,
                          "Room: landmarks standing free, not along the walls");
   count_option("--obstacles", generate_def.obstacles,
-               "Pillars and cabinets (default: room 2-5, corridor 2-4)");
+               "Pillars and cabinets (default: room 2-5, corridor 2-4, office 3-8)");
   count_option("--people", generate_def.people, "People walking (default 1-3)");
   count_option("--slippery", generate_def.slippery, "Slippery floor patches on the path (0-2)");
   generate_cmd->add_flag("--no-beacons", generate_no_beacons, "No ultrasonic beacons");
