@@ -55,6 +55,41 @@ TEST(ParticleFilterCore, FreeSpaceSamplesEveryFreeCellAlikeAndNoWall) {
   EXPECT_TRUE(FreeSpace(locsim_occupancy_grid{}).empty());
 }
 
+TEST(ParticleFilterCore, FreeSpaceSaysWhereTheRobotCanBe) {
+  // Open: the half-walled grid's free cells all reach its edge (no wall closes them in), so the
+  // grid's extent is the geometry's, not the robot's: anywhere free, or off the grid.
+  const HalfWalledGrid g;  // x in [-1, 4), y in [2, 5); walls: x < 1.5, and the cell (7, 3)
+  const FreeSpace open(g.grid);
+  EXPECT_FALSE(open.enclosed());
+  EXPECT_TRUE(open.possible(1.6, 2.1));
+  EXPECT_TRUE(open.possible(3.99, 4.99));
+  EXPECT_FALSE(open.possible(1.4, 3.0));    // the left half's wall
+  EXPECT_FALSE(open.possible(2.75, 3.75));  // the lone wall cell: col 7, row 3
+  EXPECT_TRUE(open.possible(2.75, 3.45));   // the cell below it
+  EXPECT_TRUE(open.possible(40.0, 3.0));    // off the grid
+  EXPECT_FALSE(open.possible(std::nan(""), 3.0));
+  EXPECT_TRUE(FreeSpace().possible(1e9, -1e9));  // no grid: nothing is known
+
+  // Enclosed: a room whose walls are one cell in from the grid's edge (the rasterizer's margin).
+  // Only the inside is possible: not the margin beyond the walls, nor off the grid.
+  std::vector<std::uint8_t> cells(8 * 6, 0);
+  for (int row = 0; row < 6; ++row)
+    for (int col = 0; col < 8; ++col)
+      if ((row == 1 || row == 4) && col >= 1 && col <= 6)
+        cells[static_cast<std::size_t>(row * 8 + col)] = 100;
+      else if ((col == 1 || col == 6) && row >= 1 && row <= 4)
+        cells[static_cast<std::size_t>(row * 8 + col)] = 100;
+  const locsim_occupancy_grid room{0.0, 0.0, 1.0, 8, 6, cells.data()};
+  const FreeSpace inside(room);
+  EXPECT_TRUE(inside.enclosed());
+  EXPECT_EQ(inside.free_cells(), 24u + 8u);  // the margin's 24 and the room's 4 x 2
+  EXPECT_TRUE(inside.possible(2.5, 2.5));
+  EXPECT_TRUE(inside.possible(5.5, 3.5));
+  EXPECT_FALSE(inside.possible(1.5, 2.5));   // the wall
+  EXPECT_FALSE(inside.possible(0.5, 2.5));   // the margin outside the wall
+  EXPECT_FALSE(inside.possible(-3.0, 2.5));  // off the grid
+}
+
 locsim_init known_start(double x, double y, double theta, double sigma_xy, double sigma_theta) {
   locsim_init init{};
   init.initial_pose_known = 1;

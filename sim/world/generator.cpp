@@ -227,7 +227,7 @@ void place_patches(Layout& layout, int count) {
         static_cast<std::size_t>(random.uniform() * static_cast<double>(layout.path.size())));
     const Vec2 a = layout.path[leg], b = layout.path[(leg + 1) % layout.path.size()];
     const Vec2 c = a + (b - a) * random.uniform(0.2, 0.8);
-    const Vec2 half(random.uniform(0.4, 0.8), random.uniform(0.4, 0.8));
+    const Vec2 half{random.uniform(0.4, 0.8), random.uniform(0.4, 0.8)};  // braces: drawn in order
     const Vec2 lo = c - half, hi = c + half;
     layout.patches.push_back({lo.cwiseMax(Vec2(0.05, 0.05)),
                               hi.cwiseMin(Vec2(layout.length_ - 0.05, layout.width_ - 0.05)),
@@ -326,7 +326,7 @@ void draw_room(Layout& layout) {
   const int count = count_or(def.landmarks, lm, 4, 8);
   place_landmarks(layout, count, [&]() -> std::optional<Vec2> {
     if (def.landmarks_anywhere) {
-      const Vec2 p(lm.uniform(0.5, l - 0.5), lm.uniform(0.5, w - 0.5));
+      const Vec2 p{lm.uniform(0.5, l - 0.5), lm.uniform(0.5, w - 0.5)};  // braces: in order
       if (layout.path_distance(p) < kRobotRadiusM + 0.5) return std::nullopt;
       return p;
     }

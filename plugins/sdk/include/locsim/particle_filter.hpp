@@ -56,15 +56,65 @@ class FreeSpace {
       : origin_x_m_(grid.origin_x),
         origin_y_m_(grid.origin_y),
         resolution_m_(grid.resolution_m),
-        width_(grid.width > 0 ? static_cast<std::size_t>(grid.width) : 0) {
+        width_(grid.width > 0 ? static_cast<std::size_t>(grid.width) : 0),
+        height_(grid.height > 0 ? static_cast<std::size_t>(grid.height) : 0) {
     if (grid.cells == nullptr || grid.width <= 0 || grid.height <= 0) return;
-    const std::size_t cells = width_ * static_cast<std::size_t>(grid.height);
-    for (std::size_t i = 0; i < cells; ++i)
-      if (grid.cells[i] == 0) free_cells_.push_back(i);
+    const std::size_t cells = width_ * height_;
+    possible_.assign(cells, false);
+    for (std::size_t i = 0; i < cells; ++i) {
+      if (grid.cells[i] != 0) continue;
+      free_cells_.push_back(i);
+      possible_[i] = true;
+    }
+    // Free cells joined to the grid's edge lie outside the walls (the grid has a margin round
+    // the world's geometry). If some free cells are not so joined, walls close them in, and only
+    // those are where the robot can be; if all are (a world without closing walls, such as an
+    // imported dataset's landmarks alone), the robot may be anywhere free, the grid's outside
+    // included: its extent is the geometry's, not the robot's.
+    std::vector<bool> outside(cells, false);
+    std::vector<std::size_t> stack;
+    const auto visit = [&](std::size_t col, std::size_t row) {
+      const std::size_t i = row * width_ + col;
+      if (possible_[i] && !outside[i]) {
+        outside[i] = true;
+        stack.push_back(i);
+      }
+    };
+    for (std::size_t col = 0; col < width_; ++col) visit(col, 0), visit(col, height_ - 1);
+    for (std::size_t row = 0; row < height_; ++row) visit(0, row), visit(width_ - 1, row);
+    while (!stack.empty()) {
+      const std::size_t i = stack.back();
+      stack.pop_back();
+      const std::size_t col = i % width_, row = i / width_;
+      if (col > 0) visit(col - 1, row);
+      if (col + 1 < width_) visit(col + 1, row);
+      if (row > 0) visit(col, row - 1);
+      if (row + 1 < height_) visit(col, row + 1);
+    }
+    std::size_t enclosed = 0;
+    for (std::size_t i = 0; i < cells; ++i) enclosed += possible_[i] && !outside[i] ? 1 : 0;
+    enclosed_ = enclosed > 0;
+    if (enclosed_)
+      for (std::size_t i = 0; i < cells; ++i) possible_[i] = possible_[i] && !outside[i];
   }
   /// No free cell (or no grid): nothing to sample from.
   bool empty() const { return free_cells_.empty(); }
   std::size_t free_cells() const { return free_cells_.size(); }
+  /// Whether the robot can be at (x, y): in a free cell that walls close in, or, in a world
+  /// whose walls close nothing in, in a free cell or outside the grid. Without a grid (empty())
+  /// nothing is known, and every point may be.
+  bool possible(double x_m, double y_m) const {
+    if (free_cells_.empty()) return !std::isnan(x_m) && !std::isnan(y_m);
+    const double col = std::floor((x_m - origin_x_m_) / resolution_m_);
+    const double row = std::floor((y_m - origin_y_m_) / resolution_m_);
+    if (std::isnan(col) || std::isnan(row)) return false;
+    if (!(col >= 0.0 && row >= 0.0 && col < static_cast<double>(width_) &&
+          row < static_cast<double>(height_)))
+      return !enclosed_;
+    return possible_[static_cast<std::size_t>(row) * width_ + static_cast<std::size_t>(col)];
+  }
+  /// Whether walls close some free space in (then only it is possible()).
+  bool enclosed() const { return enclosed_; }
 
   /// A pose uniform over the free space: a free cell, a point uniform in it, a heading uniform
   /// in [-pi, pi). Exact however much of the grid is walls (no rejection). Not for an empty().
@@ -83,8 +133,10 @@ class FreeSpace {
 
  private:
   double origin_x_m_ = 0.0, origin_y_m_ = 0.0, resolution_m_ = 1.0;
-  std::size_t width_ = 0;
+  std::size_t width_ = 0, height_ = 0;
   std::vector<std::size_t> free_cells_;
+  std::vector<bool> possible_;  // by cell, row-major
+  bool enclosed_ = false;
 };
 
 /// The odometry a filter has seen and how much of it its particles have taken. A filter that
