@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "run_support.hpp"
+#include "sim/world/generator.hpp"
 
 namespace locsim {
 namespace {
@@ -16,6 +17,9 @@ namespace fs = std::filesystem;
 
 // The experiments' motion noise (worlds/asrl/experiments, measured on the field's robot).
 const std::string kCalibrated = "alpha1=0.05,alpha2=0.05,alpha3=0.01,alpha4=0.05";
+// The paper's settings where the plugins' defaults differ (no motion floor or outlier
+// likelihood, resetting at once from one detection), as the paper 004 experiments give them.
+const fs::path kPaperSettings = fs::path(LOCSIM_SOURCE_DIR) / "worlds/asrl/presets/paper004.yaml";
 
 nlohmann::json run_field(const std::string& scenario, std::uint64_t seed, double duration_s,
                          const std::vector<std::string>& localizers, const fs::path& out) {
@@ -28,6 +32,7 @@ nlohmann::json run_field(const std::string& scenario, std::uint64_t seed, double
   options.out_dir = out;
   options.localizers = localizers;
   options.convergence.hold_samples = 5;  // the experiments': 5 steps (a sample per camera frame)
+  options.params_file = kPaperSettings;
   return testing::run_metrics(options);
 }
 
@@ -144,6 +149,7 @@ TEST(ParticleFilters, FalseDetectionsAreRejectedOrOutwaitedInsteadOfResetOnto) {
     options.world_file = dir / "field.yaml";
     options.seed = seed;
     options.out_dir = dir / ("seed" + std::to_string(seed));
+    options.params_file = kPaperSettings;
     options.localizers = {"asrl:reject_inconsistent=0," + kCalibrated + "@paper",
                           "asrl:reset_after_steps=3," + kCalibrated + "@robust"};
     const auto metrics = testing::run_metrics(options);
@@ -181,6 +187,7 @@ TEST(ParticleFilters, AnOutlierLikelihoodKeepsPhantomsFromDecidingTheWeights) {
     options.seed = seed;
     options.duration_s = 60.0;
     options.out_dir = dir / ("seed" + std::to_string(seed));
+    options.params_file = kPaperSettings;
     options.localizers = {
         "mcl:reject_inconsistent=0," + kCalibrated + "@plain",
         "mcl:reject_inconsistent=0,outlier_likelihood=1e-4," + kCalibrated + "@robust"};
@@ -197,9 +204,10 @@ TEST(ParticleFilters, AnOutlierLikelihoodKeepsPhantomsFromDecidingTheWeights) {
 
 TEST(ParticleFilters, SensorResettingPutsParticlesOnlyWhereTheRobotCanBe) {
   // A generated room (17.2 x 10.2 m) whose landmarks stand 0.3 m in from the walls: half of each
-  // one's ring is in the wall or outside the room. Resetting onto the ring (ASRL with its
-  // defaults: phantoms and slips make it reset) keeps only the part inside the walls, so the
-  // estimate never leaves the room; before, a reset put it 4.8 m outside, at 19 s.
+  // one's ring is in the wall or outside the room. Resetting onto the ring (ASRL with the paper's
+  // settings, which reset at the first low step: phantoms and slips make it reset) keeps only
+  // the part inside the walls, so the estimate never leaves the room; before, a reset put it
+  // 4.8 m outside, at 19 s.
   const fs::path dir = testing::temp_dir("pf-reset-free");
   RunOptions options;
   options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/suite/room_seed3.yaml";
@@ -207,6 +215,7 @@ TEST(ParticleFilters, SensorResettingPutsParticlesOnlyWhereTheRobotCanBe) {
   options.duration_s = 60.0;
   options.out_dir = dir;
   options.localizers = {"asrl"};
+  options.params_file = kPaperSettings;
   const auto metrics = testing::run_metrics(options);
   ASSERT_EQ(metrics["localizers"][0]["status"], "ok");
   EXPECT_GT(metrics["localizers"][0]["diagnostics_mean"]["resets"].get<double>(), 0.0);
@@ -225,6 +234,40 @@ TEST(ParticleFilters, SensorResettingPutsParticlesOnlyWhereTheRobotCanBe) {
     if (HasFailure()) break;
   }
   EXPECT_GT(samples, 1000);
+}
+
+TEST(ParticleFilters, TheDefaultsTrackInAGeneratedRoomWhereThePapersSettingsDrift) {
+  // Generated rooms with no people, slips or kidnaps, every sensor at its defaults (phantom
+  // detections included): with the paper's settings the particles collapse (its alphas spread
+  // them by under a millimetre per straight step) and phantoms decide the weights; the defaults'
+  // motion floor and outlier likelihood keep MCL tracking.
+  const fs::path dir = testing::temp_dir("pf-defaults");
+  double defaults_rms = 0.0, paper_rms = 0.0;
+  for (std::uint64_t world = 1; world <= 2; ++world) {
+    GeneratorDef def;
+    def.seed = world;
+    def.people = 0;
+    def.slippery = 0;
+    def.kidnaps = 0;
+    const fs::path file = dir / ("room" + std::to_string(world) + ".yaml");
+    std::ofstream(file) << generate_world(def).yaml;
+    for (const bool paper : {false, true}) {
+      RunOptions options;
+      options.world_file = file;
+      options.seed = 1;
+      options.duration_s = 60.0;
+      options.out_dir = dir / ("out" + std::to_string(world) + (paper ? "paper" : "defaults"));
+      options.localizers = {"mcl"};
+      if (paper) options.params_file = kPaperSettings;
+      const auto metrics = testing::run_metrics(options);
+      ASSERT_EQ(metrics["localizers"][0]["status"], "ok");
+      (paper ? paper_rms : defaults_rms) +=
+          metrics["localizers"][0]["position_error_m"]["rms"].get<double>() / 2.0;
+    }
+  }
+  EXPECT_LT(defaults_rms, 0.25);
+  EXPECT_GT(paper_rms, 2.0 * defaults_rms)
+      << "paper " << paper_rms << ", defaults " << defaults_rms;
 }
 
 TEST(ParticleFilters, GlobalLocalizationFindsThePoseAndRunsAreReproducible) {
