@@ -78,7 +78,8 @@ INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));
 TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
   // The noisy world's detections (errors correlated over 0.5 s, 0.3 false ones per reading) make
   // the truth's own w_fast / w_slow dip below 1 all the time: with Thrun's rule (level 1)
-  // augmented_mcl injects uniform guesses while it tracks, and they cost it the pose. The level
+  // augmented_mcl injects uniform guesses (Thrun's; not the default) while it tracks, and they cost
+  // it the pose. The level
   // `calibrate` writes is where the truth's ratio almost never goes.
   const fs::path dir = testing::temp_dir("calibrate_injection");
   const fs::path log = record_noisy_run(dir, 3);
@@ -97,8 +98,8 @@ TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
   const auto replay =
       testing::locsim("replay " + log.string() + " --out " + (dir / "replay").string() +
                       " --params " + (dir / "cal/calibration.yaml").string() +
-                      " --localizer augmented_mcl"
-                      " --localizer augmented_mcl:injection_level=1@thrun -q");
+                      " --localizer augmented_mcl:injection=uniform"
+                      " --localizer augmented_mcl:injection=uniform,injection_level=1@thrun -q");
   ASSERT_EQ(replay.exit_code, 0) << replay.output;
   const auto metrics = nlohmann::json::parse(testing::read_file(dir / "replay/metrics.json"));
   const auto& calibrated = metrics.at("localizers").at(0);

@@ -16,10 +16,11 @@ constexpr locsim_param_decl kParams[] = {
     {"injection_level", LOCSIM_PARAM_DOUBLE, 1.0, 1e-6, 1, nullptr,
      "inject 1 - w_fast / (level w_slow) of the particles "
      "(1: Thrun; locsim calibrate measures it) [-]"},
-    {"injection", LOCSIM_PARAM_STRING, 0, 0, 0, "uniform",
-     "where injected particles come from: uniform over the "
-     "free space (Thrun) or sensors, poses that fit the "
-     "step's detections (as srl resets)"}};
+    // sensors by default: in a room of tens of square metres uniform guesses almost never fit a
+    // detection (docs/reports/suite: 14 of 144 kidnaps recovered with uniform, 53 with sensors).
+    {"injection", LOCSIM_PARAM_STRING, 0, 0, 0, "sensors",
+     "where injected particles come from: sensors, poses that fit the step's detections (as srl "
+     "resets), or uniform over the free space (Thrun)"}};
 }  // namespace
 
 LOCSIM_LOCALIZER(AugmentedMcl, "augmented_mcl", "MCL with w_slow/w_fast random injection (Thrun)",
