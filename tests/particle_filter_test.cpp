@@ -243,7 +243,8 @@ TEST(ParticleFilters, TheDefaultsTrackInAGeneratedRoomWhereThePapersSettingsDrif
   // motion floor and outlier likelihood keep MCL tracking.
   const fs::path dir = testing::temp_dir("pf-defaults");
   double defaults_rms = 0.0, paper_rms = 0.0;
-  for (std::uint64_t world = 1; world <= 2; ++world) {
+  // Rooms 11 and 12: not among those (1-4) the defaults were chosen on.
+  for (std::uint64_t world = 11; world <= 12; ++world) {
     GeneratorDef def;
     def.seed = world;
     def.people = 0;
@@ -262,7 +263,7 @@ TEST(ParticleFilters, TheDefaultsTrackInAGeneratedRoomWhereThePapersSettingsDrif
       const auto metrics = testing::run_metrics(options);
       ASSERT_EQ(metrics["localizers"][0]["status"], "ok");
       (paper ? paper_rms : defaults_rms) +=
-          metrics["localizers"][0]["position_error_m"]["rms"].get<double>() / 2.0;
+          metrics["localizers"][0]["position_error_m"]["rms"].get<double>() / 2.0;  // two rooms
     }
   }
   EXPECT_LT(defaults_rms, 0.25);
