@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "locsim/localizer.hpp"
 #include "locsim/models.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/world/world_loader.hpp"
@@ -236,6 +237,7 @@ std::map<std::string, double> named(const EstimateSample& sample) {
 void check_abi1_plugin(bool isolate) {
   const std::string plugin = std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_abi1.so";
   EXPECT_EQ(PluginLibrary(plugin).abi_version(), 1u);
+  EXPECT_EQ(PluginLibrary(plugin).readings(), 0u);  // version 1 could not say
 
   WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
   world.robots.resize(1);
@@ -286,6 +288,43 @@ void check_abi1_plugin(bool isolate) {
   EXPECT_NEAR(sample.pose.y, expected(1), 1e-3);
   EXPECT_NEAR(sdk::wrap(sample.pose.theta - expected(2)), 0.0, 2e-3);
   EXPECT_NE(d["left_ticks"], d["right_ticks"]);  // it turned
+}
+
+// ---- what a filter reads: the C++ layer says it from the handlers a class overrides ----------
+struct ReadsLandmarks : sdk::Localizer {
+  void on_landmarks(double, const locsim_landmarks&) override {}
+  sdk::Estimate estimate() const override { return {}; }
+};
+struct AndOdometry : ReadsLandmarks {  // a handler a base overrides counts too
+  void on_odometry(double, const locsim_odometry&) override {}
+};
+struct LooksAtEverything : AndOdometry {
+  void update(const locsim_reading&) override {}
+};
+constexpr std::uint32_t bit(int kind) {
+  return LOCSIM_READING_BIT(kind);
+}
+static_assert(sdk::detail::handled_readings<ReadsLandmarks>() == bit(LOCSIM_READING_LANDMARKS));
+static_assert(sdk::detail::handled_readings<AndOdometry>() ==
+              (bit(LOCSIM_READING_LANDMARKS) | bit(LOCSIM_READING_ODOMETRY)));
+static_assert(sdk::detail::handled_readings<LooksAtEverything>() == 0u);
+
+TEST(Readings, EachBuiltInFilterSaysWhatItReads) {
+  const auto readings = [](const std::string& name) {
+    return PluginLibrary(find_plugin(name)).readings();
+  };
+  const std::uint32_t odometry = bit(LOCSIM_READING_ODOMETRY);
+  EXPECT_EQ(readings("odometry"), odometry);
+  for (const char* landmarks : {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl", "omni_kf",
+                                "fastslam", "fastslam_afsa", "pso_pf"}) {
+    EXPECT_EQ(readings(landmarks), odometry | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
+  }
+  EXPECT_EQ(readings("amcl"), odometry | bit(LOCSIM_READING_LASER));
+  EXPECT_EQ(readings("ultrasonic_ekf"),
+            bit(LOCSIM_READING_IMU) | bit(LOCSIM_READING_BEACON_RANGES));
+  EXPECT_EQ(readings("ultrasonic_amcl"), odometry | bit(LOCSIM_READING_IMU) |
+                                             bit(LOCSIM_READING_BEACON_RANGES) |
+                                             bit(LOCSIM_READING_LASER));
 }
 
 TEST(AbiVersion1, PluginGetsVersionOneStructsAndTicksItCanDeadReckonFrom) {

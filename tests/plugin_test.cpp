@@ -15,6 +15,7 @@
 #include "locsim/numeric_jacobian.hpp"
 #include "sim/common/math.hpp"
 #include "sim/metrics/error_metrics.hpp"
+#include "sim/metrics/scorer.hpp"
 #include "sim/plugin_host/localizer_host.hpp"
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
@@ -43,7 +44,7 @@ TEST(PluginLoading, EachFailureHasItsOwnMessage) {
   expect_contains(load_error(test_plugin("no_entry")),
                   "is not a locsim plugin: it exports no locsim_localizer_entry");
   expect_contains(load_error(test_plugin("bad_abi")),
-                  "was built for localizer ABI version 99; this locsim speaks versions 1 to 2");
+                  "was built for localizer ABI version 99; this locsim speaks versions 1 to 3");
   expect_contains(load_error(test_plugin("bad_size")), "has a localizer table of 24 bytes");
   const std::string unresolved = load_error(test_plugin("unresolved"));
   expect_contains(unresolved, "cannot load plugin");
@@ -309,6 +310,107 @@ TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   EXPECT_EQ(never.tracking_samples, 0u);
 }
 
+TEST(Metrics, AKidnapIsRecoverableByWhatTheFiltersOwnSensorsShowAfterTheLanding) {
+  // One robot, two kidnaps. After the first landing its camera shows one landmark (besides a
+  // false detection and another robot) and two beacons answer in line of sight (a third through
+  // a wall): nothing can find it again. After the second, two landmarks and a laser scan.
+  // Readings while carried count for nothing.
+  WorldDef world;
+  world.robots.emplace_back().name = "robot";
+  for (int id = 1; id <= 3; ++id) world.landmarks.push_back({id, Vec2(id, 0.0)});
+  const auto bit = [](int kind) { return LOCSIM_READING_BIT(kind); };
+  const std::uint32_t odometry = bit(LOCSIM_READING_ODOMETRY);
+  std::vector<LocalizerInfo> infos;
+  for (const auto& [label, readings] :
+       {std::pair{"landmarks", odometry | bit(LOCSIM_READING_LANDMARKS)},
+        {"beacons", odometry | bit(LOCSIM_READING_BEACON_RANGES)},
+        {"laser", odometry | bit(LOCSIM_READING_LASER)},
+        {"dead_reckoning", odometry},
+        {"unsaid", 0u}}) {
+    infos.push_back({0, "robot", label, label, "", "{}", readings});
+  }
+  Scorer scorer(world, infos, ConvergenceCriterion{});
+  const auto event = [&](double t_s, const char* kind) {
+    Record r;
+    r.type = Record::Type::kEvent;
+    r.event = {0, t_s, kind, "robot", ""};
+    scorer.consume(r);
+  };
+  const auto reading = [&](double t_s, SensorKind kind, ReadingData data) {
+    Record r;
+    r.type = Record::Type::kReading;
+    r.reading = {t_s, 0, kind, std::move(data)};
+    scorer.consume(r);
+  };
+  const auto camera = [&](double t_s, std::vector<std::pair<int, DetectionTarget>> truths) {
+    PtzReading ptz;
+    for (const auto& [truth, target] : truths) {
+      Detection d;
+      d.truth_id = truth;
+      d.target = target;
+      ptz.detections.push_back(d);
+    }
+    reading(t_s, SensorKind::kPtzCamera, ptz);
+  };
+  const auto samples = [&](double from_s, double to_s) {
+    for (double t = from_s; t < to_s - 1e-9; t += 0.1) {
+      for (std::size_t k = 0; k < infos.size(); ++k) {
+        EstimateSample sample;
+        sample.localizer = k;
+        sample.t_s = t;
+        sample.truth = {t, 0.0, 0.0};
+        sample.pose = {t + 5.0, 0.0, 0.0};
+        scorer.estimate(sample);
+      }
+    }
+  };
+  const auto lm = DetectionTarget::kLandmark;
+  samples(0.0, 1.0);
+  event(1.0, "kidnap");
+  camera(1.5, {{1, lm}, {2, lm}});  // carried: not counted
+  reading(1.5, SensorKind::kLaser, LaserScan{{1.0f}});
+  event(2.0, "put_down");
+  camera(2.1, {{1, lm}, {-1, lm}, {2, DetectionTarget::kRobot}});
+  camera(2.5, {{1, lm}});
+  UltrasonicReading ultrasonic;
+  ultrasonic.ranges = {{0, 7, 2.0, RangeStatus::kLineOfSight},
+                       {0, 8, 3.0, RangeStatus::kLineOfSight},
+                       {0, 9, 4.0, RangeStatus::kNonLineOfSight},
+                       {0, 10, std::nan(""), RangeStatus::kLineOfSight}};
+  reading(2.2, SensorKind::kUltrasonic, ultrasonic);
+  samples(2.0, 4.0);
+  event(4.0, "kidnap");
+  event(4.0, "put_down");
+  camera(4.1, {{1, lm}, {3, lm}});
+  reading(4.2, SensorKind::kLaser, LaserScan{{1.0f}});
+  samples(4.0, 5.0);
+
+  const fs::path dir = testing::temp_dir("recoverable");
+  std::vector<LocalizerFinal> ends(infos.size());
+  scorer.write({dir}, ends);
+  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "metrics.json"));
+  const auto& localizers = metrics["localizers"];
+  ASSERT_EQ(localizers.size(), infos.size());
+  const nlohmann::json first = localizers[0]["segments"][1]["sensed"];
+  EXPECT_EQ(first["landmarks"], 1);
+  EXPECT_EQ(first["beacons"], 2);
+  EXPECT_EQ(first["laser_scans"], 0);
+  const nlohmann::json second = localizers[0]["segments"][2]["sensed"];
+  EXPECT_EQ(second["landmarks"], 2);
+  EXPECT_EQ(second["laser_scans"], 1);
+  const std::vector<std::pair<bool, bool>> expected = {
+      {false, true}, {false, false}, {false, true}, {false, false}, {false, true}};
+  for (std::size_t k = 0; k < infos.size(); ++k) {
+    const auto& segments = localizers[k]["segments"];
+    ASSERT_EQ(segments.size(), 3u);
+    EXPECT_FALSE(segments[0].contains("recoverable"));
+    EXPECT_EQ(segments[1]["recoverable"], expected[k].first) << infos[k].label;
+    EXPECT_EQ(segments[2]["recoverable"], expected[k].second) << infos[k].label;
+  }
+  EXPECT_EQ(localizers[0]["readings"], nlohmann::json({"odometry", "landmarks"}));
+  EXPECT_TRUE(localizers[4]["readings"].is_null());
+}
+
 TEST(Models, ComposeAndBetweenAreInverse) {
   const sdk::Pose a(1, 2, 2.5), b(-3, 0.5, -2.9);
   const sdk::Pose back = sdk::compose(a, sdk::between(a, b));
@@ -349,6 +451,14 @@ TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
     EXPECT_NEAR((*l)["segments"][1]["turned_deg"].get<double>(),
                 std::abs(rad_to_deg(wrap_angle(to_theta - from_theta))), 1.0);
   }
+  // What each reads, and so whether the kidnap was recoverable for it: dead reckoning never
+  // finds a kidnapped robot; the EKF's camera showed it landmarks after the landing (and it
+  // did not recover: a failure that counts against it).
+  EXPECT_EQ(odometry["readings"], nlohmann::json({"odometry"}));
+  EXPECT_EQ(ekf["readings"], nlohmann::json({"odometry", "landmarks"}));
+  EXPECT_FALSE(odometry["segments"][1]["recoverable"].get<bool>());
+  EXPECT_GE(ekf["segments"][1]["sensed"]["landmarks"].get<int>(), 2);
+  EXPECT_TRUE(ekf["segments"][1]["recoverable"].get<bool>());
   // The EKF tracks before the kidnap: its tracking RMS is that of the converged samples.
   EXPECT_GT(ekf["segments"][0]["tracking"]["samples"].get<int>(), 100);
   EXPECT_LT(ekf["segments"][0]["tracking"]["position_rms_m"].get<double>(), ekf_rms + 1e-9);

@@ -296,10 +296,11 @@ std::string number(const json& value, int decimals = 6) {
 
 /// A run's kidnaps as a test of recovery, from its metrics: those that moved the robot beyond
 /// the convergence criterion (a carry within it leaves a tracking filter converged, testing
-/// nothing), and how many of those it recovered from; and how well it tracked once converged,
-/// pooled over its segments.
+/// nothing); of those, the ones the localizer's sensors showed enough after the landing to
+/// recover from (the segment's `recoverable`), and how many of these it recovered from; and how
+/// well it tracked once converged, pooled over its segments.
 struct RunRecovery {
-  std::size_t kidnaps = 0, recovered = 0;
+  std::size_t kidnaps = 0, recoverable = 0, recovered = 0;
   std::size_t tracking_samples = 0;
   double tracking_sum_sq = 0.0;
   std::optional<double> tracking_rms_m() const {
@@ -332,6 +333,9 @@ RunRecovery recovery_of(const json& metrics) {
                        carried.get<double>() > position_m || turned.get<double>() > heading_deg;
     if (!moved) continue;
     ++out.kidnaps;
+    // Without the scorer's judgement (metrics of an older locsim): recoverable.
+    if (!segment.value("recoverable", true)) continue;
+    ++out.recoverable;
     out.recovered += segment["recovery_s"].is_null() ? 0 : 1;
   }
   return out;
@@ -362,15 +366,19 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
   if (families.empty()) return;
   if (families.size() > 1) families.push_back("");  // "": every family
   std::ofstream csv(out_dir / "summary_by_family.csv", std::ios::binary);
-  csv << "config,family,worlds,runs,ok,kidnaps,kidnaps_recovered,kidnaps_recovered_share,"
-         "kidnaps_recovered_ci95_low,kidnaps_recovered_ci95_high,position_rms_m_mean,"
+  csv << "config,family,worlds,runs,ok,kidnaps,kidnaps_recoverable,kidnaps_recovered,"
+         "kidnaps_recovered_share,kidnaps_recovered_ci95_low,"
+         "kidnaps_recovered_ci95_high,position_rms_m_mean,"
          "position_rms_m_ci95,tracking_runs,tracking_position_rms_m_mean,"
          "tracking_position_rms_m_ci95,tracking_position_rms_m_median,inside_95_ellipse_mean\n";
   md << "\n### Per world family\n\n"
         "Each configuration on each family of the experiment's worlds, over worlds and seeds. "
         "Kidnaps: those that moved the robot beyond the convergence criterion (a shorter carry "
-        "tests no recovery), recovered when the error came back within the criterion; the "
-        "share with Wilson's 95 % interval. Tracking: the position RMS from each segment's "
+        "tests no recovery) and that the localizer's sensors made recoverable (after the "
+        "landing they showed two distinct landmarks, three beacons in line of sight, or a laser "
+        "scan; odometry alone never); recovered when the error came back within the criterion; "
+        "the share with Wilson's 95 % interval, and after '/ N' all kidnaps. Tracking: the "
+        "position RMS from each segment's "
         "convergence on (later losses included), over the runs that converged; mean ± 95 % "
         "confidence interval; median after ';'.\n\n"
         "| config | family | worlds | runs | ok | kidnaps recovered | position RMS [m] | "
@@ -379,7 +387,7 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
   for (const std::string& config : configs) {
     for (const std::string& family : families) {
       std::set<std::string> worlds;
-      std::size_t runs = 0, ok = 0, kidnaps = 0, recovered = 0;
+      std::size_t runs = 0, ok = 0, kidnaps = 0, recoverable = 0, recovered = 0;
       std::vector<double> position, tracking, inside;
       for (const json& r : results) {
         if (r["config"] != config || r.value("family", "").empty()) continue;
@@ -392,6 +400,7 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
         position.push_back(m["position_error_m"]["rms"]);
         const RunRecovery recovery = recovery_of(m);
         kidnaps += recovery.kidnaps;
+        recoverable += recovery.recoverable;
         recovered += recovery.recovered;
         if (const auto rms = recovery.tracking_rms_m()) tracking.push_back(*rms);
         if (const json c = m.value("consistency", json()); c.is_object())
@@ -399,25 +408,26 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
       }
       if (runs == 0) continue;
       const Aggregate p = aggregate(position), t = aggregate(tracking), in = aggregate(inside);
-      const auto [low, high] = wilson_95(recovered, kidnaps);
+      const auto [low, high] = wilson_95(recovered, recoverable);
       const std::string share =
-          kidnaps > 0 ? fixed(static_cast<double>(recovered) / static_cast<double>(kidnaps), 4)
-                      : std::string();
+          recoverable > 0
+              ? fixed(static_cast<double>(recovered) / static_cast<double>(recoverable), 4)
+              : std::string();
       const std::string name = family.empty() ? "all" : family;
       csv << csv_field(config) << ',' << csv_field(name) << ',' << worlds.size() << ',' << runs
-          << ',' << ok << ',' << kidnaps << ',' << recovered << ',' << share << ','
-          << (kidnaps > 0 ? fixed(low, 4) + ',' + fixed(high, 4) : std::string(",")) << ','
-          << fixed(p.mean, 6) << ',' << fixed(p.ci95, 6) << ',' << t.n << ','
+          << ',' << ok << ',' << kidnaps << ',' << recoverable << ',' << recovered << ',' << share
+          << ',' << (recoverable > 0 ? fixed(low, 4) + ',' + fixed(high, 4) : std::string(","))
+          << ',' << fixed(p.mean, 6) << ',' << fixed(p.ci95, 6) << ',' << t.n << ','
           << (t.n > 0 ? fixed(t.mean, 6) + ',' + fixed(t.ci95, 6) + ',' + fixed(t.median, 6)
                       : std::string(",,"))
           << ',' << (in.n > 0 ? fixed(in.mean, 4) : std::string()) << '\n';
       md << "| " << config << " | " << (family.empty() ? "**all**" : family) << " | "
          << worlds.size() << " | " << runs << " | " << ok << " | "
-         << (kidnaps > 0 ? std::to_string(recovered) + "/" + std::to_string(kidnaps) + " (" +
-                               fixed(low, 2) + "–" + fixed(high, 2) + ")"
-                         : std::string("—"))
-         << " | " << fixed(p.mean, 3) << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3)
-         << " | "
+         << (recoverable > 0 ? std::to_string(recovered) + "/" + std::to_string(recoverable) +
+                                   " (" + fixed(low, 2) + "–" + fixed(high, 2) + ")"
+                             : std::string("—"))
+         << (kidnaps > 0 ? " / " + std::to_string(kidnaps) : std::string()) << " | "
+         << fixed(p.mean, 3) << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3) << " | "
          << (t.n > 0 ? fixed(t.mean, 3) + " ± " + fixed(t.ci95, 3) + "; " + fixed(t.median, 3) +
                            (t.n < ok ? " (" + std::to_string(t.n) + " runs)" : std::string())
                      : std::string("—"))
@@ -439,7 +449,8 @@ void write_tables(const fs::path& out_dir) {
     csv << "index,id,config,log,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
            "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m,nees_mean,"
-           "nees_median,inside_95_ellipse,world,family,kidnaps,kidnaps_recovered,"
+           "nees_median,inside_95_ellipse,world,family,kidnaps,kidnaps_recoverable,"
+           "kidnaps_recovered,"
            "tracking_position_rms_m\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
@@ -485,8 +496,9 @@ void write_tables(const fs::path& out_dir) {
       const std::optional<double> tracking = recovery.tracking_rms_m();
       csv << csv_field(r.value("world", "")) << ',' << csv_field(r.value("family", "")) << ','
           << (m.is_object() && !m.empty()
-                  ? std::to_string(recovery.kidnaps) + ',' + std::to_string(recovery.recovered)
-                  : std::string(","))
+                  ? std::to_string(recovery.kidnaps) + ',' + std::to_string(recovery.recoverable) +
+                        ',' + std::to_string(recovery.recovered)
+                  : std::string(",,"))
           << ',' << (tracking ? fixed(*tracking, 6) : std::string()) << '\n';
     }
   }

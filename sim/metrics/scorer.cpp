@@ -15,6 +15,15 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
+// What a kind of reading must show after a kidnap's landing for a filter using it to be able to
+// find the robot again. Landmarks: two distinct ones (range and bearing to one known landmark
+// leave the robot anywhere on a circle round it, facing it). Beacons: three distinct ones in line
+// of sight (two ranges cross twice). Laser: one scan (the walls it sees may still be ambiguous in
+// a symmetric world; not told apart). Odometry and IMU alone never find a kidnapped robot.
+constexpr std::size_t kLandmarksToRecover = 2;
+constexpr std::size_t kBeaconsToRecover = 3;
+constexpr long kLaserScansToRecover = 1;
+
 json error_json(const ErrorSummary& e) {
   return {{"samples", e.samples},
           {"position_error_m",
@@ -76,7 +85,8 @@ Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
     : criterion_(criterion),
       kidnaps_(world.robots.size()),
       put_downs_(world.robots.size()),
-      observed_(world.robots.size()) {
+      observed_(world.robots.size()),
+      sensed_(world.robots.size()) {
   for (const LandmarkDef& l : world.landmarks) {
     true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
   }
@@ -100,18 +110,55 @@ void Scorer::consume(const Record& record) {
     return;
   }
   if (record.type != Record::Type::kReading) return;
+  const auto r = static_cast<std::size_t>(record.reading.robot);
+  if (r >= robot_names_.size()) return;
+  // After the latest kidnap's put-down (not while carried): what the sensors show now decides
+  // whether that kidnap can be recovered from.
+  Sensed* sensed = nullptr;
+  if (!kidnaps_[r].empty() && put_downs_[r].size() >= kidnaps_[r].size()) {
+    sensed_[r].resize(kidnaps_[r].size() + 1);
+    sensed = &sensed_[r][kidnaps_[r].size()];
+  }
   // What the cameras have shown the robot: a SLAM filter's map is judged against these.
-  const auto note = [&](const std::vector<Detection>& detections) {
+  const auto note = [&](const std::vector<Detection>& detections, bool map_camera) {
     for (const Detection& d : detections) {
-      if (d.truth_id >= 0)
-        observed_[static_cast<std::size_t>(record.reading.robot)].insert(d.truth_id);
+      if (d.truth_id < 0 || d.target != DetectionTarget::kLandmark) continue;
+      if (map_camera) observed_[r].insert(d.truth_id);
+      if (sensed != nullptr) sensed->landmarks.insert(d.truth_id);
     }
   };
   if (const auto* ptz = std::get_if<PtzReading>(&record.reading.data)) {
-    note(ptz->detections);
+    note(ptz->detections, true);
   } else if (const auto* omni = std::get_if<OmniReading>(&record.reading.data)) {
-    note(omni->detections);
+    note(omni->detections, true);
+  } else if (const auto* rb = std::get_if<RangeBearingReading>(&record.reading.data)) {
+    note(rb->detections, false);
+  } else if (sensed == nullptr) {
+    return;
+  } else if (const auto* ultrasonic = std::get_if<UltrasonicReading>(&record.reading.data)) {
+    for (const BeaconRange& range : ultrasonic->ranges) {
+      if (std::isfinite(range.range_m) && range.truth_status == RangeStatus::kLineOfSight)
+        sensed->beacons.insert(range.beacon_id);
+    }
+  } else if (std::holds_alternative<LaserScan>(record.reading.data)) {
+    ++sensed->laser_scans;
   }
+}
+
+const Scorer::Sensed& Scorer::sensed_since_kidnap(const Track& track) const {
+  static const Sensed kNothing;  // no reading since the put-down (or a kidnap at the very end)
+  const std::vector<Sensed>& by_kidnap = sensed_[track.info.robot];
+  return track.kidnaps_passed < by_kidnap.size() ? by_kidnap[track.kidnaps_passed] : kNothing;
+}
+
+std::optional<bool> Scorer::recoverable(const Track& track) const {
+  if (track.kidnaps_passed == 0) return std::nullopt;
+  const Sensed& sensed = sensed_since_kidnap(track);
+  const std::uint32_t uses = track.info.readings != 0 ? track.info.readings : ~0u;
+  const auto used = [&](int kind) { return (uses & LOCSIM_READING_BIT(kind)) != 0; };
+  return (used(LOCSIM_READING_LANDMARKS) && sensed.landmarks.size() >= kLandmarksToRecover) ||
+         (used(LOCSIM_READING_BEACON_RANGES) && sensed.beacons.size() >= kBeaconsToRecover) ||
+         (used(LOCSIM_READING_LASER) && sensed.laser_scans >= kLaserScansToRecover);
 }
 
 json Scorer::segment_json(const Track& track) const {
@@ -130,6 +177,11 @@ json Scorer::segment_json(const Track& track) const {
   if (track.kidnaps_passed > 0) {
     out["carried_m"] = track.carried_m ? json(*track.carried_m) : json(nullptr);
     out["turned_deg"] = track.turned_rad ? json(rad_to_deg(*track.turned_rad)) : json(nullptr);
+    const Sensed& sensed = sensed_since_kidnap(track);
+    out["sensed"] = {{"landmarks", sensed.landmarks.size()},
+                     {"beacons", sensed.beacons.size()},
+                     {"laser_scans", sensed.laser_scans}};
+    out["recoverable"] = *recoverable(track);
   }
   return out;
 }
@@ -181,6 +233,16 @@ json Scorer::metrics_json(const Track& track, const LocalizerFinal& end) const {
   json out;
   out["label"] = track.info.label;
   out["plugin"] = track.info.plugin;
+  // The kinds of reading the plugin says it uses (null: it does not say, so all of them).
+  json readings = json::array();
+  for (const auto& [kind, name] : {std::pair{LOCSIM_READING_ODOMETRY, "odometry"},
+                                   {LOCSIM_READING_IMU, "imu"},
+                                   {LOCSIM_READING_LANDMARKS, "landmarks"},
+                                   {LOCSIM_READING_BEACON_RANGES, "beacon_ranges"},
+                                   {LOCSIM_READING_LASER, "laser"}}) {
+    if ((track.info.readings & LOCSIM_READING_BIT(kind)) != 0) readings.push_back(name);
+  }
+  out["readings"] = track.info.readings != 0 ? readings : json(nullptr);
   out["params"] = json::parse(track.info.params_json);
   out["status"] = !track.failure ? "ok" : track.failure->interrupted ? "interrupted" : "failed";
   if (track.failure) {

@@ -55,7 +55,18 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
     std::vector<std::pair<std::string, double>> last_diagnostics;
     std::map<std::string, std::pair<double, long>> diagnostic_sums;  // sum, samples
   };
+  /// What a robot's sensors showed between a kidnap's put-down and the next kidnap (or the end):
+  /// a kidnap is recoverable for a localizer when a kind of reading it uses showed enough.
+  struct Sensed {
+    std::set<int> landmarks;  // true landmarks detected (any camera; false detections aside)
+    std::set<int> beacons;    // beacons ranged in line of sight
+    long laser_scans = 0;
+  };
   nlohmann::ordered_json segment_json(const Track& track) const;
+  /// Whether the kidnap that opened the track's current segment is one its localizer's kinds of
+  /// reading (all kinds when it does not say) showed enough to recover from; nullopt before any.
+  std::optional<bool> recoverable(const Track& track) const;
+  const Sensed& sensed_since_kidnap(const Track& track) const;
   nlohmann::ordered_json metrics_json(const Track& track, const LocalizerFinal& end) const;
 
   ConvergenceCriterion criterion_;
@@ -64,6 +75,7 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
   std::vector<std::vector<double>> kidnaps_;    // by robot: kidnap times [s]
   std::vector<std::vector<double>> put_downs_;  // by robot: when each kidnap landed [s]
   std::vector<std::set<int>> observed_;         // by robot: true landmarks its cameras detected
+  std::vector<std::vector<Sensed>> sensed_;     // by robot, by kidnap: after its put-down
   std::vector<Track> tracks_;
 };
 

@@ -94,7 +94,8 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
                   specs[k].label,
                   resolved[k].library->table().name,
                   resolved[k].library->path().string(),
-                  resolved[k].params_json};
+                  resolved[k].params_json,
+                  resolved[k].library->readings()};
       def.spec = specs[k];
       def.library = resolved[k].library;
       def.robot = &robot;

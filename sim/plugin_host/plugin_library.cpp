@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdlib>
 #include <set>
 #include <sstream>
@@ -50,11 +51,15 @@ PluginLibrary::PluginLibrary(const fs::path& file) : path_(file) {
          std::to_string(LOCSIM_LOCALIZER_ABI_VERSION_OLDEST) + " to " +
          std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + ": rebuild it against this SDK");
   }
-  if (table_->struct_size != sizeof(locsim_localizer)) {
+  // Versions 1 and 2 end before `readings`.
+  const std::size_t table_size =
+      abi_version_ >= 3 ? sizeof(locsim_localizer) : offsetof(locsim_localizer, readings);
+  if (table_->struct_size != table_size) {
     fail("plugin '" + file.string() + "' has a localizer table of " +
          std::to_string(table_->struct_size) + " bytes; ABI version " +
-         std::to_string(abi_version_) + " has " + std::to_string(sizeof(locsim_localizer)));
+         std::to_string(abi_version_) + " has " + std::to_string(table_size));
   }
+  if (abi_version_ >= 3) readings_ = table_->readings;
   const std::pair<const void*, const char*> required[] = {
       {table_->name, "name"},
       {table_->description, "description"},

@@ -25,12 +25,16 @@ class PluginLibrary {
   /// The ABI version the plugin was built for, LOCSIM_LOCALIZER_ABI_VERSION_OLDEST to
   /// LOCSIM_LOCALIZER_ABI_VERSION: the host gives it the structs of that version.
   std::uint32_t abi_version() const { return abi_version_; }
+  /// The kinds of reading the plugin says it uses (LOCSIM_READING_BIT), 0 when it does not say
+  /// (built for a version before 3, or it looks at every reading itself).
+  std::uint32_t readings() const { return readings_; }
 
  private:
   std::filesystem::path path_;
   void* handle_ = nullptr;
   const locsim_localizer* table_ = nullptr;
   std::uint32_t abi_version_ = 0;
+  std::uint32_t readings_ = 0;
 };
 
 /// Where plugins are looked for, in order: each folder of LOCSIM_PLUGIN_PATH (colon-separated),

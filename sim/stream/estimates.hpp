@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -25,7 +26,8 @@ struct LocalizerInfo {
   std::string label;       // unique per robot; names its files
   std::string plugin;      // the plugin's name (its table's)
   std::string plugin_file;
-  std::string params_json;  // every parameter with defaults filled in, as JSON text
+  std::string params_json;     // every parameter with defaults filled in, as JSON text
+  std::uint32_t readings = 0;  // the kinds it uses, LOCSIM_READING_BIT(kind) or-ed; 0: not said
 };
 
 struct EstimateSample {

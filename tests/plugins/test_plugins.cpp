@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -316,7 +317,7 @@ constexpr locsim_param_decl kParams[] = {
 
 #if defined(LOCSIM_TEST_BAD_ABI) || defined(LOCSIM_TEST_BAD_SIZE) || defined(LOCSIM_TEST_ABI1)
 // A table from another SDK: the host must refuse it with both versions / sizes, or (ABI1) serve
-// it with the structs of its version (the table itself is the same in versions 1 and 2).
+// it with the structs of its version (its table is version 2's: without `readings`).
 extern "C" LOCSIM_EXPORT const locsim_localizer* locsim_localizer_entry(uint32_t) {
   static locsim_localizer table =
       locsim::sdk::detail::make_table<Plugin>(LOCSIM_TEST_NAME, "bad", kParams, 4);
@@ -324,6 +325,7 @@ extern "C" LOCSIM_EXPORT const locsim_localizer* locsim_localizer_entry(uint32_t
   table.abi_version = 99;
 #elif defined(LOCSIM_TEST_ABI1)
   table.abi_version = 1;
+  table.struct_size = offsetof(locsim_localizer, readings);  // version 1's table ends there
 #else
   table.struct_size = 24;
 #endif

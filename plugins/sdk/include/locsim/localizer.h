@@ -23,8 +23,9 @@ extern "C" {
  * 2: odometry says which fields its source measured (ticks, pose, velocity) and carries the
  *    velocity; detections say what they are of (a landmark or another robot); a third camera
  *    kind, the range-bearing sensor. The host still serves plugins built for version 1
- *    (docs/plugins.md, "ABI versions"). */
-#define LOCSIM_LOCALIZER_ABI_VERSION 2u
+ *    (docs/plugins.md, "ABI versions").
+ * 3: the table ends with `readings`, the kinds of reading the filter uses. */
+#define LOCSIM_LOCALIZER_ABI_VERSION 3u
 /* The oldest version a host serves. */
 #define LOCSIM_LOCALIZER_ABI_VERSION_OLDEST 1u
 
@@ -122,6 +123,9 @@ typedef enum locsim_reading_kind {
   LOCSIM_READING_BEACON_RANGES = 4,
   LOCSIM_READING_LASER = 5
 } locsim_reading_kind;
+
+/* A kind's bit in locsim_localizer.readings. */
+#define LOCSIM_READING_BIT(kind) (1u << (unsigned)(kind))
 
 /* What an odometry reading's source measured (bits of locsim_odometry.fields). */
 typedef enum locsim_odometry_field {
@@ -267,6 +271,11 @@ typedef struct locsim_localizer {
                      char* error, size_t error_size);
   /* optional: SLAM filters' landmark map (the best particle's, or the filter's mean). */
   int (*landmark_map)(void* instance, locsim_landmark_map* out, char* error, size_t error_size);
+
+  /* Since version 3. The kinds of reading the filter uses, LOCSIM_READING_BIT(kind) or-ed; 0: not
+   * said (taken as every kind). The host still delivers every reading; the scorer counts a
+   * kidnap as recoverable by what these sensors showed after the landing (docs/metrics.md). */
+  uint32_t readings;
 } locsim_localizer;
 
 /* The one exported symbol. Receives the host's ABI version; returns the table (static storage)

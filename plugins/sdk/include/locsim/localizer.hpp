@@ -22,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -189,6 +190,29 @@ int landmark_map(void* instance, locsim_landmark_map* out, char* error, size_t s
   });
 }
 
+/// The kinds of reading `T` handles: the on_* handlers it (or a base of it between it and
+/// Localizer) overrides. `&T::on_x` names the member of the class that declares it, so its type
+/// is Localizer's exactly when T inherits the handler. A class that overrides `update` itself may
+/// look at anything: 0, not said.
+template <class T>
+constexpr uint32_t handled_readings() {
+  const auto overrides = [](auto derived, auto base) {
+    return !std::is_same_v<decltype(derived), decltype(base)>;
+  };
+  if (overrides(&T::update, &Localizer::update)) return 0u;
+  uint32_t bits = 0u;
+  if (overrides(&T::on_odometry, &Localizer::on_odometry))
+    bits |= LOCSIM_READING_BIT(LOCSIM_READING_ODOMETRY);
+  if (overrides(&T::on_imu, &Localizer::on_imu)) bits |= LOCSIM_READING_BIT(LOCSIM_READING_IMU);
+  if (overrides(&T::on_landmarks, &Localizer::on_landmarks))
+    bits |= LOCSIM_READING_BIT(LOCSIM_READING_LANDMARKS);
+  if (overrides(&T::on_beacon_ranges, &Localizer::on_beacon_ranges))
+    bits |= LOCSIM_READING_BIT(LOCSIM_READING_BEACON_RANGES);
+  if (overrides(&T::on_laser, &Localizer::on_laser))
+    bits |= LOCSIM_READING_BIT(LOCSIM_READING_LASER);
+  return bits;
+}
+
 template <class T>
 constexpr locsim_localizer make_table(const char* name, const char* description,
                                       const locsim_param_decl* params, size_t param_count) {
@@ -205,7 +229,8 @@ constexpr locsim_localizer make_table(const char* name, const char* description,
                           &Adapter<T>::estimate,
                           &Adapter<T>::particles,
                           &Adapter<T>::diagnostics,
-                          &landmark_map<T>};
+                          &landmark_map<T>,
+                          handled_readings<T>()};
 }
 
 }  // namespace detail
