@@ -89,23 +89,111 @@ void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& rea
   }
 }
 
-bool UltrasonicEkf::restart(const std::vector<Range>& ranges) {
-  const std::optional<sdk::Pose> fix = trilaterate_pose(ranges);
-  if (!fix) return false;
-  // Only from a round that the fix explains: a non-line-of-sight range drags the least-squares
-  // solution (and the yaw, from receivers 0.3 m apart, most), so such a round is skipped.
+int UltrasonicEkf::explained(const sdk::Pose& pose, const std::vector<Range>& ranges) const {
   const double tolerance = std::sqrt(def_.gate_chi2) * def_.sigma_range_m;
   int inliers = 0;
   for (const Range& r : ranges) {
     const double predicted =
-        sdk::beacon_range(*fix, r.receiver, r.beacon->position, r.dz_m).range_m;
+        sdk::beacon_range(pose, r.receiver, r.beacon->position, r.dz_m).range_m;
     if (std::abs(r.range_m - predicted) <= tolerance) ++inliers;
   }
-  if (inliers < 4 || 4 * inliers < 3 * static_cast<int>(ranges.size())) return false;
+  return inliers;
+}
+
+bool UltrasonicEkf::restart(const std::vector<Range>& ranges) {
+  std::optional<sdk::Pose> fix = trilaterate_pose(ranges);
+  // Only from a round that the fix explains: a non-line-of-sight range drags the least-squares
+  // solution (and the yaw, from receivers 0.3 m apart, most), so such a round is skipped.
+  const int inliers = fix ? explained(*fix, ranges) : 0;
+  if (inliers < 4 || 4 * inliers < 3 * static_cast<int>(ranges.size())) {
+    // Echoes outnumber the direct paths: the fix most ranges agree with, if it explains the
+    // round more than twice as well as the estimate it would replace (one that has drifted a
+    // little still explains some: a restart would cost it its heading and velocity).
+    const auto robust = echo_robust_fix(ranges);
+    if (!robust || robust->second < 4) return false;
+    if (initialised_ && 2 * explained(pose(), ranges) >= explained(robust->first, ranges))
+      return false;
+    fix = robust->first;
+    ++echo_restarts_;
+  }
   // Wider than one fix's noise, so that the gate lets the next rounds' good ranges in.
   const double sigma = 3.0 * def_.sigma_position_m;
   reset(*fix, Eigen::Vector3d(sq(sigma), sq(sigma), sq(def_.sigma_yaw_rad)).asDiagonal());
   return true;
+}
+
+std::optional<std::pair<sdk::Pose, int>> UltrasonicEkf::echo_robust_fix(
+    const std::vector<Range>& ranges) const {
+  const double tolerance = std::sqrt(def_.gate_chi2) * def_.sigma_range_m;
+  struct Found {
+    Eigen::Vector2d world, in_robot;
+    int inliers;
+  };
+  std::map<int, std::vector<const Range*>> by_receiver;
+  for (const Range& r : ranges) by_receiver[r.receiver_index].push_back(&r);
+  std::vector<Found> found;
+  for (const auto& [index, own] : by_receiver) {
+    std::vector<Eigen::Vector2d> anchors;
+    std::vector<double> distances;
+    for (const Range* r : own) {
+      anchors.push_back(r->beacon->position);
+      distances.push_back(std::sqrt(std::max(0.0, sq(r->range_m) - sq(r->dz_m))));
+    }
+    // The ranges that agree with a position; none when one contradicts it: an echo only
+    // lengthens a range, so no range may be shorter than the direct distance allows (a few
+    // echoes agree with a wrong position by chance; across a round's ranges, one contradicts it).
+    const auto agreeing = [&](const Eigen::Vector2d& p) {
+      std::vector<std::size_t> out;
+      for (std::size_t m = 0; m < anchors.size(); ++m) {
+        const double excess = distances[m] - (p - anchors[m]).norm();
+        if (excess < -tolerance) return std::vector<std::size_t>{};
+        if (excess <= tolerance) out.push_back(m);
+      }
+      return out;
+    };
+    // Three circles meet where the two lines their differences make cross: a 2x2 solve, no
+    // iterations, as a round of twelve beacons has 220 triples (the refinement below is exact).
+    const auto meet = [&](std::size_t i, std::size_t j,
+                          std::size_t k) -> std::optional<Eigen::Vector2d> {
+      const Eigen::Vector2d u = 2.0 * (anchors[j] - anchors[i]),
+                            v = 2.0 * (anchors[k] - anchors[i]);
+      const double det = u.x() * v.y() - u.y() * v.x();
+      if (std::abs(det) < 1e-6 * std::sqrt(u.squaredNorm() * v.squaredNorm())) return std::nullopt;
+      const double di = sq(distances[i]) - anchors[i].squaredNorm();
+      const double bu = di - sq(distances[j]) + anchors[j].squaredNorm(),
+                   bv = di - sq(distances[k]) + anchors[k].squaredNorm();
+      return Eigen::Vector2d((bu * v.y() - bv * u.y()) / det, (u.x() * bv - v.x() * bu) / det);
+    };
+    std::vector<std::size_t> best;
+    const std::size_t n = anchors.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t j = i + 1; j < n; ++j) {
+        for (std::size_t k = j + 1; k < n; ++k) {
+          const auto p = meet(i, j, k);
+          if (!p || !p->allFinite()) continue;
+          if (auto inliers = agreeing(*p); inliers.size() > best.size()) best = std::move(inliers);
+        }
+      }
+    }
+    if (best.size() < 3) continue;
+    std::vector<Eigen::Vector2d> best_anchors;
+    std::vector<double> best_distances;
+    for (const std::size_t m : best) {
+      best_anchors.push_back(anchors[m]);
+      best_distances.push_back(distances[m]);
+    }
+    if (const auto p = sdk::trilaterate(best_anchors, best_distances)) {
+      found.push_back({*p, own.front()->receiver, static_cast<int>(agreeing(*p).size())});
+    }
+  }
+  if (found.size() < 2) return std::nullopt;
+  // The two receivers' positions must be as far apart as they are mounted.
+  const double apart_world = (found[0].world - found[1].world).norm(),
+               apart_robot = (found[0].in_robot - found[1].in_robot).norm();
+  if (std::abs(apart_world - apart_robot) > 2.0 * tolerance) return std::nullopt;
+  return std::pair{
+      sdk::align_two_points(found[0].world, found[1].world, found[0].in_robot, found[1].in_robot),
+      std::min(found[0].inliers, found[1].inliers)};
 }
 
 std::optional<sdk::Pose> UltrasonicEkf::trilaterate_pose(const std::vector<Range>& ranges) const {
@@ -277,7 +365,8 @@ std::vector<std::pair<std::string, double>> UltrasonicEkf::diagnostics() const {
           {"fixes_gated", static_cast<double>(fixes_gated_)},
           {"ranges_used", static_cast<double>(ranges_used_)},
           {"ranges_gated", static_cast<double>(ranges_gated_)},
-          {"restarts", static_cast<double>(restarts_)}};
+          {"restarts", static_cast<double>(restarts_)},
+          {"echo_restarts", static_cast<double>(echo_restarts_)}};
 }
 
 }  // namespace ultrasonic

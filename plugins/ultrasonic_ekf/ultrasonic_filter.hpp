@@ -9,7 +9,9 @@
 //    (sdk::beacon_range), each passed through a Mahalanobis gate against the prediction before a
 //    joint update. A non-line-of-sight range is longer by at least a reflected path's extra
 //    length, many sigmas for a tracking filter, so the gate drops it. When most ranges fail the
-//    gate round after round, the filter is lost (kidnapped): it restarts from trilateration.
+//    gate round after round, the filter is lost (kidnapped): it restarts from trilateration,
+//    or, where echoes outnumber the direct paths (rooms behind walls), from the fix most of the
+//    ranges agree with.
 #pragma once
 
 #include <Eigen/Dense>
@@ -106,8 +108,18 @@ class UltrasonicEkf {
   std::optional<sdk::Pose> trilaterate_pose(const std::vector<Range>& ranges) const;
   void update_trilateration(double t_s, const std::vector<Range>& ranges);
   void update_ranges(const std::vector<Range>& ranges);
-  /// Starts over from this round's trilateration if the fix explains most of its ranges.
+  /// Starts over from this round's trilateration if the fix explains most of its ranges; else,
+  /// from the fix that the most of them agree with (echo_robust_fix), if it explains more of
+  /// them than the estimate does and at least four per receiver.
   bool restart(const std::vector<Range>& ranges);
+  /// A fix robust to echoes, for rooms where most ranges come back off walls: per receiver, of
+  /// the positions trilaterated from every three of its ranges, the one the most of its ranges
+  /// agree with and none contradicts (an echo only lengthens a range), refined on those; the
+  /// pose from the two receivers. With the number of
+  /// ranges it explains, the fewer of the two receivers'.
+  std::optional<std::pair<sdk::Pose, int>> echo_robust_fix(const std::vector<Range>& ranges) const;
+  /// How many of the ranges a pose explains (within the restart's tolerance).
+  int explained(const sdk::Pose& pose, const std::vector<Range>& ranges) const;
   /// The EKF update for innovation z - h(s) with Jacobian H and noise R (Joseph form).
   void correct(const Eigen::MatrixXd& h, const Eigen::VectorXd& innovation,
                const Eigen::MatrixXd& r);
@@ -124,7 +136,7 @@ class UltrasonicEkf {
   double last_fix_s_ = 0.0;
   int round_ranges_ = 0, round_accepted_ = 0, lost_rounds_ = 0;
   long fixes_ = 0, missed_ = 0, fixes_gated_ = 0, ranges_used_ = 0, ranges_gated_ = 0,
-       restarts_ = 0;
+       restarts_ = 0, echo_restarts_ = 0;
 };
 
 }  // namespace ultrasonic
