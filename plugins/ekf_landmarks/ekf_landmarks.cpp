@@ -25,13 +25,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     const locsim::sdk::Params params(init);
     k_left_ = params.number("k_left");
     k_right_ = params.number("k_right");
-    sigma_range_m_ = params.number("sigma_range_m");
-    sigma_range_per_m_ = params.number("sigma_range_per_m");
-    sigma_range_per_m2_ = params.number("sigma_range_per_m2");
-    sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
-    omni_sigma_major_m_ = params.number("omni_sigma_major_m");
-    omni_sigma_major_per_m_ = params.number("omni_sigma_major_per_m");
-    omni_sigma_minor_m_ = params.number("omni_sigma_minor_m");
+    noise_ = locsim::sdk::DetectionNoise::from(params);
     gate_ = params.number("gate_chi2");
     use_ptz_ = params.flag("use_ptz");
     use_omni_ = params.flag("use_omni");
@@ -87,17 +81,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 
   /// R: the detection's range and bearing variances, by the camera that made it.
   Eigen::Matrix2d noise(std::int32_t camera, double range_m) const {
-    double sigma_r = 0.0, sigma_b = 0.0;
-    if (camera == LOCSIM_CAMERA_OMNI) {
-      sigma_r = omni_sigma_major_m_ + omni_sigma_major_per_m_ * range_m;
-      // Across the ray the spread is a distance: as a bearing it is wider near the robot. The
-      // floor keeps a detection at the robot from being a certainty in bearing or an infinity.
-      sigma_b = std::atan2(omni_sigma_minor_m_, std::max(range_m, 1e-3));
-    } else {
-      sigma_r = sigma_range_m_ + (sigma_range_per_m_ + sigma_range_per_m2_ * range_m) * range_m;
-      sigma_b = sigma_bearing_rad_;
-    }
-    return Eigen::Vector2d(sigma_r * sigma_r, sigma_b * sigma_b).asDiagonal();
+    const auto sigma = noise_.at(camera, range_m);
+    return Eigen::Vector2d(sigma.range_m * sigma.range_m, sigma.bearing_rad * sigma.bearing_rad)
+        .asDiagonal();
   }
 
   void correct(const locsim_detection& detection, const Eigen::Matrix2d& R) {
@@ -133,9 +119,8 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
   }
 
-  double k_left_, k_right_, sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_,
-      sigma_bearing_rad_, omni_sigma_major_m_, omni_sigma_major_per_m_, omni_sigma_minor_m_, gate_,
-      wheel_base_m_;
+  double k_left_, k_right_, gate_, wheel_base_m_;
+  locsim::sdk::DetectionNoise noise_;
   bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
   Pose x_;

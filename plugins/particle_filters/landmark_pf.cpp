@@ -18,9 +18,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
             params.flag("variance_form"),
             params.number("motion_floor_m"),
             params.number("motion_floor_deg") * std::numbers::pi / 180.0};
-  sigma_range_m_ = params.number("sigma_range_m");
-  sigma_range_per_m_ = params.number("sigma_range_per_m");
-  sigma_range_per_m2_ = params.number("sigma_range_per_m2");
+  detection_noise_ = sdk::DetectionNoise::from(params);
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
   log_outlier_likelihood_ = std::log(params.number("outlier_likelihood"));
@@ -35,7 +33,6 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
   if (wheel_motion_) wheels_.emplace(wheel_base_m_);
   reset_after_steps_ = params.integer("reset_after_steps");
   reset_min_detections_ = static_cast<std::size_t>(params.integer("reset_min_detections"));
-  sigma_bearing_rad_ = params.number("sigma_bearing_deg") * std::numbers::pi / 180.0;
   use_ptz_ = params.flag("use_ptz");
   use_omni_ = params.flag("use_omni");
   use_range_bearing_ = params.flag("use_range_bearing");
@@ -97,9 +94,10 @@ void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
     if (s.candidates.empty()) continue;  // a landmark not on the map tells nothing
     s.range_m = d.range_m;
     s.bearing_rad = d.bearing_rad;
-    // The range noise follows the measured range, the same for every particle.
-    s.sigma_range_m =
-        sigma_range_m_ + (sigma_range_per_m_ + sigma_range_per_m2_ * d.range_m) * d.range_m;
+    // The noise follows the camera and the measured range, the same for every particle.
+    const auto sigma = detection_noise_.at(reading.camera, d.range_m);
+    s.sigma_range_m = sigma.range_m;
+    s.sigma_bearing_rad = sigma.bearing_rad;
     ++step_count_;
   }
 }
@@ -118,7 +116,7 @@ double LandmarkParticleFilter::log_likelihood(double x, double y, double theta) 
     for (const std::size_t j : d.candidates) {
       best = std::max(
           best, sdk::landmark_log_match(x, y, theta, d.range_m, d.bearing_rad, landmarks_[j].x,
-                                        landmarks_[j].y, d.sigma_range_m, sigma_bearing_rad_));
+                                        landmarks_[j].y, d.sigma_range_m, d.sigma_bearing_rad));
     }
     total += with_outlier(best);
   }
@@ -137,7 +135,7 @@ void LandmarkParticleFilter::weigh_particles() {
     for (std::size_t c = 0; c < d.candidates.size(); ++c) {
       const Landmark& l = landmarks_[d.candidates[c]];
       sdk::landmark_log_match(particles, headings_, d.range_m, d.bearing_rad, l.x, l.y,
-                              d.sigma_range_m, sigma_bearing_rad_,
+                              d.sigma_range_m, d.sigma_bearing_rad,
                               c == 0 ? match : candidate_match_);
       if (c > 0) {  // an ambiguous colour: the best-matching landmark of that colour
         Eigen::Map<Eigen::ArrayXd>(match.data(), n) =
@@ -212,7 +210,7 @@ sdk::Pose LandmarkParticleFilter::sample_from_sensors() {
         d.candidates.size() - 1,
         static_cast<std::size_t>(random.uniform() * static_cast<double>(d.candidates.size())))]];
     const double r = std::max(0.05, d.range_m + random.normal(d.sigma_range_m));
-    const double phi = d.bearing_rad + random.normal(sigma_bearing_rad_);
+    const double phi = d.bearing_rad + random.normal(d.sigma_bearing_rad);
     const double alpha =
         random.uniform(-std::numbers::pi, std::numbers::pi);  // direction robot -> landmark
     last = {l.x - r * std::cos(alpha), l.y - r * std::sin(alpha), sdk::wrap(alpha - phi)};

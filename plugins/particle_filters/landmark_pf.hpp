@@ -61,8 +61,15 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "bearing noise of a detection [deg]"},                                                          \
   {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
    "roulette (as in the paper) or low_variance"},                                                  \
+  {"omni_sigma_major_m", LOCSIM_PARAM_DOUBLE, 0.25, 1e-6, 100.0, nullptr,                          \
+   "omnidirectional camera: noise along the ray (the camera's sigma_major_m) [m]"},                \
+  {"omni_sigma_major_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                         \
+   "omnidirectional camera: growth of the along-ray noise with range [m/m]"},                      \
+  {"omni_sigma_minor_m", LOCSIM_PARAM_DOUBLE, 0.08, 1e-6, 100.0, nullptr,                          \
+   "omnidirectional camera: noise across the ray [m]"},                                            \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
-  {"use_omni", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "use the omnidirectional camera's detections"}, \
+  {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
+   "use the omnidirectional camera's detections (a robot without one has none; 0: the paper)"},   \
   {"use_range_bearing", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                      \
    "use the range-bearing sensor's detections"},                                                   \
   {"reject_inconsistent", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                     \
@@ -102,7 +109,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// A detection of this step with what it may be: the landmarks with its id when the camera
   /// gives one, else those of its colour (none: a colour not on the map, it tells nothing).
   struct StepDetection {
-    double range_m, bearing_rad, sigma_range_m;
+    double range_m, bearing_rad, sigma_range_m, sigma_bearing_rad;
     std::vector<std::size_t> candidates;  // indices into landmarks_
   };
   LandmarkParticleFilter(const locsim_init& init, const sdk::Params& params, Recovery recovery);
@@ -122,7 +129,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   Recovery recovery_;
   sdk::ParticleFilter pf_;
   sdk::OdometryNoise noise_;
-  double sigma_range_m_, sigma_range_per_m_, sigma_range_per_m2_, sigma_bearing_rad_;
+  sdk::DetectionNoise detection_noise_;  // by camera and range
   bool use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   double log_outlier_likelihood_;  // log of outlier_likelihood; -inf when 0

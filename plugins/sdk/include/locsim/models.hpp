@@ -82,6 +82,47 @@ inline Eigen::Vector2d range_bearing(const Pose& x, const Eigen::Vector2d& landm
   return {r, wrap(std::atan2(dy, dx) - x(2))};
 }
 
+/// How noisy a camera's detection is, by the camera that made it: the standard deviations of its
+/// range [m] and bearing [rad] at the measured range. The PTZ camera and the range-bearing sensor
+/// measure range from an image row, so its noise grows with the range (and its square); the
+/// omnidirectional camera's is an ellipse along and across the ray (paper 002's C_L), across the
+/// ray a distance, so as a bearing it is wider near the robot (floored at 1 mm of range: a
+/// detection at the robot is neither certain in bearing nor infinite).
+struct DetectionNoise {
+  double sigma_range_m = 0.02;          // PTZ, range-bearing: at zero range [m]
+  double sigma_range_per_m = 0.0;       // ... growth with the range [m/m]
+  double sigma_range_per_m2 = 0.015;    // ... growth with the range's square [1/m]
+  double sigma_bearing_rad = 0.026;     // ... bearing [rad]
+  double omni_sigma_major_m = 0.25;     // omni: along the ray [m]
+  double omni_sigma_major_per_m = 0.0;  // ... its growth with the range [m/m]
+  double omni_sigma_minor_m = 0.08;     // ... across the ray [m]
+
+  /// From a plugin's parameters of these names (sigma_bearing_deg in degrees), as
+  /// ekf_landmarks and the landmark particle filters declare them.
+  template <class Params>
+  static DetectionNoise from(const Params& params) {
+    return {params.number("sigma_range_m"),
+            params.number("sigma_range_per_m"),
+            params.number("sigma_range_per_m2"),
+            params.number("sigma_bearing_deg") * std::numbers::pi / 180.0,
+            params.number("omni_sigma_major_m"),
+            params.number("omni_sigma_major_per_m"),
+            params.number("omni_sigma_minor_m")};
+  }
+
+  struct Sigmas {
+    double range_m, bearing_rad;
+  };
+  Sigmas at(int32_t camera, double range_m) const {
+    if (camera == LOCSIM_CAMERA_OMNI) {
+      return {omni_sigma_major_m + omni_sigma_major_per_m * range_m,
+              std::atan2(omni_sigma_minor_m, std::max(range_m, 1e-3))};
+    }
+    return {sigma_range_m + (sigma_range_per_m + sigma_range_per_m2 * range_m) * range_m,
+            sigma_bearing_rad};
+  }
+};
+
 /// Pose composition a (+) b: b expressed in a's frame, mapped to a's parent frame.
 inline Pose compose(const Pose& a, const Pose& b) {
   const double c = std::cos(a(2)), s = std::sin(a(2));
