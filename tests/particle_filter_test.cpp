@@ -277,21 +277,14 @@ TEST(ParticleFilters, TheOmnidirectionalCameraIsUsedByDefaultWithItsOwnNoise) {
   // ray: weighed with its own noise, not the PTZ camera's); without either camera it is dead
   // reckoning. On the suite the omni camera took SRL from 68 to 118 of 127 kidnaps recovered: in
   // corridors and offices the PTZ camera sees one landmark at a time.
-  const fs::path dir = testing::temp_dir("pf-omni");
   GeneratorDef def;
   def.family = "corridor";
   def.seed = 14;
   def.kidnaps = 0;
-  std::ofstream(dir / "corridor.yaml") << generate_world(def).yaml;
-  RunOptions options;
-  options.world_file = dir / "corridor.yaml";
-  options.seed = 1;
-  options.duration_s = 60.0;
-  options.out_dir = dir / "out";
-  options.localizers = {"srl:use_ptz=false@omni", "srl:use_ptz=false,use_omni=false@none",
-                        "srl:use_ptz=false,omni_sigma_major_m=0.02,omni_sigma_minor_m=0.005@"
-                        "overconfident"};
-  const auto metrics = testing::run_metrics(options);
+  const auto metrics = testing::run_metrics(testing::generated_run(
+      "pf-omni", def, 1, 60.0,
+      {"srl:use_ptz=false@omni", "srl:use_ptz=false,use_omni=false@none",
+       "srl:use_ptz=false,omni_sigma_major_m=0.02,omni_sigma_minor_m=0.005@overconfident"}));
   const auto rms = [&](int k) {
     EXPECT_EQ(metrics["localizers"][k]["status"], "ok");
     return metrics["localizers"][k]["position_error_m"]["rms"].get<double>();

@@ -199,15 +199,8 @@ TEST(UltrasonicEkf, FindsTheRobotAgainInAnOfficeWhereEchoesOutnumberTheDirectPat
   GeneratorDef def;
   def.family = "office";
   def.seed = 11;
-  const std::filesystem::path dir = testing::temp_dir("ultrasonic_office");
-  std::ofstream(dir / "office.yaml") << generate_world(def).yaml;
-  RunOptions options;
-  options.world_file = dir / "office.yaml";
-  options.duration_s = 45.0;
-  options.seed = 1;
-  options.out_dir = dir / "out";
-  options.localizers = {"ultrasonic_ekf"};
-  const auto metrics = testing::run_metrics(options);
+  const auto metrics = testing::run_metrics(
+      testing::generated_run("ultrasonic_office", def, 1, 45.0, {"ultrasonic_ekf"}));
   const auto& ekf = metrics["localizers"][0];
   ASSERT_EQ(ekf["status"], "ok");
   ASSERT_EQ(ekf["segments"].size(), 2u);  // the first kidnap

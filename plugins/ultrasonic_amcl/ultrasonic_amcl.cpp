@@ -11,6 +11,7 @@
 //    from trilateration within a second, and pulls AMCL back with it).
 #include <array>
 #include <locsim/localizer.hpp>
+#include <string_view>
 
 #include "../amcl/amcl_filter.hpp"
 #include "../ultrasonic_ekf/ultrasonic_filter.hpp"
@@ -46,7 +47,16 @@ constexpr std::array<locsim_param_decl, A + B + C> join(const locsim_param_decl 
   for (const auto& p : c) out[i++] = p;
   return out;
 }
-constexpr auto kParams = join(ultrasonic::kUltrasonicParams, amcl::kAmclParams, kFusionParams);
+// AMCL's random injection off: the ultrasonic fix restarts the fusion after a kidnap, and
+// guesses elsewhere would only compete with it.
+constexpr auto kParams = [] {
+  auto params = join(ultrasonic::kUltrasonicParams, amcl::kAmclParams, kFusionParams);
+  for (locsim_param_decl& p : params) {
+    const std::string_view name = p.name;
+    if (name == "recovery_alpha_slow" || name == "recovery_alpha_fast") p.default_number = 0.0;
+  }
+  return params;
+}();
 
 class UltrasonicAmcl final : public sdk::Localizer {
  public:

@@ -6,6 +6,7 @@
 // 0.2-0.27 M, MRPT 2.5 about 0.36 M on this machine, as the issue measured).
 #include <benchmark/benchmark.h>
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -53,38 +54,90 @@ struct Building {
   }
 };
 
+/// The robot driving a 3 m circle about (5, 5) in the first room, 0.3 m per update, and its
+/// 270-degree scan of 271 beams, 8 m, cast in the map from the pose moved by `offset` (x, y,
+/// heading; none: the true pose). advance() is the simulator's work, not timed.
+struct CircleDrive {
+  static constexpr int kBeams = 271;
+  const Building& building;
+  std::vector<float> angles = std::vector<float>(kBeams), ranges = std::vector<float>(kBeams);
+  locsim_reading odometry{}, scan{};
+  double a = 0.0;
+  std::array<double, 3> offset{0.0, 0.0, 0.0};
+
+  explicit CircleDrive(const Building& b) : building(b) {
+    for (int k = 0; k < kBeams; ++k) angles[k] = static_cast<float>((-135.0 + k) * M_PI / 180.0);
+    odometry.struct_size = scan.struct_size = sizeof(locsim_reading);
+    odometry.kind = LOCSIM_READING_ODOMETRY;
+    scan.kind = LOCSIM_READING_LASER;
+    scan.data.laser = {ranges.data(), angles.data(), kBeams, {0.1, 0.0, 0.0}, 0.05, 8.0};
+  }
+  void advance() {
+    a += 0.1;
+    const double x = 5.0 + 3.0 * std::cos(a), y = 5.0 + 3.0 * std::sin(a), theta = a + M_PI / 2;
+    odometry.data.odometry.odom_pose = {x, y, theta};
+    odometry.t_s = scan.t_s = a;
+    const double sx = x + offset[0] + 0.1 * std::cos(theta);
+    const double sy = y + offset[1] + 0.1 * std::sin(theta);
+    for (int k = 0; k < kBeams; ++k)
+      ranges[k] = building.cast(sx, sy, theta + offset[2] + angles[k], 8.0);
+  }
+  bool update(bench::PluginFixture& f) const { return f.update(odometry) && f.update(scan); }
+};
+
 void BM_AmclUpdate(benchmark::State& state) {
   const Building building;
   const std::string n = std::to_string(state.range(0));
   bench::PluginFixture f("amcl",
                          {{"min_particles", n}, {"max_particles", n}, {"laser_max_beams", "60"}},
                          building.map, building.robot, {5.0, 5.0, 0.0}, 0.04, 0.01);
-
-  // A 270-degree scan of 271 beams, 8 m, cast in the map from the true pose.
-  constexpr int kBeams = 271;
-  std::vector<float> angles(kBeams), ranges(kBeams);
-  for (int b = 0; b < kBeams; ++b) angles[b] = static_cast<float>((-135.0 + b) * M_PI / 180.0);
-  locsim_reading odometry{}, scan{};
-  odometry.struct_size = scan.struct_size = sizeof(locsim_reading);
-  odometry.kind = LOCSIM_READING_ODOMETRY;
-  scan.kind = LOCSIM_READING_LASER;
-  scan.data.laser = {ranges.data(), angles.data(), kBeams, {0.1, 0.0, 0.0}, 0.05, 8.0};
-  // The robot drives a 3 m circle about (5, 5) in the first room, 0.3 m per update.
-  double a = 0.0;
-  const auto advance = [&] {  // the next pose and its scan: the simulator's work, not timed
-    a += 0.1;
-    const double x = 5.0 + 3.0 * std::cos(a), y = 5.0 + 3.0 * std::sin(a), theta = a + M_PI / 2;
-    odometry.data.odometry.odom_pose = {x, y, theta};
-    odometry.t_s = scan.t_s = a;
-    const double sx = x + 0.1 * std::cos(theta), sy = y + 0.1 * std::sin(theta);
-    for (int b = 0; b < kBeams; ++b) ranges[b] = building.cast(sx, sy, theta + angles[b], 8.0);
-  };
-  const auto update = [&] { return f.update(odometry) && f.update(scan); };
+  CircleDrive drive(building);
+  const auto advance = [&] { drive.advance(); };
+  const auto update = [&] { return drive.update(f); };
   bench::run_updates(state, f, 5, advance, update);
   state.counters["particle_updates_per_s"] = benchmark::Counter(
       static_cast<double>(state.range(0)) * static_cast<double>(state.iterations()),
       benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_AmclUpdate)->Arg(1000)->Arg(5000)->Arg(20000)->Unit(benchmark::kMicrosecond);
+
+// What recovery costs while the filter is lost: AMCL's defaults (500-5000 particles, random
+// injection on), 30 updates tracking the circle, then the 200 timed updates with the scan of each
+// cast from a pose moved off the circle by one of four offsets in turn (the rooms are alike, a
+// move to another would not be noticed), so that the scans never agree with the belief and w_fast
+// stays below w_slow. The argument is recovery_candidates: 1 injects uniform poses (AMCL's), 10 the
+// best fit of ten draws (the default), each draw one more scan weighing.
+void BM_AmclLost(benchmark::State& state) {
+  const Building building;
+  bench::PluginFixture f(
+      "amcl", {{"recovery_candidates", std::to_string(state.range(0))}, {"laser_max_beams", "60"}},
+      building.map, building.robot, {5.0, 5.0, 0.0}, 0.04, 0.01);
+  CircleDrive drive(building);
+  int turn = 0;
+  const auto advance = [&] {
+    constexpr std::array<std::array<double, 3>, 4> kOffsets = {
+        {{0.0, 0.0, 0.0}, {1.5, -1.0, 1.0}, {-1.0, 1.5, 2.0}, {1.0, 1.0, -1.5}}};
+    drive.offset = kOffsets[turn++ % 4];
+    drive.advance();
+  };
+  const auto update = [&] { return drive.update(f); };
+  for (int i = 0; i < 30; ++i) drive.advance(), update();  // tracking
+  double injected = 0.0;  // the recovery's guesses, summed over the timed updates
+  const auto update_and_count = [&] {
+    const bool ok = update();
+    state.PauseTiming();
+    locsim_diagnostic diagnostics[16];
+    std::size_t count = 0;
+    char error[128];
+    if (f.table().diagnostics(f.filter(), diagnostics, 16, &count, error, sizeof error) == 0)
+      for (std::size_t d = 0; d < count; ++d)
+        if (std::string(diagnostics[d].name) == "injected") injected += diagnostics[d].value;
+    state.ResumeTiming();
+    return ok;
+  };
+  bench::run_updates(state, f, 0, advance, update_and_count);
+  state.counters["injected_per_update"] = injected / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_AmclLost)->Arg(1)->Arg(10)->Iterations(200)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
