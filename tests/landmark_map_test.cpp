@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 
 #include "render/gl_context.hpp"
@@ -77,6 +79,31 @@ TEST(LandmarkMatching, SummaryCountsSpuriousAndMissedOnlyAmongObserved) {
   EXPECT_FALSE(empty.error_rms_m || empty.error_mean_m || empty.error_max_m);
 }
 
+TEST(LandmarkMatching, TheAlignedErrorIsTheMapsShapeWithoutItsPlacement) {
+  // A map of the right shape in a frame 0.3 m and 2 degrees off (a SLAM filter's start guess):
+  // landmarks 0.14-0.35 m off in the world, none once the map is moved onto the truth. Then
+  // one landmark mapped 0.2 m out of shape: the aligned error shows it, spread by the fit.
+  const std::vector<LandmarkPoint> truth{{1, 0, 0}, {2, 8, 0}, {3, 0, 6}, {4, 8, 6}};
+  const double angle = 2.0 * std::numbers::pi / 180.0, c = std::cos(angle), s = std::sin(angle);
+  std::vector<LandmarkPoint> mapped;
+  for (const LandmarkPoint& t : truth)
+    mapped.push_back({t.id + 10, c * t.x_m - s * t.y_m + 0.3, s * t.x_m + c * t.y_m - 0.1});
+  const LandmarkMapSummary shifted = summarize_landmark_map(mapped, truth, {1, 2, 3, 4});
+  ASSERT_EQ(shifted.matched, 4u);
+  EXPECT_GT(*shifted.error_rms_m, 0.2);
+  ASSERT_TRUE(shifted.aligned_rms_m && shifted.aligned_mean_m && shifted.aligned_max_m);
+  EXPECT_LT(*shifted.aligned_max_m, 1e-9);
+  mapped[3].x_m += 0.2;
+  const LandmarkMapSummary bent = summarize_landmark_map(mapped, truth, {1, 2, 3, 4});
+  EXPECT_GT(*bent.aligned_max_m, 0.05);
+  EXPECT_LT(*bent.aligned_max_m, 0.2);  // the fit shares the bend among the four
+  EXPECT_GT(*bent.aligned_rms_m, 0.05);
+  // Two pairs fix the motion but for their distance: no aligned error below three.
+  const LandmarkMapSummary two = summarize_landmark_map({mapped[0], mapped[1]}, truth, {1, 2});
+  EXPECT_EQ(two.matched, 2u);
+  EXPECT_FALSE(two.aligned_rms_m || two.aligned_mean_m || two.aligned_max_m);
+}
+
 // ---------------------------------------------------------------------------------- end to end
 // A robot at the origin facing +x with a PTZ camera that misses nothing and invents nothing:
 // landmarks 1-3 ahead (seen from the first frame), 4 and 5 behind (never seen).
@@ -128,8 +155,8 @@ void expect_known_map_metrics(const ojson& l) {
   const ojson& m = l["landmark_map"];
   std::vector<std::string> keys;  // in the file's order
   for (const auto& [key, value] : m.items()) keys.push_back(key);
-  EXPECT_EQ(keys, (std::vector<std::string>{"mapped", "matched", "error_m", "spurious", "missed",
-                                            "observed", "gate_m"}));
+  EXPECT_EQ(keys, (std::vector<std::string>{"mapped", "matched", "error_m", "error_aligned_m",
+                                            "spurious", "missed", "observed", "gate_m"}));
   EXPECT_EQ(m["mapped"], 4);
   EXPECT_EQ(m["matched"], 3);
   EXPECT_EQ(m["spurious"], 1);
@@ -138,6 +165,8 @@ void expect_known_map_metrics(const ojson& l) {
   EXPECT_EQ(m["gate_m"], 1.0);
   for (const char* stat : {"rms", "mean", "max"}) {
     EXPECT_NEAR(m["error_m"][stat].get<double>(), 0.5, 1e-12) << stat;
+    // The three matched are all shifted alike: the map's shape is exact.
+    EXPECT_NEAR(m["error_aligned_m"][stat].get<double>(), 0.0, 1e-9) << stat;
   }
 }
 

@@ -15,6 +15,7 @@
 
 #include <Eigen/Dense>
 #include <locsim/localizer.hpp>
+#include <locsim/models.hpp>
 #include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
 #include <locsim/slam.hpp>
@@ -44,6 +45,10 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
   {"sigma_cross_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 100, nullptr,                                     \
    "noise across the ray in metres (a camera's sigma_minor): adds sigma_cross / range to the "    \
    "bearing's [m]"},                                                                              \
+  LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
+  {"omni_as_range_bearing", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                  \
+   "weigh the omnidirectional camera's detections by sigma_range_m, sigma_bearing_deg and "       \
+   "sigma_cross_m, as paper 001's sensor, not by its own noise along and across the ray"},        \
   {"new_landmark_chi2", LOCSIM_PARAM_DOUBLE, 13.8, 0.1, 1e6, nullptr,                              \
    "squared Mahalanobis distance beyond which a detection starts a new landmark (13.8: 99.9 %) [-]"}, \
   {"use_ids", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                                 \
@@ -52,8 +57,9 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
    "resample when N_eff / N falls below this [-]"},                                                \
   {"map_min_observations", LOCSIM_PARAM_INT, 2, 1, 1000000, nullptr,                              \
    "landmarks seen fewer times are left out of the reported map [-]"},                             \
-  {"max_range_m", LOCSIM_PARAM_DOUBLE, 15.0, 0.01, 1e6, nullptr,                                   \
-   "the camera's range: a mapped landmark predicted within it should be detected [m]"},            \
+  {"max_range_m", LOCSIM_PARAM_DOUBLE, 6.0, 0.01, 1e6, nullptr,                                    \
+   "the omnidirectional camera's range (its default: 6): a mapped landmark predicted within it "  \
+   "should be detected [m]"},                                                                     \
   {"prune_after_misses", LOCSIM_PARAM_INT, 10, 0, 1000000, nullptr,                                \
    "a landmark predicted well inside the range (90 %) of the omnidirectional camera and not "      \
    "detected in this many frames in a row is deleted from the particle's map; 0: never [-]"},      \
@@ -122,7 +128,8 @@ class FastSlam : public sdk::Localizer {
   };
 
   FastSlam(const locsim_init& init, const sdk::Params& params, Mover mover);
-  Eigen::Matrix2d noise(double range) const;
+  /// R of a detection at `range` by `camera`: diagonal in (range, bearing).
+  Eigen::Matrix2d noise(int32_t camera, double range) const;
   /// `reading` without its detections of other robots (itself when it has none).
   const locsim_landmarks& landmarks_only(const locsim_landmarks& reading);
   void associate(const sdk::Pose& pose, const LandmarkMap& map, const locsim_landmarks& reading,
@@ -137,6 +144,8 @@ class FastSlam : public sdk::Localizer {
   std::vector<LandmarkMap> maps_;  // particle i's map; reordered with the particles
   sdk::OdometryNoise motion_;
   double sigma_range_, sigma_bearing_, sigma_cross_, new_landmark_chi2_, resample_threshold_;
+  sdk::DetectionNoise omni_noise_;  // the omnidirectional camera's (omni_sigma_*)
+  bool omni_as_range_bearing_ = false;
   bool use_ids_, use_omni_, use_ptz_, use_range_bearing_;
   std::vector<locsim_detection> landmark_detections_;  // landmarks_only's storage
   locsim_landmarks landmarks_view_{};

@@ -24,6 +24,10 @@ FastSlam::FastSlam(const locsim_init& init, const sdk::Params& params, Mover mov
   sigma_range_ = params.number("sigma_range_m");
   sigma_bearing_ = params.number("sigma_bearing_deg") * kDegToRad;
   sigma_cross_ = params.number("sigma_cross_m");
+  omni_noise_.omni_sigma_major_m = params.number("omni_sigma_major_m");
+  omni_noise_.omni_sigma_major_per_m = params.number("omni_sigma_major_per_m");
+  omni_noise_.omni_sigma_minor_m = params.number("omni_sigma_minor_m");
+  omni_as_range_bearing_ = params.flag("omni_as_range_bearing");
   new_landmark_chi2_ = params.number("new_landmark_chi2");
   resample_threshold_ = params.number("resample_threshold");
   use_ids_ = params.flag("use_ids");
@@ -73,9 +77,18 @@ void FastSlam::on_odometry(double, const locsim_odometry& odometry) {
   pf_.odometry().observe(odometry);
 }
 
-Eigen::Matrix2d FastSlam::noise(double range) const {
-  const double cross = sigma_cross_ / std::max(range, 0.1);
+Eigen::Matrix2d FastSlam::noise(int32_t camera, double range) const {
   Eigen::Matrix2d r = Eigen::Matrix2d::Zero();
+  if (camera == LOCSIM_CAMERA_OMNI && !omni_as_range_bearing_) {
+    // Wide along the ray (the image radius maps to range coarsely), narrow across it: weighed
+    // as sharp as a range-bearing sensor's, its detections of one landmark fell outside each
+    // other's gates and every frame started new landmarks (a generated room: 1 of 5 mapped).
+    const sdk::DetectionNoise::Sigmas s = omni_noise_.at(camera, range);
+    r(0, 0) = s.range_m * s.range_m;
+    r(1, 1) = s.bearing_rad * s.bearing_rad;
+    return r;
+  }
+  const double cross = sigma_cross_ / std::max(range, 0.1);
   r(0, 0) = sigma_range_ * sigma_range_;
   r(1, 1) = sigma_bearing_ * sigma_bearing_ + cross * cross;
   return r;
@@ -103,7 +116,7 @@ void FastSlam::associate(const sdk::Pose& pose, const LandmarkMap& map,
     const locsim_detection& detection = reading.detections[d];
     Match m;
     m.z = {detection.range_m, detection.bearing_rad};
-    m.r = noise(detection.range_m);
+    m.r = noise(reading.camera, detection.range_m);
     if (use_ids_ && detection.id >= 0) {
       const auto it = std::find_if(map.begin(), map.end(),
                                    [&](const MapLandmark& l) { return l.id == detection.id; });

@@ -61,12 +61,7 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "bearing noise of a detection [deg]"},                                                          \
   {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
    "roulette (as in the paper) or low_variance"},                                                  \
-  {"omni_sigma_major_m", LOCSIM_PARAM_DOUBLE, 0.25, 1e-6, 100.0, nullptr,                          \
-   "omnidirectional camera: noise along the ray (the camera's sigma_major_m) [m]"},                \
-  {"omni_sigma_major_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                         \
-   "omnidirectional camera: growth of the along-ray noise with range [m/m]"},                      \
-  {"omni_sigma_minor_m", LOCSIM_PARAM_DOUBLE, 0.08, 1e-6, 100.0, nullptr,                          \
-   "omnidirectional camera: noise across the ray [m]"},                                            \
+  LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
   {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
    "use the omnidirectional camera's detections (a robot without one has none; 0: the paper)"},   \

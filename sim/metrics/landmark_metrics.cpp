@@ -1,5 +1,6 @@
 #include "sim/metrics/landmark_metrics.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <tuple>
@@ -56,6 +57,23 @@ LandmarkMapSummary summarize_landmark_map(const std::vector<LandmarkPoint>& mapp
     s.error_rms_m = std::sqrt(sum_sq / n);
     s.error_mean_m = sum / n;
     s.error_max_m = max;
+  }
+  if (s.matches.size() >= 3) {
+    Eigen::MatrixXd from(2, s.matches.size()), to(2, s.matches.size());
+    for (std::size_t k = 0; k < s.matches.size(); ++k) {
+      from.col(static_cast<Eigen::Index>(k)) << mapped[s.matches[k].mapped].x_m,
+          mapped[s.matches[k].mapped].y_m;
+      to.col(static_cast<Eigen::Index>(k)) << truth[s.matches[k].truth].x_m,
+          truth[s.matches[k].truth].y_m;
+    }
+    const Eigen::MatrixXd motion = Eigen::umeyama(from, to, false);  // 3 x 3, homogeneous
+    const Eigen::MatrixXd moved =
+        (motion.topLeftCorner<2, 2>() * from).colwise() + motion.topRightCorner<2, 1>();
+    const Eigen::VectorXd distance = (moved - to).colwise().norm();
+    const auto n = static_cast<double>(distance.size());
+    s.aligned_rms_m = std::sqrt(distance.squaredNorm() / n);
+    s.aligned_mean_m = distance.sum() / n;
+    s.aligned_max_m = distance.maxCoeff();
   }
   return s;
 }

@@ -40,6 +40,12 @@ struct LandmarkMapSummary {
   std::size_t missed = 0;    // observed true landmarks left unmatched
   // Over the matched pairs' distances [m]; nullopt when nothing matched.
   std::optional<double> error_rms_m, error_mean_m, error_max_m;
+  // The same after the rigid motion (rotation and translation, no scale) that brings the mapped
+  // landmarks of the pairs closest to the true ones (least squares); nullopt below three pairs
+  // (two fix the motion but for their distance). A SLAM map is built in the frame of the
+  // filter's start, and the start is known only roughly: 0.2 m and 1.3 degrees off put
+  // landmarks 10 m away 0.4 m off, however well they are mapped.
+  std::optional<double> aligned_rms_m, aligned_mean_m, aligned_max_m;
   std::vector<LandmarkMatch> matches;
 };
 

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/common/range.hpp"
@@ -38,6 +40,15 @@ struct GeneratorDef {
   static constexpr Range kDurationRange{10.0, 1e6, "s"};
   static constexpr Range kCountRange{0.0, 100.0, ""};
 };
+
+/// The --landing names: alternate, in_view, blind, any.
+std::string_view landing_name(KidnapLanding landing);
+std::optional<KidnapLanding> landing_from_name(std::string_view name);
+
+/// The `locsim generate` command that draws `def`'s world: the family, the seed and every knob
+/// that differs from its default (a generated file's header, so that the file says how to make it
+/// again).
+std::string generate_command(const GeneratorDef& def);
 
 struct GeneratedWorld {
   std::string yaml;                // the world file, scenario included

@@ -801,10 +801,7 @@ int main(int argc, char** argv) {
               "--seeds: expected N or A-B (A <= B, at most 10000 seeds), got '" + text + "'");
       }
       generate_def.beacons = !generate_no_beacons;
-      generate_def.landing = generate_landing == "in_view" ? locsim::KidnapLanding::kInView
-                             : generate_landing == "blind" ? locsim::KidnapLanding::kBlind
-                             : generate_landing == "any"   ? locsim::KidnapLanding::kAny
-                                                           : locsim::KidnapLanding::kAlternate;
+      generate_def.landing = *locsim::landing_from_name(generate_landing);  // CLI checked it
       const std::filesystem::path out(generate_out);
       // Every world first, then the files: a knob that fails fails before anything is written.
       std::vector<std::pair<std::filesystem::path, locsim::GeneratedWorld>> worlds;

@@ -88,6 +88,18 @@ inline Eigen::Vector2d range_bearing(const Pose& x, const Eigen::Vector2d& landm
 /// omnidirectional camera's is an ellipse along and across the ray (paper 002's C_L), across the
 /// ray a distance, so as a bearing it is wider near the robot (floored at 1 mm of range: a
 /// detection at the robot is neither certain in bearing nor infinite).
+/// The omnidirectional camera's noise as plugin parameters (DetectionNoise::from reads them),
+/// defaults the simulator's omni camera: one declaration for every plugin that weighs it.
+// clang-format off
+#define LOCSIM_OMNI_NOISE_PARAMS                                                                   \
+  {"omni_sigma_major_m", LOCSIM_PARAM_DOUBLE, 0.25, 1e-6, 100.0, nullptr,                          \
+   "omnidirectional camera: noise along the ray (the camera's sigma_major_m) [m]"},                \
+  {"omni_sigma_major_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                         \
+   "omnidirectional camera: growth of the along-ray noise with range [m/m]"},                      \
+  {"omni_sigma_minor_m", LOCSIM_PARAM_DOUBLE, 0.08, 1e-6, 100.0, nullptr,                          \
+   "omnidirectional camera: noise across the ray [m]"}
+// clang-format on
+
 struct DetectionNoise {
   double sigma_range_m = 0.02;          // PTZ, range-bearing: at zero range [m]
   double sigma_range_per_m = 0.0;       // ... growth with the range [m/m]
