@@ -85,6 +85,16 @@ const Malformed kMalformedWorlds[] = {
      "'robots[0].name': a robot name names its output folder"},
     {"missing_map", "map: nowhere/map.yaml\nrobots:\n  - start: {x: 0, y: 0}\n",
      "test.yaml:1:6: 'map': no such map file"},
+    // A name the system cannot look up (the fuzzer's: a quote left open swallowed the file).
+    {"map_name_too_long",
+     "map: "
+     "mmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmm"
+     "mmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmm"
+     "mmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmm"
+     "mmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmm"
+     "mmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmmm"
+     ".yaml\nrobots:\n  - start: {x: 0, y: 0}\n",
+     "test.yaml:1:6: 'map': cannot look up the map file"},
     // Sensors.
     {"unknown_sensor", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {lidar: {}}\n",
      "'robots[0].sensors.lidar': unknown key; did you mean 'laser'?"},

@@ -273,7 +273,7 @@ class AmclFilter {
   /// so that it takes over only when the scan fits it far better. Without that, in offices
   /// built of alike rooms a guess in the next room fitted as well as the truth whenever a
   /// passer-by spoilt a scan, and the estimate jumped there (suite: tracking 0.12 -> 2.5 m
-  /// median in offices between kidnaps).
+  /// median in offices before the first kidnap).
   struct Guess {
     sdk::Pose pose;
     double prior = 1.0;

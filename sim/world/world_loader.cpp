@@ -25,6 +25,17 @@ const std::map<std::string, Rgb>& named_colors() {
 
 namespace {
 
+/// Fails at `node` unless `file` exists. A path the system cannot even look up (a name too long,
+/// a component that is not a folder) is bad input too, said as such, not an exception escaping.
+void require_file(const YamlNode& node, const std::filesystem::path& file,
+                  const std::string& what) {
+  std::error_code error;
+  const bool found = std::filesystem::exists(file, error);
+  if (error)
+    node.fail("cannot look up the " + what + " '" + file.string() + "': " + error.message());
+  if (!found) node.fail("no such " + what + " '" + file.string() + "'");
+}
+
 bool is_convex_ccw(const std::vector<Vec2>& points) {
   const std::size_t n = points.size();
   for (std::size_t i = 0; i < n; ++i) {
@@ -260,9 +271,7 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml) {
     const std::string m = mode->as_string();
     if (m != "trinary" && m != "scale") mode->fail("only 'trinary' and 'scale' maps are supported");
   }
-  if (!std::filesystem::exists(map.image_file)) {
-    root["image"].fail("no such map image '" + map.image_file.string() + "'");
-  }
+  require_file(root["image"], map.image_file, "map image");
   // A bad image is reported at the key that names it, after the image's own message.
   GrayImage image;
   try {
@@ -359,8 +368,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   }
   if (const auto map = root.find("map")) {
     const std::filesystem::path map_file = base_dir / map->as_string();
-    if (!std::filesystem::exists(map_file))
-      map->fail("no such map file '" + map_file.string() + "'");
+    require_file(*map, map_file, "map file");
     world.map = load_occupancy_map(map_file);
     memory.add(
         map->place(),
