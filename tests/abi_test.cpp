@@ -315,11 +315,15 @@ TEST(Readings, EachBuiltInFilterSaysWhatItReads) {
   };
   const std::uint32_t odometry = bit(LOCSIM_READING_ODOMETRY);
   EXPECT_EQ(readings("odometry"), odometry);
-  for (const char* landmarks : {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl", "omni_kf",
-                                "fastslam", "fastslam_afsa", "pso_pf"}) {
+  for (const char* landmarks : {"ekf_landmarks", "omni_kf"})
     EXPECT_EQ(readings(landmarks), odometry | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
+  // The particle filters turn their odometry by the gyro (OdometryFollower).
+  const std::uint32_t imu = bit(LOCSIM_READING_IMU);
+  for (const char* landmarks :
+       {"mcl", "srl", "asrl", "augmented_mcl", "fastslam", "fastslam_afsa", "pso_pf"}) {
+    EXPECT_EQ(readings(landmarks), odometry | imu | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
   }
-  EXPECT_EQ(readings("amcl"), odometry | bit(LOCSIM_READING_LASER));
+  EXPECT_EQ(readings("amcl"), odometry | imu | bit(LOCSIM_READING_LASER));
   EXPECT_EQ(readings("ultrasonic_ekf"),
             bit(LOCSIM_READING_IMU) | bit(LOCSIM_READING_BEACON_RANGES));
   EXPECT_EQ(readings("ultrasonic_amcl"), odometry | bit(LOCSIM_READING_IMU) |

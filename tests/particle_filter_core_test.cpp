@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "locsim/particle_filter.hpp"
@@ -220,6 +221,81 @@ TEST(ParticleFilterCore, TheEstimateFollowsTheOdometrySinceTheMarkAndCanLeaveOut
   ASSERT_EQ(poses.size(), 4u);
   EXPECT_EQ(poses[3].x, 50.0);
   EXPECT_EQ(weights[0], 0.25);
+}
+
+/// Feeds `follower` `seconds` of a robot whose wheels report `wheels` (v [m/s], omega [rad/s])
+/// while its gyro reads `gyro_radps` (nullopt: no IMU): odometry at 50 Hz, the IMU at 100 Hz,
+/// from t0_s on; the wheels' odometry pose starts at `odom` and is left where they end.
+void drive(OdometryFollower& follower, Pose& odom, double t0_s, double seconds, double v_mps,
+           double omega_radps, std::optional<double> gyro_radps) {
+  const int steps = static_cast<int>(std::lround(seconds * 100.0));
+  for (int k = 0; k <= steps; ++k) {
+    const double t_s = t0_s + k * 0.01;
+    if (gyro_radps) {
+      locsim_imu imu{};
+      imu.yaw_rate_radps = *gyro_radps;
+      follower.observe_imu(t_s, imu);
+    }
+    if (k % 2 != 0) continue;
+    if (k > 0) odom = compose(odom, Pose(v_mps * 0.02, 0.0, omega_radps * 0.02));
+    locsim_odometry reading{};
+    reading.odom_pose = {odom(0), odom(1), odom(2)};
+    follower.observe(t_s, reading);
+  }
+}
+
+TEST(ParticleFilterCore, TheGyroTurnsTheOdometryAndTheWheelsExtraTurnIsSlip) {
+  // Wheels spinning in place against a wall (they say 1 rad/s, the gyro nothing): no turn, and
+  // the two seconds' 2 rad are slip.
+  OdometryFollower stuck;
+  Pose odom(3.0, 4.0, 0.5);
+  drive(stuck, odom, 0.0, 2.0, 0.0, 1.0, 0.0);
+  EXPECT_NEAR(stuck.now()(2), 0.5, 1e-12);
+  EXPECT_NEAR(odom(2), 2.5, 1e-9);
+  const OdometryDelta d = stuck.since_mark();
+  EXPECT_NEAR(d.trans, 0.0, 1e-12);
+  EXPECT_NEAR(d.rot1 + d.rot2, 0.0, 1e-12);
+  EXPECT_NEAR(d.slip_rad, 2.0, 1e-9);
+  stuck.mark_now();
+  EXPECT_EQ(stuck.since_mark().slip_rad, 0.0);
+
+  // A push turns the robot at 0.2 rad/s while its wheels drive straight at 0.5 m/s: the
+  // wheels' metre-long second bends into the gyro's arc.
+  OdometryFollower pushed;
+  odom = Pose::Zero();
+  drive(pushed, odom, 0.0, 1.0, 0.5, 0.0, 0.2);
+  EXPECT_NEAR(pushed.now()(2), 0.2, 1e-9);
+  EXPECT_NEAR(pushed.now()(0), 0.5 * std::sin(0.2) / 0.2, 1e-6);
+  EXPECT_NEAR(pushed.now()(1), 0.5 * (1.0 - std::cos(0.2)) / 0.2, 1e-6);
+  EXPECT_NEAR(pushed.since_mark().slip_rad, 0.2, 1e-9);
+
+  // A slip widens the translation's noise as alpha4 does a turn of that size.
+  const OdometryNoise noise;
+  OdometryDelta straight{0.0, 1.0, 0.0}, slipped = straight;
+  slipped.slip_rad = 0.5;
+  EXPECT_NEAR(motion_spread(slipped, noise).trans - motion_spread(straight, noise).trans,
+              noise.alpha4 * 0.5, 1e-12);
+  EXPECT_EQ(motion_spread(slipped, noise).rot1, motion_spread(straight, noise).rot1);
+}
+
+TEST(ParticleFilterCore, WithoutAGyroTheOdometryIsTheWheelsExactly) {
+  // No IMU, the gyro turned off, or an IMU that fell silent: the wheels' own odometry poses, to
+  // the bit (a filter without a gyro keeps its results).
+  for (const bool imu : {false, true}) {
+    OdometryFollower follower;
+    if (imu) follower.use_gyro(false);
+    Pose odom(1.0, 2.0, 0.3);
+    drive(follower, odom, 0.0, 3.0, 0.4, 0.7, imu ? std::optional<double>(0.0) : std::nullopt);
+    EXPECT_EQ(follower.now(), odom) << (imu ? "gyro off" : "no IMU");
+    EXPECT_EQ(follower.since_mark().slip_rad, 0.0);
+  }
+  OdometryFollower silent;
+  Pose odom = Pose::Zero();
+  drive(silent, odom, 0.0, 1.0, 0.0, 1.0, 0.0);  // the gyro holds the heading
+  const double heading = silent.now()(2);
+  EXPECT_NEAR(heading, 0.0, 1e-12);
+  drive(silent, odom, 1.5, 1.0, 0.0, 1.0, std::nullopt);  // then the IMU stops: the wheels turn
+  EXPECT_NEAR(silent.now()(2), 1.0, 1e-9);
 }
 
 TEST(ParticleFilterCore, LikelihoodAveragesSayWhenTheBeliefStoppedExplainingTheMeasurements) {

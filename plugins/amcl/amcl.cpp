@@ -12,9 +12,10 @@ class Amcl final : public sdk::Localizer {
  public:
   explicit Amcl(const locsim_init& init) : filter_(sdk::Params(init), init, init.seed) {}
 
-  void on_odometry(double, const locsim_odometry& odometry) override {
-    filter_.on_odometry(odometry);
+  void on_odometry(double t_s, const locsim_odometry& odometry) override {
+    filter_.on_odometry(t_s, odometry);
   }
+  void on_imu(double t_s, const locsim_imu& imu) override { filter_.on_imu(t_s, imu); }
   void on_laser(double, const locsim_laser_scan& scan) override { filter_.on_laser(scan); }
   sdk::Estimate estimate() const override { return filter_.estimate(); }
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override {

@@ -87,7 +87,8 @@ inline constexpr locsim_param_decl kAmclParams[] = {
     {"odom_alpha3", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
      "translation noise from translation [-]"},
     {"odom_alpha4", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
-     "translation noise from rotation [m^2/rad^2]"}};
+     "translation noise from rotation [m^2/rad^2]"},
+    LOCSIM_GYRO_PARAMS};
 
 /// A particle's KLD / cluster bin: (x, y, theta) cells of bin_xy_m and bin_theta_rad.
 struct Bin {
@@ -130,6 +131,7 @@ class AmclFilter {
     recovery_near_sigma_rad_ = params.number("recovery_near_sigma_deg") * std::numbers::pi / 180.0;
     if (averages_.alpha_slow > 0.0 && averages_.alpha_fast <= averages_.alpha_slow)
       throw std::invalid_argument("recovery_alpha_fast must exceed recovery_alpha_slow");
+    pf_.odometry().use_gyro(params.flag("use_gyro"));
     max_beams_ = static_cast<std::size_t>(params.integer("laser_max_beams"));
     noise_ = {params.number("odom_alpha1"), params.number("odom_alpha2"),
               params.number("odom_alpha3"), params.number("odom_alpha4"), true};
@@ -151,7 +153,10 @@ class AmclFilter {
     compute_estimate();
   }
 
-  void on_odometry(const locsim_odometry& odometry) { pf_.odometry().observe(odometry); }
+  void on_odometry(double t_s, const locsim_odometry& odometry) {
+    pf_.odometry().observe(t_s, odometry);
+  }
+  void on_imu(double t_s, const locsim_imu& imu) { pf_.odometry().observe_imu(t_s, imu); }
 
   /// A filter update when the robot has moved enough since the last one: true if it did.
   bool on_laser(const locsim_laser_scan& scan) {

@@ -46,6 +46,7 @@ enum class Mover { kNone, kFishSwarm, kParticleSwarm };
    "noise across the ray in metres (a camera's sigma_minor): adds sigma_cross / range to the "    \
    "bearing's [m]"},                                                                              \
   LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
+  LOCSIM_GYRO_PARAMS,                                                                              \
   {"omni_as_range_bearing", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr,                                  \
    "weigh the omnidirectional camera's detections by sigma_range_m, sigma_bearing_deg and "       \
    "sigma_cross_m, as paper 001's sensor, not by its own noise along and across the ray"},        \
@@ -114,6 +115,7 @@ class FastSlam : public sdk::Localizer {
   FastSlam(const locsim_init& init, Mover mover) : FastSlam(init, sdk::Params(init), mover) {}
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override;
+  void on_imu(double t_s, const locsim_imu& imu) override { pf_.odometry().observe_imu(t_s, imu); }
   void on_landmarks(double t_s, const locsim_landmarks& reading) override;
   sdk::Estimate estimate() const override;
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override;
@@ -165,7 +167,8 @@ class FastSlam : public sdk::Localizer {
   std::optional<Board> board_;
   sdk::Pose mean_ = sdk::Pose::Zero();
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Identity();
-  std::optional<sdk::Pose> last_odom_;
+  std::optional<sdk::Pose> last_odom_;  // pf_.odometry().now() at the last reading
+  double last_slip_rad_ = 0.0;          // and its slip_rad()
   long steps_ = 0, resamples_ = 0, evaluations_ = 0;
   double n_eff_sum_ = 0.0, diversity_sum_ = 0.0;
 };

@@ -28,6 +28,7 @@ FastSlam::FastSlam(const locsim_init& init, const sdk::Params& params, Mover mov
   omni_noise_.omni_sigma_major_per_m = params.number("omni_sigma_major_per_m");
   omni_noise_.omni_sigma_minor_m = params.number("omni_sigma_minor_m");
   omni_as_range_bearing_ = params.flag("omni_as_range_bearing");
+  pf_.odometry().use_gyro(params.flag("use_gyro"));
   new_landmark_chi2_ = params.number("new_landmark_chi2");
   resample_threshold_ = params.number("resample_threshold");
   use_ids_ = params.flag("use_ids");
@@ -67,14 +68,18 @@ FastSlam::FastSlam(const locsim_init& init, const sdk::Params& params, Mover mov
   mean_ = start;
 }
 
-void FastSlam::on_odometry(double, const locsim_odometry& odometry) {
+void FastSlam::on_odometry(double t_s, const locsim_odometry& odometry) {
   // The particles take each reading's motion (the map updates need them where the robot is);
   // the estimate, the mean at the last camera frame, follows the odometry since (pf_.odometry()).
-  const sdk::Pose odom(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-  if (last_odom_)
-    sdk::sample_motion(pf_.particles(), sdk::decompose(*last_odom_, odom), motion_, pf_.random());
-  last_odom_ = odom;
-  pf_.odometry().observe(odometry);
+  sdk::OdometryFollower& follower = pf_.odometry();
+  follower.observe(t_s, odometry);
+  if (last_odom_) {
+    sdk::OdometryDelta step = sdk::decompose(*last_odom_, follower.now());
+    step.slip_rad = std::abs(follower.slip_rad() - last_slip_rad_);
+    sdk::sample_motion(pf_.particles(), step, motion_, pf_.random());
+  }
+  last_odom_ = follower.now();
+  last_slip_rad_ = follower.slip_rad();
 }
 
 Eigen::Matrix2d FastSlam::noise(int32_t camera, double range) const {

@@ -27,6 +27,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
     throw std::invalid_argument("motion_model must be odometry or wheels, not '" + motion_model +
                                 "'");
   wheel_motion_ = motion_model == "wheels";
+  pf_.odometry().use_gyro(params.flag("use_gyro"));
   k_left_ = params.number("k_left");
   k_right_ = params.number("k_right");
   wheel_base_m_ = init.robot->wheel_base_m;
@@ -234,7 +235,7 @@ sdk::Pose LandmarkParticleFilter::sample_from_sensors() {
 }
 
 void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& odometry) {
-  pf_.odometry().observe(odometry);
+  pf_.odometry().observe(t_s, odometry);
   if (wheel_motion_) {
     if (const auto step = wheels_->update(t_s, odometry)) {
       sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,

@@ -62,6 +62,7 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
   {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
    "roulette (as in the paper) or low_variance"},                                                  \
   LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
+  LOCSIM_GYRO_PARAMS,                                                                              \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
   {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
    "use the omnidirectional camera's detections (a robot without one has none; 0: the paper)"},   \
@@ -90,6 +91,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
       : LandmarkParticleFilter(init, sdk::Params(init), recovery) {}
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override;
+  void on_imu(double t_s, const locsim_imu& imu) override { pf_.odometry().observe_imu(t_s, imu); }
   void on_landmarks(double t_s, const locsim_landmarks& reading) override;
   sdk::Estimate estimate() const override;
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override;

@@ -48,12 +48,14 @@ constexpr std::array<locsim_param_decl, A + B + C> join(const locsim_param_decl 
   return out;
 }
 // AMCL's random injection off: the ultrasonic fix restarts the fusion after a kidnap, and
-// guesses elsewhere would only compete with it.
+// guesses elsewhere would only compete with it. AMCL turns by the wheels, as paper 003's (the
+// IMU drives the EKF).
 constexpr auto kParams = [] {
   auto params = join(ultrasonic::kUltrasonicParams, amcl::kAmclParams, kFusionParams);
   for (locsim_param_decl& p : params) {
     const std::string_view name = p.name;
-    if (name == "recovery_alpha_slow" || name == "recovery_alpha_fast") p.default_number = 0.0;
+    if (name == "recovery_alpha_slow" || name == "recovery_alpha_fast" || name == "use_gyro")
+      p.default_number = 0.0;
   }
   return params;
 }();
@@ -62,7 +64,10 @@ class UltrasonicAmcl final : public sdk::Localizer {
  public:
   explicit UltrasonicAmcl(const locsim_init& init) : UltrasonicAmcl(init, sdk::Params(init)) {}
 
-  void on_imu(double t_s, const locsim_imu& imu) override { ekf_.on_imu(t_s, imu); }
+  void on_imu(double t_s, const locsim_imu& imu) override {
+    ekf_.on_imu(t_s, imu);
+    amcl_.on_imu(t_s, imu);
+  }
 
   void on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading) override {
     ekf_.on_beacon_ranges(t_s, reading);
@@ -80,7 +85,7 @@ class UltrasonicAmcl final : public sdk::Localizer {
       seeded_this_stop_ = false;
     }
     last_odom_ = odom;
-    amcl_.on_odometry(odometry);
+    amcl_.on_odometry(t_s, odometry);
   }
 
   void on_laser(double, const locsim_laser_scan& scan) override {

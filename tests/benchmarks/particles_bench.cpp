@@ -120,4 +120,29 @@ void BM_OdometryTrackerVelocityOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_OdometryTrackerVelocityOnly);
 
+// The SDK's OdometryFollower per odometry reading and the IMU's two readings before it (as the
+// host streams them: 50 and 100 Hz), with the gyro turning the odometry (Arg 1) or not (0).
+void BM_OdometryFollowerGyro(benchmark::State& state) {
+  locsim::sdk::OdometryFollower follower;
+  follower.use_gyro(state.range(0) != 0);
+  locsim::sdk::VelocityOdometry wheels;
+  locsim_odometry reading{};
+  locsim_imu imu{};
+  imu.yaw_rate_radps = 0.15;  // the wheels say 0.2 rad/s: they slip
+  double t_s = 0.0, slip_rad = 0.0;
+  for (auto _ : state) {
+    follower.observe_imu(t_s + 0.01, imu);
+    t_s += 0.02;
+    follower.observe_imu(t_s, imu);
+    const locsim::sdk::Pose& pose = wheels.update(t_s, 0.3, 0.2);
+    reading.odom_pose = {pose(0), pose(1), pose(2)};
+    follower.observe(t_s, reading);
+    slip_rad += follower.since_mark().slip_rad;
+    follower.mark_now();
+    benchmark::DoNotOptimize(slip_rad);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OdometryFollowerGyro)->Arg(0)->Arg(1);
+
 }  // namespace

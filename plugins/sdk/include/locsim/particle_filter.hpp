@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -143,29 +144,105 @@ class FreeSpace {
 /// moves its particles once per update (the odometry model's alphas are per update) keeps the
 /// mark at its last update; between updates its estimate is the particles' mean then, moved by
 /// the odometry since (follow: the motion's noise comes with the next update's sampling).
+///
+/// With a gyro (use_gyro and observe_imu), each odometry step turns by what the gyro measured
+/// and travels the wheels' distance along that arc (Borenstein and Feng's gyrodometry, taken
+/// always: a MEMS gyro's bias, 1e-3 rad/s, turns less in a minute than a 1 % wheel-base error
+/// does in one turn). Wheels that spin against a wall, and a push that turns the robot, turn
+/// the wheels' odometry but not the gyro: the difference is slip (OdometryDelta::slip_rad),
+/// which widens the translation's noise as much as that turn would have.
 class OdometryFollower {
  public:
-  /// The latest odometry pose; the first also sets the mark.
-  void observe(const locsim_odometry& odometry) {
-    now_ = Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-    if (!mark_) mark_ = now_;
+  /// Whether the IMU's yaw rate gives the heading (when observe_imu has readings; default on).
+  void use_gyro(bool on) { use_gyro_ = on; }
+
+  /// An IMU reading: its yaw rate, held until the next one (the body's yaw rate whatever the
+  /// IMU's mount angle in the plane).
+  void observe_imu(double t_s, const locsim_imu& imu) {
+    if (!use_gyro_ || !std::isfinite(t_s) || !std::isfinite(imu.yaw_rate_radps)) return;
+    if (!std::isnan(imu_s_)) gyro_rad_ += yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
+    imu_s_ = t_s;
+    yaw_rate_radps_ = imu.yaw_rate_radps;
   }
-  bool ready() const { return now_.has_value() && mark_.has_value(); }
-  /// Only when ready().
-  const Pose& now() const { return *now_; }
-  const Pose& mark() const { return *mark_; }
-  /// The motion since the mark, rotate-translate-rotate. Only when ready().
-  OdometryDelta since_mark() const { return decompose(*mark_, *now_); }
+
+  /// The latest odometry (at t_s, for the gyro); the first also sets the mark.
+  void observe(double t_s, const locsim_odometry& odometry) {
+    const Pose wheels(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
+    const double gyro_rad = gyro_at(t_s);
+    const bool gyro_step = !std::isnan(gyro_rad) && !std::isnan(gyro_then_rad_);
+    if (!ready() || (!gyro_step && !turned_by_gyro_)) {
+      now_ = wheels;  // the wheels' own odometry, exactly, until the gyro first turns a step
+    } else if (!gyro_step) {  // no gyro for this step: the wheels' turn
+      now_ = compose(now_, between(wheels_, wheels));
+    } else {
+      const Pose step = between(wheels_, wheels);
+      const double turn_rad = gyro_rad - gyro_then_rad_;
+      // The wheels' step runs along the chord at half their turn; the gyro's chord is at half
+      // its own.
+      const double c = std::cos(0.5 * (turn_rad - step(2))),
+                   s = std::sin(0.5 * (turn_rad - step(2)));
+      now_ = compose(now_, Pose(c * step(0) - s * step(1), s * step(0) + c * step(1), turn_rad));
+      slip_rad_ += step(2) - turn_rad;
+      turned_by_gyro_ = true;
+    }
+    wheels_ = wheels;
+    gyro_then_rad_ = gyro_rad;
+    if (!ready()) mark_ = now_, slip_at_mark_rad_ = slip_rad_;
+    ready_ = true;
+  }
+  /// The latest odometry, without its time: the wheels' turn (no gyro).
+  void observe(const locsim_odometry& odometry) {
+    observe(std::numeric_limits<double>::quiet_NaN(), odometry);
+  }
+  /// Whether an odometry reading has come (now() and mark() before: zero).
+  bool ready() const { return ready_; }
+  const Pose& now() const { return now_; }
+  const Pose& mark() const { return mark_; }
+  /// The motion since the mark, rotate-translate-rotate, with the wheels' slip since.
+  OdometryDelta since_mark() const {
+    OdometryDelta d = decompose(mark_, now_);
+    d.slip_rad = std::abs(slip_rad_ - slip_at_mark_rad_);
+    return d;
+  }
+  /// The wheels' turn less the gyro's, summed over every step so far (signed, so that the
+  /// wheels' tick-by-tick jitter cancels) [rad].
+  double slip_rad() const { return slip_rad_; }
   /// The particles have taken the odometry up to now.
-  void mark_now() { mark_ = now_; }
+  void mark_now() { mark_ = now_, slip_at_mark_rad_ = slip_rad_; }
   /// `at_mark` (a pose of the mark's time) moved by the odometry since the mark.
   Pose follow(const Pose& at_mark) const {
-    return ready() ? compose(at_mark, between(*mark_, *now_)) : at_mark;
+    return ready() ? compose(at_mark, between(mark_, now_)) : at_mark;
   }
 
  private:
-  std::optional<Pose> now_, mark_;
+  /// The gyro's turn integrated up to t_s if a reading came at most kMaxGapS before t_s, else
+  /// NaN.
+  double gyro_at(double t_s) const {
+    constexpr double kMaxGapS = 0.25;  // a gyro silent longer has stopped: back to the wheels
+    if (!use_gyro_ || std::isnan(imu_s_) || !std::isfinite(t_s) || t_s - imu_s_ > kMaxGapS)
+      return std::numeric_limits<double>::quiet_NaN();
+    return gyro_rad_ + yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
+  }
+
+  bool use_gyro_ = true, turned_by_gyro_ = false, ready_ = false;
+  Pose now_ = Pose::Zero(), mark_ = Pose::Zero();  // with the gyro's turn
+  Pose wheels_ = Pose::Zero();                     // the wheels' odometry pose at the last reading
+  // The last IMU reading's time, and gyro_at() the last odometry reading's (NaN: none).
+  double imu_s_ = std::numeric_limits<double>::quiet_NaN();
+  double gyro_then_rad_ = std::numeric_limits<double>::quiet_NaN();
+  double gyro_rad_ = 0.0, yaw_rate_radps_ = 0.0;
+  double slip_rad_ = 0.0, slip_at_mark_rad_ = 0.0;  // sum of the wheels' turn less the gyro's
 };
+
+/// The parameter that turns OdometryFollower's gyro on or off (a filter that forwards its IMU
+/// readings declares it).
+// clang-format off
+#define LOCSIM_GYRO_PARAMS                                                                         \
+  {"use_gyro", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
+   "turn by the IMU's gyro where the robot has one, not by the wheels (which slip against a wall " \
+   "or under a push: their extra turn widens the translation noise as alpha4 does a turn); 0: "    \
+   "the wheels' odometry alone"}
+// clang-format on
 
 /// Thrun's w_slow / w_fast (Probabilistic Robotics table 8.3): two exponential averages of the
 /// measurement likelihood; w_fast falling below w_slow says the belief stopped explaining the

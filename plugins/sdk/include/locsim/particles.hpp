@@ -32,6 +32,9 @@ struct ParticleSet {
 ///   trans = |p' - p|, rot1 = atan2(y' - y, x' - x) - theta, rot2 = theta' - theta - rot1.
 struct OdometryDelta {
   double rot1 = 0.0, trans = 0.0, rot2 = 0.0;
+  /// How much more (or less) the wheels turned than the body (a gyro's measure; 0 without
+  /// one): wheels that slipped, whose travel is as doubtful as after that turn [rad].
+  double slip_rad = 0.0;
 };
 
 inline OdometryDelta decompose(const Pose& from, const Pose& to) {
@@ -62,7 +65,7 @@ struct OdometryNoise {
 };
 
 /// The standard deviations of the noise on each part of `d` (the paper's b):
-///   rot1: alpha1 |rot1| + alpha2 trans,  trans: alpha4 |rot1 + rot2| + alpha3 trans,
+///   rot1: alpha1 |rot1| + alpha2 trans,  trans: alpha4 (|rot1 + rot2| + slip) + alpha3 trans,
 ///   rot2: alpha1 |rot2| + alpha2 trans  (or the square roots of alpha u^2 + alpha v^2).
 /// Reversing decomposes as rot1 ~ +-pi and rot2 ~ -+pi, a half turn the wheels never made: each
 /// rotation's noise comes from min(|rot|, pi - |rot|) (as ROS amcl's odometry model), so that
@@ -75,7 +78,7 @@ inline OdometryDelta motion_spread(const OdometryDelta& d, const OdometryNoise& 
     return std::min(std::abs(rot), std::numbers::pi - std::abs(rot));
   };
   return {spread(n.alpha1, turned(d.rot1), n.alpha2, d.trans),
-          spread(n.alpha4, wrap(d.rot1 + d.rot2), n.alpha3, d.trans),
+          spread(n.alpha4, std::abs(wrap(d.rot1 + d.rot2)) + d.slip_rad, n.alpha3, d.trans),
           spread(n.alpha1, turned(d.rot2), n.alpha2, d.trans)};
 }
 
