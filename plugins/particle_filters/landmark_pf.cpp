@@ -22,6 +22,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
   log_outlier_likelihood_ = std::log(params.number("outlier_likelihood"));
+  log_impossible_likelihood_ = std::log(params.number("impossible_likelihood"));
   const std::string motion_model = params.string("motion_model");
   if (motion_model != "odometry" && motion_model != "wheels")
     throw std::invalid_argument("motion_model must be odometry or wheels, not '" + motion_model +
@@ -188,6 +189,15 @@ void LandmarkParticleFilter::weigh_particles() {
       match = match.max(floor) + (-(match - floor).abs()).exp().log1p();
     }
     log_w += match;
+  }
+  // Where the robot cannot be (inside an obstacle, beyond the walls): odometry that says the
+  // robot drove on while its wheels spun against a wall would carry the particles there.
+  if (log_impossible_likelihood_ < 0.0) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!free_.possible(particles.x[static_cast<std::size_t>(i)],
+                          particles.y[static_cast<std::size_t>(i)]))
+        log_w[i] += log_impossible_likelihood_;
+    }
   }
 }
 

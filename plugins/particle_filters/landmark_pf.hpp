@@ -77,6 +77,9 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "added to every detection's likelihood (1 = perfect match): the chance that it is false, so "  \
    "that one far off cannot decide the weights (locsim calibrate); 0: every detection is true "    \
    "(the papers)"},                                                                                \
+  {"impossible_likelihood", LOCSIM_PARAM_DOUBLE, 0.01, 1e-300, 1, nullptr,                        \
+   "likelihood factor of a particle where the robot cannot be: in an obstacle or beyond the "     \
+   "walls of the map's occupancy grid (1: the map's walls ignored, as the papers)"},              \
   {"reset_after_steps", LOCSIM_PARAM_INT, 3, 1, 1000, nullptr,                                     \
    "resetting starts when the likelihood has been low this many steps in a row (a phantom lasts " \
    "one; 1: the paper)"},                                                                          \
@@ -129,7 +132,8 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::DetectionNoise detection_noise_;  // by camera and range
   bool use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
-  double log_outlier_likelihood_;  // log of outlier_likelihood; -inf when 0
+  double log_outlier_likelihood_;           // log of outlier_likelihood; -inf when 0
+  double log_impossible_likelihood_ = 0.0;  // log of impossible_likelihood; 0: walls ignored
   long reset_after_steps_ = 1, low_steps_ = 0;
   std::size_t reset_min_detections_ = 1;
   // Recovery parameters.
