@@ -118,6 +118,54 @@ TEST(SdkOdometry, TrackerTakesTheTicksWhenPresentElseThePose) {
   EXPECT_EQ(velocity_only.velocity()->second, 0.4);
 }
 
+TEST(SdkOdometry, TrackerTurnsByTheGyroAndTellsTheSlip) {
+  // Ticks of wheels spinning in place against a wall (left back, right forward: 0.2 rad by the
+  // wheels) while the gyro reads nothing: no turn, the mean travel kept, the wheels' turn slip.
+  locsim_imu still{};
+  for (const bool gyro : {true, false}) {
+    SCOPED_TRACE(gyro ? "gyro" : "gyro off");
+    sdk::OdometryTracker tracker(0.3), wheels_only(0.3);
+    tracker.use_gyro(gyro);
+    locsim_odometry o =
+        odometry_of(Pose(1.0, 1.0, 0.0), LOCSIM_ODOMETRY_TICKS | LOCSIM_ODOMETRY_POSE);
+    o.left_ticks = 0, o.right_ticks = 0, o.meters_per_tick = 1e-3;
+    tracker.observe_imu(0.0, still);
+    EXPECT_FALSE(tracker.update(0.0, o));
+    EXPECT_FALSE(wheels_only.update(0.0, o));
+    o.left_ticks = -25, o.right_ticks = 35;  // 10 mm forward on average, 0.2 rad of turn
+    o.odom_pose = {1.01, 1.0, 0.2};
+    tracker.observe_imu(0.01, still);
+    tracker.observe_imu(0.02, still);
+    const auto step = tracker.update(0.02, o);
+    const auto raw = wheels_only.update(0.02, o);
+    ASSERT_TRUE(step && raw);
+    if (!gyro) {  // the wheels' step, to the bit
+      EXPECT_EQ(step->d_left_m, raw->d_left_m);
+      EXPECT_EQ(step->d_right_m, raw->d_right_m);
+      EXPECT_EQ(step->pose_increment, raw->pose_increment);
+      EXPECT_EQ(step->slip_rad, 0.0);
+      continue;
+    }
+    EXPECT_NEAR(step->d_left_m, 0.005, 1e-12);
+    EXPECT_NEAR(step->d_right_m, 0.005, 1e-12);
+    EXPECT_NEAR(step->slip_rad, 0.2, 1e-12);
+    EXPECT_NEAR(step->pose_increment(2), 0.0, 1e-12);
+    EXPECT_NEAR(step->pose_increment.head<2>().norm(), raw->pose_increment.head<2>().norm(), 1e-12);
+  }
+}
+
+TEST(SdkOdometry, SlipWidensTheKalmanPrediction) {
+  Pose x(0.0, 0.0, 0.0), y = x;
+  Eigen::Matrix3d p = Eigen::Matrix3d::Identity() * 1e-4, q = p;
+  sdk::predict_by_wheels(x, p, 0.1, 0.1, 0.3, 0.001, 0.001);
+  sdk::predict_by_wheels(y, q, 0.1, 0.1, 0.3, 0.001, 0.001, 0.02);
+  EXPECT_EQ(x, y);
+  // Both wheels 0.02 m less sure: the travel by half their variances' sum, the turn by twice
+  // over the wheel base squared.
+  EXPECT_NEAR(q(0, 0) - p(0, 0), 0.5 * 0.02 * 0.02, 1e-12);
+  EXPECT_NEAR(q(2, 2) - p(2, 2), 2.0 * 0.02 * 0.02 / (0.3 * 0.3), 1e-12);
+}
+
 // ---- the host's translation ------------------------------------------------------------------
 Reading odometry_reading(double t_s, const OdometryReading& data) {
   Reading r;
@@ -315,12 +363,11 @@ TEST(Readings, EachBuiltInFilterSaysWhatItReads) {
   };
   const std::uint32_t odometry = bit(LOCSIM_READING_ODOMETRY);
   EXPECT_EQ(readings("odometry"), odometry);
-  for (const char* landmarks : {"ekf_landmarks", "omni_kf"})
-    EXPECT_EQ(readings(landmarks), odometry | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
-  // The particle filters turn their odometry by the gyro (OdometryFollower).
+  EXPECT_EQ(readings("omni_kf"), odometry | bit(LOCSIM_READING_LANDMARKS));
+  // The others turn their odometry by the gyro (OdometryFollower, OdometryTracker).
   const std::uint32_t imu = bit(LOCSIM_READING_IMU);
-  for (const char* landmarks :
-       {"mcl", "srl", "asrl", "augmented_mcl", "fastslam", "fastslam_afsa", "pso_pf"}) {
+  for (const char* landmarks : {"ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl", "fastslam",
+                                "fastslam_afsa", "pso_pf"}) {
     EXPECT_EQ(readings(landmarks), odometry | imu | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
   }
   EXPECT_EQ(readings("amcl"), odometry | imu | bit(LOCSIM_READING_LASER));

@@ -27,6 +27,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     k_right_ = params.number("k_right");
     noise_ = locsim::sdk::DetectionNoise::from(params);
     gate_ = params.number("gate_chi2");
+    odometry_.use_gyro(params.flag("use_gyro"));
     use_ptz_ = params.flag("use_ptz");
     use_omni_ = params.flag("use_omni");
     use_range_bearing_ = params.flag("use_range_bearing");
@@ -45,12 +46,15 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override {
     // The ticks' travel, or (a source without ticks) the travel that makes the odometry pose's
-    // increment with the nominal wheel base.
+    // increment with the nominal wheel base; turned by the gyro when the robot has one, the
+    // wheels' extra turn their slip.
     if (const auto step = odometry_.update(t_s, odometry)) {
       locsim::sdk::predict_by_wheels(x_, P_, step->d_left_m, step->d_right_m, wheel_base_m_,
-                                     k_left_, k_right_);
+                                     k_left_, k_right_,
+                                     0.5 * wheel_base_m_ * std::abs(step->slip_rad));
     }
   }
+  void on_imu(double t_s, const locsim_imu& imu) override { odometry_.observe_imu(t_s, imu); }
 
   void on_landmarks(double, const locsim_landmarks& reading) override {
     if ((reading.camera == LOCSIM_CAMERA_PTZ && !use_ptz_) ||
@@ -140,6 +144,7 @@ constexpr locsim_param_decl kParams[] = {
     {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr,
      "bearing noise of the PTZ camera and the range-bearing sensor [deg]"},
     LOCSIM_OMNI_NOISE_PARAMS,
+    LOCSIM_GYRO_PARAMS,
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},
     {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},

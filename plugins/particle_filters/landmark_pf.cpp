@@ -32,7 +32,10 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
   k_left_ = params.number("k_left");
   k_right_ = params.number("k_right");
   wheel_base_m_ = init.robot->wheel_base_m;
-  if (wheel_motion_) wheels_.emplace(wheel_base_m_);
+  if (wheel_motion_) {
+    wheels_.emplace(wheel_base_m_);
+    wheels_->use_gyro(params.flag("use_gyro"));
+  }
   reset_after_steps_ = params.integer("reset_after_steps");
   reset_min_detections_ = static_cast<std::size_t>(params.integer("reset_min_detections"));
   use_ptz_ = params.flag("use_ptz");
@@ -249,7 +252,8 @@ void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& odom
   if (wheel_motion_) {
     if (const auto step = wheels_->update(t_s, odometry)) {
       sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
-                               k_left_, k_right_, pf_.random());
+                               k_left_, k_right_, pf_.random(),
+                               0.5 * wheel_base_m_ * std::abs(step->slip_rad));
     }
     pf_.odometry().mark_now();
   }

@@ -94,7 +94,10 @@ class LandmarkParticleFilter : public sdk::Localizer {
       : LandmarkParticleFilter(init, sdk::Params(init), recovery) {}
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override;
-  void on_imu(double t_s, const locsim_imu& imu) override { pf_.odometry().observe_imu(t_s, imu); }
+  void on_imu(double t_s, const locsim_imu& imu) override {
+    pf_.odometry().observe_imu(t_s, imu);
+    if (wheels_) wheels_->observe_imu(t_s, imu);
+  }
   void on_landmarks(double t_s, const locsim_landmarks& reading) override;
   sdk::Estimate estimate() const override;
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override;

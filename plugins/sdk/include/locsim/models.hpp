@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <tuple>
@@ -56,15 +57,19 @@ inline Pose diff_drive_motion(const Pose& x, double d_left, double d_right, doub
 }
 
 /// Kalman prediction of pose x and covariance P by one step of wheel travel, with paper 002's
-/// input noise Q = diag(k_left^2 |d_left|, k_right^2 |d_right|):  P' = F P F^T + G Q G^T.
+/// input noise Q = diag(k_left^2 |d_left|, k_right^2 |d_right|) (plus slip_m^2 on each wheel:
+/// travel the wheels slipped by, OdometryStep::slip_rad times half the wheel base):
+/// P' = F P F^T + G Q G^T.
 inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double d_right,
-                              double wheel_base, double k_left, double k_right) {
+                              double wheel_base, double k_left, double k_right,
+                              double slip_m = 0.0) {
   Eigen::Matrix3d F;
   Eigen::Matrix<double, 3, 2> G;
   x = diff_drive_motion(x, d_left, d_right, wheel_base, &F, &G);
-  const Eigen::Matrix2d Q =
-      Eigen::Vector2d(k_left * k_left * std::abs(d_left), k_right * k_right * std::abs(d_right))
-          .asDiagonal();
+  const double slip_m2 = slip_m * slip_m;
+  const Eigen::Matrix2d Q = Eigen::Vector2d(k_left * k_left * std::abs(d_left) + slip_m2,
+                                            k_right * k_right * std::abs(d_right) + slip_m2)
+                                .asDiagonal();
   P = F * P * F.transpose() + G * Q * G.transpose();
 }
 
@@ -208,12 +213,58 @@ inline std::pair<double, double> wheel_travel_from_increment(const Pose& delta, 
   return {ds - 0.5 * wheel_base * turn, ds + 0.5 * wheel_base * turn};
 }
 
+/// The IMU's yaw rate integrated over time, each reading held until the next (the body's yaw
+/// rate whatever the IMU's mount angle in the plane): the gyro's turn between two moments, for
+/// odometry that turns by it (gyrodometry: OdometryFollower, OdometryTracker).
+class GyroIntegrator {
+ public:
+  void observe(double t_s, const locsim_imu& imu) {
+    if (!std::isfinite(t_s) || !std::isfinite(imu.yaw_rate_radps)) return;
+    if (!std::isnan(imu_s_)) turn_rad_ += yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
+    imu_s_ = t_s;
+    yaw_rate_radps_ = imu.yaw_rate_radps;
+  }
+  /// The turn integrated up to t_s since the first reading [rad]; NaN when no reading came
+  /// within kMaxGapS before t_s (a gyro silent that long has stopped: back to the wheels).
+  double turn_at(double t_s) const {
+    constexpr double kMaxGapS = 0.25;
+    if (std::isnan(imu_s_) || !std::isfinite(t_s) || t_s - imu_s_ > kMaxGapS)
+      return std::numeric_limits<double>::quiet_NaN();
+    return turn_rad_ + yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
+  }
+
+ private:
+  double imu_s_ = std::numeric_limits<double>::quiet_NaN();  // the last reading's time
+  double turn_rad_ = 0.0, yaw_rate_radps_ = 0.0;
+};
+
+/// The step `wheels` (a pose increment in the previous pose's frame) turned by `turn_rad`
+/// instead: the wheels' chord, at half their turn, rotated to half the gyro's.
+inline Pose turned_step(const Pose& wheels, double turn_rad) {
+  const double half = 0.5 * (turn_rad - wheels(2));
+  const double c = std::cos(half), s = std::sin(half);
+  return {c * wheels(0) - s * wheels(1), s * wheels(0) + c * wheels(1), turn_rad};
+}
+
+/// The parameter that turns a filter's gyro (GyroIntegrator, in OdometryFollower or
+/// OdometryTracker) on or off; a filter that forwards its IMU readings declares it.
+// clang-format off
+#define LOCSIM_GYRO_PARAMS                                                                         \
+  {"use_gyro", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
+   "turn by the IMU's gyro where the robot has one, not by the wheels (which slip against a wall " \
+   "or under a push: their extra turn widens the motion's noise); 0: the wheels' odometry alone"}
+// clang-format on
+
 /// What a filter needs from one odometry reading, whatever its source measured.
 struct OdometryStep {
   double dt_s = 0.0;                       // since the previous reading
   Pose pose_increment = Pose::Zero();      // odom pose change, in the previous odom pose's frame
   double d_left_m = 0.0, d_right_m = 0.0;  // wheel travel since the previous reading
   bool travel_from_ticks = false;          // else derived from pose_increment and the wheel base
+  /// With a gyro (OdometryTracker::observe_imu): the wheels' turn less the gyro's [rad]; the
+  /// increment and the travel above are then turned by the gyro (same distance, the gyro's
+  /// turn). 0 without.
+  double slip_rad = 0.0;
 };
 
 /// Turns each odometry reading into an OdometryStep against the previous one (nothing for the
@@ -221,11 +272,38 @@ struct OdometryStep {
 /// velocities when the source has no pose); the wheel travel from the ticks when the source
 /// has them (tick difference x meters_per_tick), else from the pose increment with the
 /// nominal wheel base (wheel_travel_from_increment). velocity() is the latest reading's when its
-/// source measured one.
+/// source measured one. Given the IMU's readings (observe_imu), each step turns by the gyro (as
+/// OdometryFollower's): the travel's difference is the gyro's turn times the wheel base, its
+/// mean the wheels', and the wheels' extra turn is the step's slip_rad.
 class OdometryTracker {
  public:
   explicit OdometryTracker(double wheel_base_m) : wheel_base_m_(wheel_base_m) {}
+  /// Whether the IMU's yaw rate turns the steps (when observe_imu has readings; default on).
+  void use_gyro(bool on) { use_gyro_ = on; }
+  void observe_imu(double t_s, const locsim_imu& imu) {
+    if (use_gyro_) gyro_.observe(t_s, imu);
+  }
   std::optional<OdometryStep> update(double t_s, const locsim_odometry& odometry) {
+    std::optional<OdometryStep> step = wheels_step(t_s, odometry);
+    const double gyro_rad =
+        use_gyro_ ? gyro_.turn_at(t_s) : std::numeric_limits<double>::quiet_NaN();
+    if (step && !std::isnan(gyro_rad) && !std::isnan(gyro_then_rad_)) {
+      const double turn_rad = gyro_rad - gyro_then_rad_;
+      const double wheels_turn_rad = (step->d_right_m - step->d_left_m) / wheel_base_m_;
+      const double mean_m = 0.5 * (step->d_left_m + step->d_right_m);
+      step->slip_rad = wheels_turn_rad - turn_rad;
+      step->d_left_m = mean_m - 0.5 * wheel_base_m_ * turn_rad;
+      step->d_right_m = mean_m + 0.5 * wheel_base_m_ * turn_rad;
+      step->pose_increment = turned_step(step->pose_increment, turn_rad);
+    }
+    gyro_then_rad_ = gyro_rad;
+    return step;
+  }
+  /// The latest measured (v [m/s], omega [rad/s]); nullopt when the source reports none.
+  const std::optional<std::pair<double, double>>& velocity() const { return velocity_; }
+
+ private:
+  std::optional<OdometryStep> wheels_step(double t_s, const locsim_odometry& odometry) {
     const Pose now(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
     const bool ticks = (odometry.fields & LOCSIM_ODOMETRY_TICKS) != 0;
     std::optional<OdometryStep> step;
@@ -250,10 +328,7 @@ class OdometryTracker {
     }
     return step;
   }
-  /// The latest measured (v [m/s], omega [rad/s]); nullopt when the source reports none.
-  const std::optional<std::pair<double, double>>& velocity() const { return velocity_; }
 
- private:
   struct Last {
     double t_s;
     Pose pose;
@@ -261,6 +336,9 @@ class OdometryTracker {
     bool ticks;
   };
   double wheel_base_m_;
+  bool use_gyro_ = true;
+  GyroIntegrator gyro_;
+  double gyro_then_rad_ = std::numeric_limits<double>::quiet_NaN();  // at the last reading
   std::optional<Last> last_;
   std::optional<std::pair<double, double>> velocity_;
 };

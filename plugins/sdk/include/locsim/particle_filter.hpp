@@ -156,19 +156,16 @@ class OdometryFollower {
   /// Whether the IMU's yaw rate gives the heading (when observe_imu has readings; default on).
   void use_gyro(bool on) { use_gyro_ = on; }
 
-  /// An IMU reading: its yaw rate, held until the next one (the body's yaw rate whatever the
-  /// IMU's mount angle in the plane).
+  /// An IMU reading (its yaw rate).
   void observe_imu(double t_s, const locsim_imu& imu) {
-    if (!use_gyro_ || !std::isfinite(t_s) || !std::isfinite(imu.yaw_rate_radps)) return;
-    if (!std::isnan(imu_s_)) gyro_rad_ += yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
-    imu_s_ = t_s;
-    yaw_rate_radps_ = imu.yaw_rate_radps;
+    if (use_gyro_) gyro_.observe(t_s, imu);
   }
 
   /// The latest odometry (at t_s, for the gyro); the first also sets the mark.
   void observe(double t_s, const locsim_odometry& odometry) {
     const Pose wheels(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
-    const double gyro_rad = gyro_at(t_s);
+    const double gyro_rad =
+        use_gyro_ ? gyro_.turn_at(t_s) : std::numeric_limits<double>::quiet_NaN();
     const bool gyro_step = !std::isnan(gyro_rad) && !std::isnan(gyro_then_rad_);
     if (!ready() || (!gyro_step && !turned_by_gyro_)) {
       now_ = wheels;  // the wheels' own odometry, exactly, until the gyro first turns a step
@@ -177,11 +174,7 @@ class OdometryFollower {
     } else {
       const Pose step = between(wheels_, wheels);
       const double turn_rad = gyro_rad - gyro_then_rad_;
-      // The wheels' step runs along the chord at half their turn; the gyro's chord is at half
-      // its own.
-      const double c = std::cos(0.5 * (turn_rad - step(2))),
-                   s = std::sin(0.5 * (turn_rad - step(2)));
-      now_ = compose(now_, Pose(c * step(0) - s * step(1), s * step(0) + c * step(1), turn_rad));
+      now_ = compose(now_, turned_step(step, turn_rad));
       slip_rad_ += step(2) - turn_rad;
       turned_by_gyro_ = true;
     }
@@ -215,34 +208,14 @@ class OdometryFollower {
   }
 
  private:
-  /// The gyro's turn integrated up to t_s if a reading came at most kMaxGapS before t_s, else
-  /// NaN.
-  double gyro_at(double t_s) const {
-    constexpr double kMaxGapS = 0.25;  // a gyro silent longer has stopped: back to the wheels
-    if (!use_gyro_ || std::isnan(imu_s_) || !std::isfinite(t_s) || t_s - imu_s_ > kMaxGapS)
-      return std::numeric_limits<double>::quiet_NaN();
-    return gyro_rad_ + yaw_rate_radps_ * std::max(0.0, t_s - imu_s_);
-  }
-
   bool use_gyro_ = true, turned_by_gyro_ = false, ready_ = false;
   Pose now_ = Pose::Zero(), mark_ = Pose::Zero();  // with the gyro's turn
   Pose wheels_ = Pose::Zero();                     // the wheels' odometry pose at the last reading
-  // The last IMU reading's time, and gyro_at() the last odometry reading's (NaN: none).
-  double imu_s_ = std::numeric_limits<double>::quiet_NaN();
-  double gyro_then_rad_ = std::numeric_limits<double>::quiet_NaN();
-  double gyro_rad_ = 0.0, yaw_rate_radps_ = 0.0;
+  GyroIntegrator gyro_;
+  double gyro_then_rad_ =
+      std::numeric_limits<double>::quiet_NaN();     // the gyro's turn at the last odometry reading
   double slip_rad_ = 0.0, slip_at_mark_rad_ = 0.0;  // sum of the wheels' turn less the gyro's
 };
-
-/// The parameter that turns OdometryFollower's gyro on or off (a filter that forwards its IMU
-/// readings declares it).
-// clang-format off
-#define LOCSIM_GYRO_PARAMS                                                                         \
-  {"use_gyro", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
-   "turn by the IMU's gyro where the robot has one, not by the wheels (which slip against a wall " \
-   "or under a push: their extra turn widens the translation noise as alpha4 does a turn); 0: "    \
-   "the wheels' odometry alone"}
-// clang-format on
 
 /// Thrun's w_slow / w_fast (Probabilistic Robotics table 8.3): two exponential averages of the
 /// measurement likelihood; w_fast falling below w_slow says the belief stopped explaining the

@@ -123,12 +123,17 @@ inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const Odometry
 /// Moves every particle by its own noisy sample of one step of wheel travel (dl, dr) [m]:
 /// paper 002's wheel model, each wheel's travel drawn with variance k^2 |d| (k [m^1/2]), then
 /// diff_drive_motion. Unlike the per-step alphas its noise adds up the same whatever the step
-/// length, so a filter may apply it at every odometry reading.
+/// length, so a filter may apply it at every odometry reading. `slip_m`: travel the wheels
+/// slipped by (OdometryStep::slip_rad times half the wheel base), a spread added to each wheel's.
 inline void sample_wheel_motion(ParticleSet& p, double d_left_m, double d_right_m,
-                                double wheel_base_m, double k_left, double k_right,
-                                Random& random) {
-  const double spread_left = k_left * std::sqrt(std::abs(d_left_m));
-  const double spread_right = k_right * std::sqrt(std::abs(d_right_m));
+                                double wheel_base_m, double k_left, double k_right, Random& random,
+                                double slip_m = 0.0) {
+  const auto spread = [&](double k, double d) {
+    return slip_m == 0.0 ? k * std::sqrt(std::abs(d))
+                         : std::sqrt(k * k * std::abs(d) + slip_m * slip_m);
+  };
+  const double spread_left = spread(k_left, d_left_m);
+  const double spread_right = spread(k_right, d_right_m);
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double dl = d_left_m + random.normal(spread_left);
     const double dr = d_right_m + random.normal(spread_right);
