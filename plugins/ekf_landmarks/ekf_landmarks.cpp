@@ -134,8 +134,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 };
 
 constexpr locsim_param_decl kParams[] = {
-    {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr, "left wheel random error [m^1/2]"},
-    {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr, "right wheel random error [m^1/2]"},
+    LOCSIM_WHEEL_NOISE_PARAMS,
     {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 10.0, nullptr,
      "range noise at zero range (PTZ camera, range-bearing sensor) [m]"},
     {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr, "range noise growth [m/m]"},

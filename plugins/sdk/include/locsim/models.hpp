@@ -73,6 +73,14 @@ inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double
   P = F * P * F.transpose() + G * Q * G.transpose();
 }
 
+/// Paper 002's wheel noise (predict_by_wheels' k_left, k_right) as plugin parameters: one
+/// declaration for every filter that predicts by the wheels.
+// clang-format off
+#define LOCSIM_WHEEL_NOISE_PARAMS                                                                  \
+  {"k_left", LOCSIM_PARAM_DOUBLE, 0.0013, 0.0, 1.0, nullptr, "left wheel random error [m^1/2]"},   \
+  {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr, "right wheel random error [m^1/2]"}
+// clang-format on
+
 /// Range and bearing from the pose to a point landmark:
 ///   r = |m - p|, phi = atan2(my - y, mx - x) - theta;  H = d(r, phi) / d x (2x3).
 inline Eigen::Vector2d range_bearing(const Pose& x, const Eigen::Vector2d& landmark,
@@ -386,6 +394,86 @@ struct PointEstimate {
 inline PointEstimate kalman_combine(const PointEstimate& e1, const PointEstimate& e2) {
   const Eigen::Matrix2d gain = e1.c * (e1.c + e2.c).inverse();
   return {e1.p + gain * (e2.p - e1.p), e1.c - gain * e1.c};
+}
+
+/// A world point m as seen from the robot at `pose`: p = R(theta)^T (m - t), and H = dp / d pose
+/// (2x3) when asked: -R^T for the position, dR^T/dtheta (m - t) for the heading.
+inline Eigen::Vector2d point_in_robot_frame(const Pose& pose, const Eigen::Vector2d& m,
+                                            Eigen::Matrix<double, 2, 3>* H = nullptr) {
+  const double c = std::cos(pose(2)), s = std::sin(pose(2));
+  const Eigen::Vector2d d = m - pose.head<2>();
+  if (H != nullptr) {
+    *H << -c, -s, -s * d.x() + c * d.y(),  //
+        s, -c, -c * d.x() - s * d.y();
+  }
+  return {c * d.x() + s * d.y(), -s * d.x() + c * d.y()};
+}
+
+/// The information sum_k H_k^T C_k^-1 H_k that points of known world positions seen in the robot
+/// frame (each with its covariance) give about the pose, at `pose`; its inverse is the Cramer-Rao
+/// bound: no unbiased pose from these points is more certain. With the weighted residuals'
+/// gradient sum_k H_k^T C_k^-1 (p_k - h(pose, m_k)) and their chi2.
+struct PointsInformation {
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+  double chi2 = 0.0;
+};
+inline PointsInformation points_information(const std::vector<Eigen::Vector2d>& world,
+                                            const std::vector<PointEstimate>& seen,
+                                            const Pose& pose) {
+  PointsInformation out;
+  for (std::size_t k = 0; k < std::min(world.size(), seen.size()); ++k) {
+    Eigen::Matrix<double, 2, 3> H;
+    const Eigen::Vector2d residual = seen[k].p - point_in_robot_frame(pose, world[k], &H);
+    const Eigen::Matrix2d weight = seen[k].c.inverse();
+    out.information += H.transpose() * weight * H;
+    out.gradient += H.transpose() * weight * residual;
+    out.chi2 += residual.dot(weight * residual);
+  }
+  return out;
+}
+
+/// The inverse of an information matrix, symmetrised; nullopt when it is singular (the points do
+/// not fix the pose: fewer than two, or all at one place).
+inline std::optional<Eigen::Matrix3d> covariance_from_information(const Eigen::Matrix3d& info) {
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
+  if (!lu.isInvertible()) return std::nullopt;
+  const Eigen::Matrix3d inverse = lu.inverse();
+  return 0.5 * (inverse + inverse.transpose());
+}
+
+/// The pose that best explains points of known world positions seen in the robot frame, each
+/// with its covariance: weighted least squares, min over x of
+///   sum_k (p_k - h(x, m_k))^T C_k^-1 (p_k - h(x, m_k)),   h = point_in_robot_frame,
+/// by Gauss-Newton from `start` (e.g. two_landmark_pose of a pair). covariance = the inverse of
+/// points_information at the solution; chi2 the weighted sum of squares there (2n - 3 degrees of
+/// freedom). nullopt with fewer than two points or lists of different lengths.
+struct PoseFit {
+  Pose pose;
+  Eigen::Matrix3d covariance;
+  double chi2;
+};
+inline std::optional<PoseFit> fit_pose_to_points(const std::vector<Eigen::Vector2d>& world,
+                                                 const std::vector<PointEstimate>& seen,
+                                                 const Pose& start) {
+  if (world.size() != seen.size() || world.size() < 2) return std::nullopt;
+  Pose pose = start;
+  // Converges in a few steps from a pair's triangulation (the model is nearly linear within a
+  // few decimetres); the cap only bounds a degenerate start.
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    const PointsInformation at = points_information(world, seen, pose);
+    const Eigen::LDLT<Eigen::Matrix3d> solver(at.information);
+    if (solver.info() != Eigen::Success || !solver.isPositive()) return std::nullopt;
+    const Eigen::Vector3d step = solver.solve(at.gradient);
+    if (!step.allFinite()) return std::nullopt;
+    pose += step;
+    pose(2) = wrap(pose(2));
+    if (step.head<2>().norm() < 1e-9 && std::abs(step(2)) < 1e-9) break;
+  }
+  const PointsInformation at = points_information(world, seen, pose);
+  const auto covariance = covariance_from_information(at.information);
+  if (!covariance) return std::nullopt;
+  return PoseFit{pose, *covariance, at.chi2};
 }
 
 /// A position from its distances to three or more known points (paper 003's ultrasonic beacons,
