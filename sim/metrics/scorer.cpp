@@ -7,6 +7,7 @@
 #include "sim/common/files.hpp"
 #include "sim/common/format.hpp"
 #include "sim/common/math.hpp"
+#include "sim/sensors/models.hpp"
 
 namespace locsim {
 
@@ -18,11 +19,19 @@ namespace {
 // What a kind of reading must show after a kidnap's landing for a filter using it to be able to
 // find the robot again. Landmarks: two distinct ones (range and bearing to one known landmark
 // leave the robot anywhere on a circle round it, facing it). Beacons: three distinct ones in line
-// of sight (two ranges cross twice). Laser: one scan (the walls it sees may still be ambiguous in
-// a symmetric world; not told apart). Odometry and IMU alone never find a kidnapped robot.
+// of sight (two ranges cross twice). Laser: scans that tell the true place apart from every
+// other (LaserPlaceJudge: not in a symmetric room or a featureless stretch of corridor), or, when
+// the scorer has no map to judge by, one scan. Odometry and IMU alone never find a kidnapped
+// robot.
 constexpr std::size_t kLandmarksToRecover = 2;
 constexpr std::size_t kBeaconsToRecover = 3;
 constexpr long kLaserScansToRecover = 1;
+// The laser's judgement weighs a scan a second for the first ten seconds after the landing: enough
+// for the robot to drive past what tells alike places apart, and a bounded cost (a coarse search
+// over the map on the first, then the candidates refined over all).
+constexpr std::size_t kLaserProbes = 10;
+constexpr double kLaserProbeEveryS = 1.0;
+constexpr std::size_t kLaserProbeBeams = 60;  // end points kept per probe, evenly spread
 
 json error_json(const ErrorSummary& e) {
   return {{"samples", e.samples},
@@ -85,7 +94,7 @@ void write_landmark_map_csv(const fs::path& file,
 }  // namespace
 
 Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
-               const ConvergenceCriterion& criterion)
+               const ConvergenceCriterion& criterion, const OccupancyGrid* grid)
     : criterion_(criterion),
       kidnaps_(world.robots.size()),
       put_downs_(world.robots.size()),
@@ -94,16 +103,41 @@ Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
   for (const LandmarkDef& l : world.landmarks) {
     true_landmarks_.push_back({l.id, l.position_m.x(), l.position_m.y()});
   }
-  for (const RobotDef& r : world.robots) robot_names_.push_back(r.name);
+  bool any_laser = false;
+  for (const RobotDef& r : world.robots) {
+    robot_names_.push_back(r.name);
+    lasers_.push_back(r.sensors.laser);
+    any_laser = any_laser || r.sensors.laser.has_value();
+  }
+  bool reads_laser = false;
   for (LocalizerInfo& info : localizers) {
+    reads_laser = reads_laser || info.readings == 0 ||
+                  (info.readings & LOCSIM_READING_BIT(LOCSIM_READING_LASER)) != 0;
     Track& track = tracks_.emplace_back();
     track.info = std::move(info);
     track.all = ErrorAccumulator(criterion);
     track.segment = ErrorAccumulator(criterion);
   }
+  // The judge costs a distance transform of the map here and a search per kidnap: only when a
+  // filter's verdict needs it.
+  if (grid != nullptr && grid->width > 0 && grid->height > 0 && any_laser && reads_laser)
+    laser_judge_.emplace(*grid);
 }
 
 void Scorer::consume(const Record& record) {
+  if (record.type == Record::Type::kGroundTruth && laser_judge_) {
+    // A probe scan's true pose: the ground truth of the step it was taken in (readings come
+    // before the step's ground truth in the stream).
+    const auto r = static_cast<std::size_t>(record.robot);
+    if (r < sensed_.size() && !kidnaps_[r].empty() && sensed_[r].size() > kidnaps_[r].size()) {
+      Sensed& sensed = sensed_[r][kidnaps_[r].size()];
+      if (sensed.pending_probe) {
+        sensed.laser_probes.push_back({record.pose, std::move(*sensed.pending_probe)});
+        sensed.pending_probe.reset();
+      }
+    }
+    return;
+  }
   if (record.type == Record::Type::kEvent) {
     const bool kidnap = record.event.kind == "kidnap";
     if (!kidnap && record.event.kind != "put_down") return;
@@ -144,9 +178,37 @@ void Scorer::consume(const Record& record) {
       if (std::isfinite(range.range_m) && range.truth_status == RangeStatus::kLineOfSight)
         sensed->beacons.insert(range.beacon_id);
     }
-  } else if (std::holds_alternative<LaserScan>(record.reading.data)) {
+  } else if (const auto* scan = std::get_if<LaserScan>(&record.reading.data)) {
     ++sensed->laser_scans;
+    if (laser_judge_ && lasers_[r] && sensed->laser_probes.size() < kLaserProbes &&
+        !sensed->pending_probe && record.reading.t_s >= sensed->next_probe_s) {
+      // The hits' end points in the robot frame, at most kLaserProbeBeams of them.
+      const LaserDef& laser = *lasers_[r];
+      const int beams = static_cast<int>(scan->ranges_m.size());
+      const int stride = std::max(1, beams / static_cast<int>(kLaserProbeBeams));
+      std::vector<Vec2> end_points;
+      for (int i = 0; i < beams; i += stride) {
+        const double range = scan->ranges_m[static_cast<std::size_t>(i)];
+        if (!(range >= laser.min_range_m && range < laser.max_range_m)) continue;
+        const double angle = laser_beam_angle(i, beams, laser.fov_rad);
+        end_points.push_back(
+            laser.common.mount.transform(Vec2(range * std::cos(angle), range * std::sin(angle))));
+      }
+      sensed->pending_probe = std::move(end_points);
+      sensed->next_probe_s = record.reading.t_s + kLaserProbeEveryS;
+    }
   }
+}
+
+const LaserPlaceVerdict* Scorer::laser_verdict(const Track& track) const {
+  if (!laser_judge_ || track.kidnaps_passed == 0) return nullptr;
+  const Sensed& sensed = sensed_since_kidnap(track);
+  if (sensed.laser_probes.empty()) return nullptr;
+  const auto key = std::pair{track.info.robot, track.kidnaps_passed};
+  auto it = laser_verdicts_.find(key);
+  if (it == laser_verdicts_.end())
+    it = laser_verdicts_.emplace(key, laser_judge_->judge(sensed.laser_probes)).first;
+  return &it->second;
 }
 
 const Scorer::Sensed& Scorer::sensed_since_kidnap(const Track& track) const {
@@ -160,9 +222,15 @@ std::optional<bool> Scorer::recoverable(const Track& track) const {
   const Sensed& sensed = sensed_since_kidnap(track);
   const std::uint32_t uses = track.info.readings != 0 ? track.info.readings : ~0u;
   const auto used = [&](int kind) { return (uses & LOCSIM_READING_BIT(kind)) != 0; };
+  const auto laser_tells = [&] {
+    if (sensed.laser_scans < kLaserScansToRecover) return false;
+    if (!laser_judge_) return true;  // no map to judge by: any scan
+    const LaserPlaceVerdict* verdict = laser_verdict(track);
+    return verdict != nullptr && verdict->told_apart;
+  };
   return (used(LOCSIM_READING_LANDMARKS) && sensed.landmarks.size() >= kLandmarksToRecover) ||
          (used(LOCSIM_READING_BEACON_RANGES) && sensed.beacons.size() >= kBeaconsToRecover) ||
-         (used(LOCSIM_READING_LASER) && sensed.laser_scans >= kLaserScansToRecover);
+         (used(LOCSIM_READING_LASER) && laser_tells());
 }
 
 json Scorer::segment_json(const Track& track) const {
@@ -185,6 +253,16 @@ json Scorer::segment_json(const Track& track) const {
     out["sensed"] = {{"landmarks", sensed.landmarks.size()},
                      {"beacons", sensed.beacons.size()},
                      {"laser_scans", sensed.laser_scans}};
+    if (const LaserPlaceVerdict* v = laser_verdict(track)) {
+      const auto optional = [](const std::optional<double>& x) {
+        return x ? json(*x) : json(nullptr);
+      };
+      out["sensed"]["laser_place"] = {
+          {"told_apart", v->told_apart},
+          {"log_ratio", std::isfinite(v->log_ratio) ? json(v->log_ratio) : json(nullptr)},
+          {"other_m", optional(v->other_m)},
+          {"other_deg", optional(v->other_deg)}};
+    }
     out["recoverable"] = *recoverable(track);
   }
   return out;

@@ -14,6 +14,7 @@
 
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/metrics/landmark_metrics.hpp"
+#include "sim/metrics/laser_place.hpp"
 #include "sim/stream/estimates.hpp"
 #include "sim/stream/record.hpp"
 #include "sim/world/world_def.hpp"
@@ -22,8 +23,10 @@ namespace locsim {
 
 class Scorer final : public RecordConsumer, public EstimateConsumer {
  public:
+  /// `grid`, the static map the localizers were given, lets the scorer judge whether a robot's
+  /// laser tells its place apart after a kidnap (LaserPlaceJudge); without it any scan does.
   Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
-         const ConvergenceCriterion& criterion);
+         const ConvergenceCriterion& criterion, const OccupancyGrid* grid = nullptr);
 
   void consume(const Record& record) override;
   void estimate(const EstimateSample& sample) override;
@@ -61,21 +64,32 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
     std::set<int> landmarks;  // true landmarks detected (any camera; false detections aside)
     std::set<int> beacons;    // beacons ranged in line of sight
     long laser_scans = 0;
+    // Scans kept for the laser's judgement, one a second (the first kLaserProbes), each with the
+    // true pose of the ground-truth record that follows it in the stream.
+    std::vector<LaserProbe> laser_probes;
+    std::optional<std::vector<Vec2>> pending_probe;
+    double next_probe_s = -1e300;
   };
   nlohmann::ordered_json segment_json(const Track& track) const;
   /// Whether the kidnap that opened the track's current segment is one its localizer's kinds of
   /// reading (all kinds when it does not say) showed enough to recover from; nullopt before any.
   std::optional<bool> recoverable(const Track& track) const;
   const Sensed& sensed_since_kidnap(const Track& track) const;
+  /// The laser's verdict on the track's current kidnap; nullopt without a judge or a probe.
+  const LaserPlaceVerdict* laser_verdict(const Track& track) const;
   nlohmann::ordered_json metrics_json(const Track& track, const LocalizerFinal& end) const;
 
   ConvergenceCriterion criterion_;
   std::vector<LandmarkPoint> true_landmarks_;
   std::vector<std::string> robot_names_;
-  std::vector<std::vector<double>> kidnaps_;    // by robot: kidnap times [s]
-  std::vector<std::vector<double>> put_downs_;  // by robot: when each kidnap landed [s]
-  std::vector<std::set<int>> observed_;         // by robot: true landmarks its cameras detected
-  std::vector<std::vector<Sensed>> sensed_;     // by robot, by kidnap: after its put-down
+  std::vector<std::vector<double>> kidnaps_;     // by robot: kidnap times [s]
+  std::vector<std::vector<double>> put_downs_;   // by robot: when each kidnap landed [s]
+  std::vector<std::set<int>> observed_;          // by robot: true landmarks its cameras detected
+  std::vector<std::vector<Sensed>> sensed_;      // by robot, by kidnap: after its put-down
+  std::optional<LaserPlaceJudge> laser_judge_;   // with a grid, a laser and a filter reading it
+  std::vector<std::optional<LaserDef>> lasers_;  // by robot
+  // Judged once per robot and kidnap, whichever localizer's segment asks first.
+  mutable std::map<std::pair<std::size_t, std::size_t>, LaserPlaceVerdict> laser_verdicts_;
   std::vector<Track> tracks_;
 };
 

@@ -30,7 +30,7 @@ Session::Session(const SessionOptions& options, const WorldDef& world, const Sce
   host.plugin_timeout_s = options.plugin_timeout_s;
   host.interrupt = interrupt;
   host_ = std::make_unique<LocalizerHost>(specs, world, scenario.localization, grid, seed, host);
-  scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence);
+  scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence, &grid);
 }
 
 void Session::open(const std::filesystem::path& out_dir,

@@ -68,4 +68,27 @@ OccupancyGrid rasterize_static_world(const PhysicsWorld& world, double resolutio
   return grid;
 }
 
+std::vector<Vec2> cast_rays(const OccupancyGrid& grid, const Pose2& pose, int beams, double fov_rad,
+                            double max_range_m) {
+  std::vector<Vec2> points;
+  const double step_m = 0.1 * grid.resolution_m;
+  for (int i = 0; i < beams; ++i) {
+    const double angle = beams == 1 ? 0.0 : -0.5 * fov_rad + fov_rad * i / (beams - 1);
+    const Vec2 direction(std::cos(angle), std::sin(angle));
+    for (double r = step_m; r < max_range_m; r += step_m) {
+      const Vec2 world = pose.transform(r * direction);
+      const int col =
+          static_cast<int>(std::floor((world.x() - grid.origin_m.x()) / grid.resolution_m));
+      const int row =
+          static_cast<int>(std::floor((world.y() - grid.origin_m.y()) / grid.resolution_m));
+      if (col < 0 || row < 0 || col >= grid.width || row >= grid.height) break;
+      if (grid.occupied(col, row)) {
+        points.push_back(r * direction);
+        break;
+      }
+    }
+  }
+  return points;
+}
+
 }  // namespace locsim

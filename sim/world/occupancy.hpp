@@ -23,4 +23,10 @@ struct OccupancyGrid {
 /// Cells touched by a wall or inside a shape are occupied; people, carts and robots are not in it.
 OccupancyGrid rasterize_static_world(const PhysicsWorld& world, double resolution_m);
 
+/// The end points, in the frame of `pose`, of `beams` rays evenly spread over `fov_rad` (centred on
+/// its x axis) that reach an occupied cell within `max_range_m`, marched a tenth of a cell at a
+/// time: what a noiseless laser at `pose` would hit in the grid (tests, benchmarks).
+std::vector<Vec2> cast_rays(const OccupancyGrid& grid, const Pose2& pose, int beams, double fov_rad,
+                            double max_range_m);
+
 }  // namespace locsim
