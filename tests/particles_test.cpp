@@ -245,6 +245,35 @@ TEST(Particles, LowVarianceResamplingCopiesInProportionToWeight) {
   }
 }
 
+TEST(Particles, OpenEndedDrawsSpreadEveryPrefixOverAllTheWeights) {
+  // Two modes of equal mass, one at each end of the set (the newest guesses are at its end). KLD
+  // sampling stops after a count it learns while drawing: whatever the count, each mode gets
+  // its share. A comb of max teeth walked in order and stopped at 100 of 1000 drew the head's
+  // mode only.
+  std::vector<double> w(1000, 0.0);
+  for (std::size_t i = 0; i < 50; ++i) w[i] = w[999 - i] = 1.0;
+  std::vector<double> cumulative;
+  double sum = 0.0;
+  for (const double v : w) cumulative.push_back(sum += v);
+  for (const double u : {0.0, 0.37, 0.999}) {
+    OpenEndedDraws draws(cumulative, u);
+    int head = 0, tail = 0;
+    for (int k = 1; k <= 512; ++k) {
+      const std::size_t i = draws.next();
+      ASSERT_GT(w[i], 0.0) << "drew a particle of no weight";
+      (i < 500 ? head : tail) += 1;
+      if (k == 2 || k == 8 || k == 100 || k == 512) {
+        EXPECT_LE(std::abs(head - tail), 2) << "after " << k << " draws, u " << u;
+      }
+    }
+  }
+  EXPECT_EQ(OpenEndedDraws::radical_inverse(0), 0.0);
+  EXPECT_EQ(OpenEndedDraws::radical_inverse(1), 0.5);
+  EXPECT_EQ(OpenEndedDraws::radical_inverse(2), 0.25);
+  EXPECT_EQ(OpenEndedDraws::radical_inverse(3), 0.75);
+  EXPECT_EQ(OpenEndedDraws::radical_inverse(6), 0.375);
+}
+
 TEST(Particles, RouletteResamplingIsMultinomial) {
   // Each draw independent: a particle of weight w gets n w copies on average with the binomial
   // variance n w (1 - w) (systematic resampling's would be below 1/4).

@@ -13,7 +13,7 @@
 #pragma once
 
 #include <locsim/laser.hpp>
-#include <locsim/particle_filter.hpp>
+#include <locsim/place_search.hpp>
 #include <optional>
 #include <vector>
 
@@ -50,12 +50,8 @@ class LaserPlaceJudge {
   LaserPlaceVerdict judge(const std::vector<LaserProbe>& probes) const;
 
  private:
-  OccupancyGrid grid_;
-  sdk::LikelihoodField sharp_;   // AMCL's defaults: sigma_hit 0.2 m
-  sdk::LikelihoodField smooth_;  // for the coarse search: sigma_hit 0.5 m, so a pose a grid step
-                                 // off its best still scores near it
-  std::vector<double> clearance_m_;  // per cell: distance to the nearest occupied cell
-  sdk::FreeSpace free_;              // where a robot can be: inside the walls
+  sdk::LikelihoodField sharp_;  // AMCL's defaults: sigma_hit 0.2 m
+  sdk::PlaceSearch search_;     // the coarse search, on a smoothed field (sigma_hit 0.5 m)
 };
 
 }  // namespace locsim

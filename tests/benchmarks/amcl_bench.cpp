@@ -109,9 +109,11 @@ BENCHMARK(BM_AmclUpdate)->Arg(1000)->Arg(5000)->Arg(20000)->Unit(benchmark::kMic
 // best fit of ten draws (the default), each draw one more scan weighing.
 void BM_AmclLost(benchmark::State& state) {
   const Building building;
-  bench::PluginFixture f(
-      "amcl", {{"recovery_candidates", std::to_string(state.range(0))}, {"laser_max_beams", "60"}},
-      building.map, building.robot, {5.0, 5.0, 0.0}, 0.04, 0.01);
+  bench::PluginFixture f("amcl",
+                         {{"recovery_candidates", std::to_string(state.range(0))},
+                          {"recovery_search_updates", std::to_string(state.range(1))},
+                          {"laser_max_beams", "60"}},
+                         building.map, building.robot, {5.0, 5.0, 0.0}, 0.04, 0.01);
   CircleDrive drive(building);
   int turn = 0;
   const auto advance = [&] {
@@ -138,6 +140,13 @@ void BM_AmclLost(benchmark::State& state) {
   bench::run_updates(state, f, 0, advance, update_and_count);
   state.counters["injected_per_update"] = injected / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_AmclLost)->Arg(1)->Arg(10)->Iterations(200)->Unit(benchmark::kMicrosecond);
+// Arguments: recovery_candidates, recovery_search_updates (AMCL's one uniform draw; best of ten
+// uniform and near; the default, best of ten about the searched places, searching every fifth).
+BENCHMARK(BM_AmclLost)
+    ->Args({1, 0})
+    ->Args({10, 0})
+    ->Args({10, 5})
+    ->Iterations(200)
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace

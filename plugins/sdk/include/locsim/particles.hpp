@@ -295,6 +295,41 @@ inline void low_variance_resample(const std::vector<double>& w, Random& random,
   }
 }
 
+/// Systematic draws for a count not known in advance (KLD sampling stops when the draws cover
+/// enough bins): the k-th draw takes the pointer u + v(k) (mod 1) along the cumulative weights,
+/// v the base-2 van der Corput sequence (0, 1/2, 1/4, 3/4, ...), so that every prefix of the draws
+/// is spread evenly over all the weights, as a low-variance comb of that many teeth would be.
+/// A comb of max_particles teeth walked in order and stopped early draws only from the head of
+/// the set: the particles at its end (the newest guesses, the mode resampled last) were never
+/// drawn (amcl lost a recovered truth to its twin that way).
+class OpenEndedDraws {
+ public:
+  /// Over `cumulative` (the running sums of the weights, the last their total), with one uniform
+  /// offset u in [0, 1).
+  OpenEndedDraws(const std::vector<double>& cumulative, double u)
+      : cumulative_(cumulative), u_(u) {}
+  /// The next draw's particle index.
+  std::size_t next() {
+    if (cumulative_.empty()) return 0;
+    double v = u_ + radical_inverse(k_++);
+    if (v >= 1.0) v -= 1.0;
+    const double pointer = v * cumulative_.back();
+    const auto it = std::upper_bound(cumulative_.begin(), cumulative_.end(), pointer);
+    return std::min(static_cast<std::size_t>(it - cumulative_.begin()), cumulative_.size() - 1);
+  }
+  /// Base-2 radical inverse of k: its bits mirrored about the binary point.
+  static double radical_inverse(std::uint64_t k) {
+    std::uint64_t r = 0;
+    for (int bit = 0; bit < 64; ++bit, k >>= 1) r = (r << 1) | (k & 1u);
+    return static_cast<double>(r >> 11) * 0x1.0p-53;  // the top 53 bits: exact in a double
+  }
+
+ private:
+  const std::vector<double>& cumulative_;
+  double u_;
+  std::uint64_t k_ = 0;
+};
+
 /// Replaces the set by the chosen particles with equal weights (scratch: reused storage).
 inline void apply_resample(ParticleSet& p, const std::vector<std::size_t>& chosen,
                            ParticleSet& scratch) {

@@ -1,0 +1,189 @@
+// Global place search on the laser, for plugin authors: the poses of the whole map that explain a
+// scan best, found by brute force on a lattice (every clear position, every heading) against a
+// smoothed likelihood field, then refined by coordinate ascent on the filter's own field. What
+// correlative scan matching does for relocalization (Olson, "Real-time correlative scan matching",
+// 2009), without its branch and bound: the maps locsim's worlds have make the lattice cheap enough
+// (a 20 x 12 m room: 180 000 poses weighed on ten end points, then the best 2 000 on thirty).
+//
+// Used by amcl's recovery (a kidnapped filter injects guesses about these places instead of
+// uniformly) and by the scorer's judgement of whether a laser tells a place apart (one search,
+// one set of constants).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <numbers>
+#include <utility>
+#include <vector>
+
+#include "locsim/laser.hpp"
+#include "locsim/localizer.h"
+#include "locsim/models.hpp"
+#include "locsim/particle_filter.hpp"
+
+namespace locsim::sdk {
+
+/// Parameters of the lattice search; the defaults are the scorer's (docs/metrics.md).
+struct PlaceSearchDef {
+  double step_m = 0.25;                 // lattice spacing of candidate positions [m]
+  int headings = 48;                    // candidate headings per position (7.5 deg apart) [-]
+  double sigma_hit_m = 0.5;             // the smoothed field's spread: a pose a lattice step off
+                                        // its best still scores near it [m]
+  double clearance_m = 0.1;             // a robot's centre is no nearer an obstacle [m]
+  std::size_t first_pass_points = 10;   // end points every lattice pose is weighed on first [-]
+  std::size_t second_pass_share = 20;   // then the best 1/share of the poses ... [-]
+  std::size_t second_pass_min = 2000;   // ... (at least this many) ... [-]
+  std::size_t second_pass_points = 30;  // ... on this many end points [-]
+  double distinct_m = 1.0;              // places nearer than this ... [m]
+  double distinct_deg = 30.0;           // ... and turned less than this are one place [deg]
+};
+
+/// A pose and the log likelihood it scored.
+struct ScoredPose {
+  Pose pose;
+  double log_p = 0.0;
+};
+
+/// Coordinate ascent of `objective(Pose) -> double` from `at`: steps of step_m in x and y and
+/// step_rad in heading, each axis both ways, halved when no step improves, down to a 64th. The
+/// best pose and its objective.
+template <class Objective>
+std::pair<Pose, double> ascend(Pose at, const Objective& objective, double step_m,
+                               double step_rad) {
+  double best = objective(at);
+  const double last_m = step_m / 64.0;
+  for (int round = 0; round < 100 && step_m > last_m; ++round) {
+    bool improved = false;
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const double sign : {1.0, -1.0}) {
+        Pose moved = at;
+        moved(axis) += sign * (axis == 2 ? step_rad : step_m);
+        moved(2) = wrap(moved(2));
+        const double s = objective(moved);
+        if (s > best) best = s, at = moved, improved = true;
+      }
+    }
+    if (!improved) step_m *= 0.5, step_rad *= 0.5;
+  }
+  return {at, best};
+}
+
+class PlaceSearch {
+ public:
+  PlaceSearch() = default;
+  /// Over the host's occupancy grid: candidate positions on the lattice where the robot can be
+  /// (FreeSpace::possible) and clear of obstacles.
+  explicit PlaceSearch(const locsim_occupancy_grid& grid, const PlaceSearchDef& def = {})
+      : def_(def), smooth_(grid, [&] {
+          LikelihoodFieldDef field;  // AMCL's z_hit, z_rand, max_dist, range_max
+          field.sigma_hit_m = def.sigma_hit_m;
+          return field;
+        }()) {
+    const FreeSpace free(grid);
+    const std::vector<double> d2 =
+        squared_distance_transform(grid.width, grid.height, [&](int col, int row) {
+          return grid.cells[static_cast<std::size_t>(row) * static_cast<std::size_t>(grid.width) +
+                            static_cast<std::size_t>(col)] != 0;
+        });
+    const int cells = std::max(1, static_cast<int>(std::lround(def.step_m / grid.resolution_m)));
+    for (int row = cells / 2; row < grid.height; row += cells) {
+      for (int col = cells / 2; col < grid.width; col += cells) {
+        const double x = grid.origin_x + (col + 0.5) * grid.resolution_m;
+        const double y = grid.origin_y + (row + 0.5) * grid.resolution_m;
+        const double clearance =
+            std::sqrt(d2[static_cast<std::size_t>(row) * static_cast<std::size_t>(grid.width) +
+                         static_cast<std::size_t>(col)]) *
+            grid.resolution_m;
+        if (clearance < def.clearance_m || !free.possible(x, y)) continue;
+        positions_.emplace_back(x, y);
+      }
+    }
+  }
+
+  const PlaceSearchDef& def() const { return def_; }
+  /// Candidate positions of the lattice.
+  std::size_t positions() const { return positions_.size(); }
+
+  /// Whether two poses are different places (distinct_m apart, or distinct_deg turned).
+  bool distinct(const Pose& a, const Pose& b) const {
+    return std::hypot(a(0) - b(0), a(1) - b(1)) >= def_.distinct_m ||
+           std::abs(wrap(a(2) - b(2))) >= def_.distinct_deg * std::numbers::pi / 180.0;
+  }
+
+  /// The `count` best distinct lattice poses for a scan's end points (x[i], y[i] in the robot
+  /// frame), best first, on the smoothed field; lattice poses for which skip(pose) is true are
+  /// left out. Equal scores keep the lattice's order, so the result is the same on any machine.
+  template <class Skip>
+  std::vector<ScoredPose> best(const std::vector<double>& x, const std::vector<double>& y,
+                               std::size_t count, const Skip& skip) const {
+    const std::size_t n = std::min(x.size(), y.size());
+    if (n == 0 || count == 0) return {};
+    const std::size_t sparse = std::max<std::size_t>(1, n / def_.first_pass_points);
+    const std::size_t dense = std::max<std::size_t>(1, n / def_.second_pass_points);
+    // Each heading's end points turned once, not per position: the search's main cost is the
+    // lookups.
+    const auto headings = static_cast<std::size_t>(def_.headings);
+    std::vector<double> tx(headings * n), ty(headings * n);
+    for (std::size_t h = 0; h < headings; ++h) {
+      const double heading = heading_of(h);
+      const double c = std::cos(heading), s = std::sin(heading);
+      for (std::size_t i = 0; i < n; ++i)
+        tx[h * n + i] = c * x[i] - s * y[i], ty[h * n + i] = s * x[i] + c * y[i];
+    }
+    const auto weigh = [&](double px, double py, std::size_t h, std::size_t stride) {
+      double sum = 0.0;
+      for (std::size_t i = 0; i < n; i += stride)
+        sum += smooth_.log_p(px + tx[h * n + i], py + ty[h * n + i]);
+      return sum;
+    };
+    struct Candidate {
+      Pose pose;
+      std::size_t heading;
+      double score;
+    };
+    std::vector<Candidate> coarse;
+    for (const auto& [px, py] : positions_) {
+      for (std::size_t h = 0; h < headings; ++h) {
+        const Pose pose(px, py, heading_of(h));
+        if (skip(pose)) continue;
+        coarse.push_back({pose, h, weigh(px, py, h, sparse)});
+      }
+    }
+    const auto best_first = [](const Candidate& a, const Candidate& b) {
+      return a.score > b.score;
+    };
+    std::stable_sort(coarse.begin(), coarse.end(), best_first);
+    coarse.resize(std::min(coarse.size(),
+                           std::max(def_.second_pass_min, coarse.size() / def_.second_pass_share)));
+    for (Candidate& c : coarse) c.score = weigh(c.pose(0), c.pose(1), c.heading, dense);
+    std::stable_sort(coarse.begin(), coarse.end(), best_first);
+    std::vector<ScoredPose> picked;
+    for (const Candidate& c : coarse) {
+      if (picked.size() == count) break;
+      if (std::all_of(picked.begin(), picked.end(),
+                      [&](const ScoredPose& p) { return distinct(p.pose, c.pose); }))
+        picked.push_back({c.pose, c.score});
+    }
+    return picked;
+  }
+  std::vector<ScoredPose> best(const std::vector<double>& x, const std::vector<double>& y,
+                               std::size_t count) const {
+    return best(x, y, count, [](const Pose&) { return false; });
+  }
+
+  /// Half the lattice's steps: the start of a refinement of one of its poses.
+  double half_step_m() const { return def_.step_m / 2.0; }
+  double half_step_rad() const { return std::numbers::pi / def_.headings; }
+
+ private:
+  double heading_of(std::size_t h) const {
+    return -std::numbers::pi + 2.0 * std::numbers::pi * static_cast<double>(h) / def_.headings;
+  }
+
+  PlaceSearchDef def_;
+  LikelihoodField smooth_;
+  std::vector<std::pair<double, double>> positions_;
+};
+
+}  // namespace locsim::sdk
