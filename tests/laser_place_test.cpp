@@ -116,7 +116,10 @@ TEST(PlaceSearch, FindsTheOnePlaceThatFitsAScanAndRefinesIt) {
   const OccupancyGrid grid = room(10.0, 6.0, {{6.5, 3.5, 7.3, 4.3}});
   const sdk::PlaceSearch search(view(grid));
   const Pose2 truth{2.13, 1.87, 0.41};  // off the lattice, between its headings
-  const auto [x, y] = end_points(grid, truth);
+  // Not a structured binding: lambdas below use the vectors (clang before C++20's P1091).
+  const auto points = end_points(grid, truth);
+  const std::vector<double>& x = points.first;
+  const std::vector<double>& y = points.second;
   const std::vector<sdk::ScoredPose> places = search.best(x, y, 4);
   ASSERT_EQ(places.size(), 4u);
   for (std::size_t k = 1; k < places.size(); ++k) {
@@ -149,7 +152,9 @@ TEST(PlaceSearch, FindsTheOnePlaceThatFitsAScanAndRefinesIt) {
 TEST(PlaceSearch, AnEmptyRoomGivesTheTruthAndItsHalfTurnedTwin) {
   const OccupancyGrid grid = room(10.0, 6.0, {});
   const sdk::PlaceSearch search(view(grid));
-  const auto [x, y] = end_points(grid, {2.0, 2.0, 0.3});
+  const auto points = end_points(grid, {2.0, 2.0, 0.3});
+  const std::vector<double>& x = points.first;
+  const std::vector<double>& y = points.second;
   const std::vector<sdk::ScoredPose> places = search.best(x, y, 2);
   ASSERT_EQ(places.size(), 2u);
   const sdk::Pose twin(8.0, 4.0, sdk::wrap(0.3 + std::numbers::pi));

@@ -442,9 +442,14 @@ class AmclFilter {
         if (guess_place_[g] >= 0)
           guesses_.weight[g] /=
               static_cast<double>(place_guesses_[static_cast<std::size_t>(guess_place_[g])]);
+      // A prior is against a particle's weight, 1/n after equalise_weights (until 2026-11-26
+      // the priors went in as they were: a guess about the estimate weighed n particles, one
+      // from afar n x 1e-6).
       std::vector<double>& weight = particles.weight;
-      std::copy(guesses_.weight.begin(), guesses_.weight.end(),
-                weight.end() - static_cast<std::ptrdiff_t>(fresh_));
+      const double particle = weight.front();
+      std::transform(guesses_.weight.begin(), guesses_.weight.end(),
+                     weight.end() - static_cast<std::ptrdiff_t>(fresh_),
+                     [&](double prior) { return prior * particle; });
       sdk::normalize(weight);
     }
   }
