@@ -14,6 +14,9 @@ import math
 import os
 import statistics
 
+import locsim_path  # noqa: F401  (this tree's python/locsim first)
+import locsim
+
 
 def wrap(a):
     return math.remainder(a, 2 * math.pi)
@@ -33,12 +36,8 @@ def main():
     rows = []
     for run in args.runs:
         truth, odom = {}, {}
-        with open(os.path.join(run, "groundtruth.tum")) as f:
-            for line in f:
-                if line.startswith("#") or not line.strip():
-                    continue
-                t, x, y, _z, _qx, _qy, qz, qw = map(float, line.split())
-                truth[round(t / args.step_s)] = (x, y, 2 * math.atan2(qz, qw))
+        for t, x, y, theta in locsim.read_tum(os.path.join(run, "groundtruth.tum")).tolist():
+            truth[round(t / args.step_s)] = (x, y, theta)
         with open(os.path.join(run, "readings", "encoders.csv"), newline="") as f:
             for r in csv.DictReader(f):
                 t = float(r["t_s"])

@@ -18,12 +18,11 @@ unpaired CIs carry.
 """
 import json
 import math
-import os
 import statistics
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from report import t975  # noqa: E402  (the sweep reports' Student t, so the CIs agree)
+import locsim_path  # noqa: F401,E402  (this tree's python/locsim first)
+import locsim  # noqa: E402  (the sweep reports' Student t, so the CIs agree)
 
 # Paper 001 (decoded, SPEC section 3): PSO-PF -> AFSA + directed resampling, 10 particles.
 PAPER = {
@@ -36,9 +35,8 @@ PAPER = {
 def mean_ci(values, digits=3):
     if not values:
         return "–"
-    n = len(values)
-    ci = t975(n - 1) * statistics.stdev(values) / math.sqrt(n) if n > 1 else float("nan")
-    return f"{statistics.mean(values):.{digits}f} ± {ci:.{digits}f}"
+    mean, ci = locsim.mean_ci(values)
+    return f"{mean:.{digits}f} ± {ci:.{digits}f}"
 
 
 def main():

@@ -8,25 +8,19 @@ first 3 s (the multi-frame window filling; median and IQR), the share of time ab
 the first time above 500 mm (medians), from each run's trajectory against the ground truth.
 """
 import csv
-import glob
-import math
 import statistics
 import sys
 
+import locsim_path  # noqa: F401  (this tree's python/locsim first)
 import numpy as np
+
+import locsim
 
 SETTLE_S = 3.0
 
 
-def error_series(run_dir):
-    truth = np.loadtxt(f"{run_dir}/groundtruth.tum")
-    estimate_file = [f for f in glob.glob(f"{run_dir}/*.tum") if not f.endswith("groundtruth.tum")]
-    estimate = np.loadtxt(estimate_file[0])
-    j = np.searchsorted(truth[:, 0], estimate[:, 0]).clip(0, len(truth) - 1)
-    return estimate[:, 0], np.hypot(estimate[:, 1] - truth[j, 1], estimate[:, 2] - truth[j, 2])
-
-
 def main(sweep):
+    folders = locsim.load_sweep(sweep)
     rows = list(csv.DictReader(open(f"{sweep}/results.csv")))
     configs = list(dict.fromkeys(r["config"] for r in rows))
     print("| filter | position RMS [mm], mean ± 95 % CI | max error after 3 s [mm], median (IQR) "
@@ -37,19 +31,20 @@ def main(sweep):
         rms = [1000 * float(r["position_rms_m"]) for r in runs]
         peaks, above, first = [], [], []
         for r in runs:
-            t, e = error_series(f"{sweep}/runs/{config}/seed-{r['seed']}")
+            e = locsim.error_arrays(folders.run_folder(r["id"]), config)
+            t, e = e["t_s"], e["position_error_m"]
             keep = t >= SETTLE_S
             t, e = t[keep], e[keep]
             peaks.append(1000 * e.max())
             above.append(100 * np.mean(e > 0.2))
             if np.any(e > 0.5):
                 first.append(t[np.argmax(e > 0.5)])
-        ci = 1.96 * statistics.stdev(rms) / math.sqrt(len(rms)) if len(rms) > 1 else float("nan")
+        mean, ci = locsim.mean_ci(rms)
         q = np.percentile(peaks, [25, 50, 75])
         crossed = (f"{statistics.median(first):.0f} ({len(first)} of {len(runs)} runs)"
                    if first else "never")
         name = config.replace("multi_frame-frames=", "multi-frame, frames=")
-        print(f"| {name} | {statistics.mean(rms):.0f} ± {ci:.0f} | {q[1]:.0f} ({q[0]:.0f}–{q[2]:.0f}) "
+        print(f"| {name} | {mean:.0f} ± {ci:.0f} | {q[1]:.0f} ({q[0]:.0f}–{q[2]:.0f}) "
               f"| {statistics.median(above):.0f} | {crossed} |")
 
 

@@ -11,12 +11,14 @@ them where it has one; for global localization the time to within 0.2 m and 10 d
 median and range, and how many runs got there.
 """
 import csv
-import glob
 import math
 import statistics
 import sys
 
+import locsim_path  # noqa: F401  (this tree's python/locsim first)
 import numpy as np
+
+import locsim
 
 # Table 1 of the paper (metres): x RMS, x max, y RMS, y max.
 PAPER_TABLE1 = {
@@ -29,17 +31,14 @@ PAPER_TABLE1 = {
 PAPER_TABLE2 = {"amcl": (422, 502, 580), "fusion": (1.01, 1.09, 1.19)}
 
 
-def xy_errors(run_dir):
-    truth = np.loadtxt(f"{run_dir}/groundtruth.tum")
-    estimate_file = [f for f in glob.glob(f"{run_dir}/*.tum") if not f.endswith("groundtruth.tum")]
-    estimate = np.loadtxt(estimate_file[0])
-    j = np.searchsorted(truth[:, 0], estimate[:, 0]).clip(0, len(truth) - 1)
-    return np.abs(estimate[:, 1] - truth[j, 1]), np.abs(estimate[:, 2] - truth[j, 2])
+def xy_errors(run_folder, label):
+    e = locsim.error_arrays(run_folder, label)
+    return np.abs(e["dx_m"]), np.abs(e["dy_m"])
 
 
 def mean_ci(values):
-    ci = 1.96 * statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else float("nan")
-    return f"{statistics.mean(values):.3f} ± {ci:.3f}"
+    mean, ci = locsim.mean_ci(values)
+    return f"{mean:.3f} ± {ci:.3f}"
 
 
 def runs_of(sweep):
@@ -50,13 +49,14 @@ def runs_of(sweep):
 
 def table_errors(sweep, paper):
     rows, configs = runs_of(sweep)
+    folders = locsim.load_sweep(sweep)
     print("| filter | x RMS [m] | x max [m] | y RMS [m] | y max [m] | runs ok |")
     print("|---|---|---|---|---|---|")
     for config in configs:
         runs = [r for r in rows if r["config"] == config and r["status"] == "ok"]
         stats = [[], [], [], []]
         for r in runs:
-            ex, ey = xy_errors(f"{sweep}/runs/{config}/seed-{r['seed']}")
+            ex, ey = xy_errors(folders.run_folder(r["id"]), config)
             for k, v in enumerate((math.sqrt(np.mean(ex**2)), ex.max(), math.sqrt(np.mean(ey**2)), ey.max())):
                 stats[k].append(v)
         cells = [mean_ci(s) for s in stats]

@@ -17,7 +17,10 @@ import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from report import COLORS, plt, read_tum, t975  # noqa: E402
+from report import COLORS, plt  # noqa: E402
+
+import locsim  # noqa: E402  (report put this tree's python/locsim first)
+from locsim import mean_ci  # noqa: E402  (the sweep reports' Student t, so the CIs agree)
 
 # Paper 004, Table 1: mean error (x, y in mm, theta in deg) per particle count.
 PAPER_TABLE1 = {
@@ -48,25 +51,8 @@ def run_dir(sweep, row):
 
 def errors(sweep, row):
     """[(t, |dx|, |dy|, |dtheta| deg)] of one run's estimate against the truth."""
-    d = run_dir(sweep, row)
-    truth = read_tum(os.path.join(d, "groundtruth.tum"))
-    estimate = read_tum(os.path.join(d, row["config"] + ".tum"))
-    out = []
-    for t in sorted(t for t in truth if t in estimate):
-        (x, y, a), (tx, ty, ta) = estimate[t], truth[t]
-        dth = math.degrees(math.remainder(a - ta, 2 * math.pi))
-        out.append((t, abs(x - tx), abs(y - ty), abs(dth)))
-    return out
-
-
-def mean_ci(values):
-    values = [v for v in values if v is not None and math.isfinite(v)]
-    if not values:
-        return math.nan, math.nan
-    m = statistics.fmean(values)
-    if len(values) < 2:
-        return m, math.nan
-    return m, t975(len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values))
+    e = locsim.error_arrays(run_dir(sweep, row), row["config"])
+    return list(zip(e["t_s"], abs(e["dx_m"]), abs(e["dy_m"]), abs(e["heading_error_rad"]) * 180 / math.pi))
 
 
 def fmt(m, ci, scale=1.0, digits=1):

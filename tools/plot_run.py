@@ -14,11 +14,14 @@ import math
 import os
 import sys
 
+import locsim_path  # noqa: F401  (this tree's python/locsim first)
 import matplotlib
 
 matplotlib.use("Agg")  # no display needed
 import matplotlib.patches as patches  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
+
+import locsim  # noqa: E402
 
 NAMED = {"red": (230, 25, 25), "green": (20, 170, 40), "blue": (30, 80, 230),
          "yellow": (240, 210, 20), "cyan": (20, 200, 220), "magenta": (220, 40, 200),
@@ -30,34 +33,6 @@ PATH_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"]
 def rgb(color):
     values = NAMED.get(color, (128, 128, 128)) if isinstance(color, str) else color
     return tuple(v / 255.0 for v in values)
-
-
-def read_tum(path):
-    rows = []
-    with open(path) as f:
-        for line in f:
-            if line.startswith("#") or not line.strip():
-                continue
-            t, x, y, _z, _qx, _qy, qz, qw = map(float, line.split())
-            rows.append((t, x, y, 2.0 * math.atan2(qz, qw)))
-    return rows
-
-
-def read_events(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
-def parse_pose(text):
-    return tuple(float(v) for v in text.strip("()").split(","))
-
-
-def details(event):
-    out = {}
-    for item in event["details"].split():
-        key, _, value = item.partition("=")
-        out[key] = value
-    return out
 
 
 def draw_world(ax, world):
@@ -116,7 +91,7 @@ def main():
     try:
         with open(os.path.join(args.run_dir, "run.json")) as f:
             run = json.load(f)
-        events = read_events(os.path.join(args.run_dir, "events.csv"))
+        events = locsim.read_events(os.path.join(args.run_dir, "events.csv"))
     except (OSError, json.JSONDecodeError) as error:
         print(f"plot_run: {args.run_dir} is not a readable run folder: {error}", file=sys.stderr)
         return 2
@@ -126,8 +101,8 @@ def main():
     draw_world(ax, world)
     for index, robot in enumerate(run["robots"]):
         color = PATH_COLORS[index % len(PATH_COLORS)]
-        rows = read_tum(os.path.join(args.run_dir, robot["folder"], "groundtruth.tum"))
-        put_downs = sorted(float(e["t_s"]) for e in events
+        rows = locsim.read_tum(os.path.join(args.run_dir, robot["folder"], "groundtruth.tum"))
+        put_downs = sorted(e["t_s"] for e in events
                            if e["kind"] == "put_down" and e["robot"] == robot["name"])
         segments, current = [], []
         for row in rows:
@@ -153,12 +128,12 @@ def main():
             path = os.path.join(args.run_dir, robot["folder"], localizer["label"] + ".tum")
             if not os.path.exists(path):
                 continue
-            estimate = read_tum(path)
+            estimate = locsim.read_tum(path)
             style_color, style = estimate_styles[k % len(estimate_styles)]
             ax.plot([r[1] for r in estimate], [r[2] for r in estimate], color=style_color,
                     linestyle=style, linewidth=1.2, alpha=0.9,
                     label=f"{localizer['label']} estimate ({localizer['status']})")
-        if rows:
+        if len(rows):
             t, x, y, theta = rows[0]
             ax.plot(x, y, "o", color=color, markersize=7)
             ax.text(x, y - 0.35, "start", ha="center", fontsize=7, color=color)
@@ -168,19 +143,19 @@ def main():
         for event in events:
             if event["robot"] != robot["name"]:
                 continue
-            d = details(event)
+            d = event["details"]
             if event["kind"] == "kidnap":
-                kidnap_from = parse_pose(d["from"])
-                kidnap_t = float(event["t_s"])
+                kidnap_from = d["from"]
+                kidnap_t = event["t_s"]
             elif event["kind"] == "put_down":
-                to = parse_pose(d["to"])
+                to = d["to"]
                 ax.annotate("", xy=to[:2], xytext=kidnap_from[:2],
                             arrowprops=dict(arrowstyle="->", color="#cc00cc", linestyle="--",
                                             linewidth=1.5, connectionstyle="arc3,rad=0.2"))
                 ax.text((to[0] + kidnap_from[0]) / 2, (to[1] + kidnap_from[1]) / 2,
                         f"kidnap t={kidnap_t:g} s", color="#cc00cc", fontsize=8)
             elif event["kind"] == "collision":
-                at = parse_pose(d["at"])
+                at = d["at"]
                 ax.plot(at[0], at[1], "x", color="black", markersize=8, mew=2)
     ax.plot([], [], "x", color="black", mew=2, label="collision")
     ax.plot([], [], "--", color="#cc00cc", label="kidnap (carried)")

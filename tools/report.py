@@ -25,49 +25,26 @@ import statistics
 import sys
 from collections import defaultdict
 
+import locsim_path  # noqa: F401  (this tree's python/locsim first)
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+import locsim  # noqa: E402
+
 COLORS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
 
-def read_tum(path):
-    rows = {}
-    with open(path) as f:
-        for line in f:
-            if line.startswith("#") or not line.strip():
-                continue
-            t, x, y, _z, _qx, _qy, qz, qw = map(float, line.split())
-            rows[round(t, 4)] = (x, y, 2.0 * math.atan2(qz, qw))
-    return rows
-
-
 def kidnap_times(run_dir):
-    path = os.path.join(run_dir, "events.csv")
-    if not os.path.exists(path):
-        return []
-    with open(path, newline="") as f:
-        return [float(r["t_s"]) for r in csv.DictReader(f) if r["kind"] == "kidnap"]
+    return [e["t_s"] for e in locsim.read_events(os.path.join(run_dir, "events.csv")) if e["kind"] == "kidnap"]
 
 
 def error_series(run_dir, label):
-    """(times, position errors) of one localizer in one run folder."""
-    truth = read_tum(os.path.join(run_dir, "groundtruth.tum"))
-    path = os.path.join(run_dir, label + ".tum")
-    if not os.path.exists(path):
-        return [], []
-    estimate = read_tum(path)
-    times = sorted(t for t in truth if t in estimate)
-    return times, [math.hypot(estimate[t][0] - truth[t][0], estimate[t][1] - truth[t][1]) for t in times]
-
-
-def t975(dof):
-    table = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-             2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-             2.052, 2.048, 2.045, 2.042]
-    return table[dof - 1] if 1 <= dof <= 30 else 1.96
+    """(times, position errors) of one localizer in one run folder (empty if it wrote no
+    estimate)."""
+    e = locsim.error_arrays(run_dir, label)
+    return e["t_s"].tolist(), e["position_error_m"].tolist()
 
 
 def mark_kidnaps(ax, times):
@@ -78,18 +55,14 @@ def mark_kidnaps(ax, times):
 def run_logs(root):
     """Each run's log.txt, relative to the sweep folder, as results.jsonl names it (the newest
     result of a run wins: a resume appends its retried runs' new results)."""
-    logs = {}
-    path = os.path.join(root, "results.jsonl")
-    if os.path.exists(path):
-        with open(path, encoding="utf-8", errors="replace") as f:
-            for line in f:
-                try:
-                    result = json.loads(line)
-                except ValueError:
-                    continue  # a torn last line
-                if "log" in result:
-                    logs[result["id"]] = result["log"]
-    return logs
+    return {r["id"]: r["log"] for r in locsim.io.read_jsonl(os.path.join(root, "results.jsonl"))
+            if "id" in r and "log" in r} if os.path.exists(os.path.join(root, "results.jsonl")) else {}
+
+
+def run_folder(root, run_id, logs):
+    """A run's folder: its log's, as results.jsonl names it, else runs/ID (LABEL/seed-N or
+    LABEL/LOG/seed-N)."""
+    return os.path.join(root, os.path.dirname(logs[run_id])) if run_id in logs else os.path.join(root, "runs", run_id)
 
 
 def table_cell(text, limit=300):
@@ -102,13 +75,10 @@ def table_cell(text, limit=300):
 def mean_half_width(values):
     """(mean, half-width of its 95 % CI, Student t) of `values`; the half-width is None for fewer
     than two values (no spread to judge), the mean None for none."""
-    if not values:
+    a = locsim.aggregate(values)
+    if a.n == 0:
         return None, None
-    m = sum(values) / len(values)
-    if len(values) < 2:
-        return m, None
-    s = math.sqrt(sum((v - m) ** 2 for v in values) / (len(values) - 1))
-    return m, t975(len(values) - 1) * s / math.sqrt(len(values))
+    return a.mean, (a.ci95 if a.n > 1 else None)
 
 
 def mean_ci(values):
@@ -177,12 +147,13 @@ def sweep_report(root, out_dir):
     # Error vs time: mean over seeds per configuration, with a 95 % band.
     fig, ax = plt.subplots(figsize=(10, 5))
     kidnaps = []
+    logs = run_logs(root)
     for i, config in enumerate(configs):
         per_time = defaultdict(list)
         for r in results:
             if r["config"] != config or r["status"] != "ok":
                 continue
-            run_dir = os.path.join(root, "runs", r["id"])  # LABEL/seed-N or LABEL/LOG/seed-N
+            run_dir = run_folder(root, r["id"], logs)
             if not kidnaps:
                 kidnaps = kidnap_times(run_dir)
             for t, e in zip(*error_series(run_dir, config)):
@@ -190,12 +161,8 @@ def sweep_report(root, out_dir):
         if not per_time:
             continue
         times = sorted(per_time)
-        mean = [sum(per_time[t]) / len(per_time[t]) for t in times]
-        half = []
-        for t, m in zip(times, mean):
-            v = per_time[t]
-            s = math.sqrt(sum((x - m) ** 2 for x in v) / (len(v) - 1)) if len(v) > 1 else 0.0
-            half.append(t975(len(v) - 1) * s / math.sqrt(len(v)) if len(v) > 1 else 0.0)
+        stats = [locsim.aggregate(per_time[t]) for t in times]
+        mean, half = [a.mean for a in stats], [a.ci95 for a in stats]
         color = COLORS[i % len(COLORS)]
         ax.plot(times, mean, color=color, label=config)
         ax.fill_between(times, [m - h for m, h in zip(mean, half)], [m + h for m, h in zip(mean, half)],
@@ -232,12 +199,8 @@ def sweep_report(root, out_dir):
                     pass
     for (base, key), values in by_param.items():
         xs = sorted(values)
-        means = [sum(values[x]) / len(values[x]) for x in xs]
-        cis = []
-        for x, m in zip(xs, means):
-            v = values[x]
-            s = math.sqrt(sum((e - m) ** 2 for e in v) / (len(v) - 1)) if len(v) > 1 else 0.0
-            cis.append(t975(len(v) - 1) * s / math.sqrt(len(v)) if len(v) > 1 else 0.0)
+        stats = [locsim.aggregate(values[x]) for x in xs]
+        means, cis = [a.mean for a in stats], [a.ci95 for a in stats]
         fig, ax = plt.subplots(figsize=(6, 4))
         ax.errorbar(xs, means, yerr=cis, marker="o", capsize=4)
         if xs[0] > 0 and xs[-1] / xs[0] >= 20:  # a sweep over orders of magnitude (particles)

@@ -1,0 +1,43 @@
+"""locsim from Python: load run and sweep folders as numpy arrays and pandas DataFrames, compute
+the project's statistics, and drive the `locsim` binary (run, replay, sweep, report).
+
+    >>> import locsim
+    >>> r = locsim.load_run("runs/demo-kidnap")
+    >>> r.errors().groupby("label").position_error_m.describe()
+    >>> s = locsim.load_sweep("runs/suite")
+    >>> s.results.groupby("config").position_rms_m.apply(locsim.mean_ci)
+
+Everything here reads the folders' documented formats (README, docs/experiments.md); nothing
+needs the C++ build except `locsim.run`, `replay`, `sweep` and `report`, which call the binary.
+numpy is needed throughout, pandas only by the functions that return DataFrames. docs/python.md
+has the whole interface.
+"""
+
+import os as _os
+import sys as _sys
+
+
+def _find_debian_numpy():
+    # A Python other than Debian's own (pyenv, a venv) of the same minor version can use the
+    # numpy and pandas Debian installs (python3-numpy, python3-pandas, from tools/setup): append
+    # Debian's folder only when numpy is missing, so an environment's own numpy always wins.
+    try:
+        import numpy  # noqa: F401  (only whether it imports)
+    except ImportError:
+        debian = "/usr/lib/python3/dist-packages"
+        abi = f"cpython-{_sys.version_info.major}{_sys.version_info.minor}"
+        core = _os.path.join(debian, "numpy", "core")
+        if _os.path.isdir(core) and any(abi in name for name in _os.listdir(core)):
+            _sys.path.append(debian)
+
+
+_find_debian_numpy()
+
+from .cli import LocsimError, binary, replay, report, run, sweep  # noqa: E402
+from .io import read_events, read_tum, wrap_angle  # noqa: E402
+from .run_folder import Run, error_arrays, load_run  # noqa: E402
+from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
+from .sweep_folder import Sweep, load_sweep  # noqa: E402
+
+__all__ = ["Aggregate", "LocsimError", "Run", "Sweep", "aggregate", "binary", "error_arrays", "load_run", "load_sweep",
+           "mean_ci", "read_events", "read_tum", "replay", "report", "run", "sweep", "t975", "wrap_angle"]

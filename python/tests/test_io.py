@@ -1,0 +1,43 @@
+"""locsim.io: the one reader of each file format."""
+import math
+
+import numpy as np
+import pytest
+
+import locsim
+from locsim import io
+
+
+def test_read_tum(tmp_path):
+    path = tmp_path / "x.tum"
+    theta = 3.0
+    path.write_text("# timestamp tx ty tz qx qy qz qw\n"
+                    f"0.0000 1.5 -2.25 0 0 0 {math.sin(theta / 2):.9f} {math.cos(theta / 2):.9f}\n"
+                    f"0.0200 1.6 -2.25 0 0 0 {math.sin(-theta / 2):.9f} {math.cos(-theta / 2):.9f}\n")
+    poses = locsim.read_tum(path)
+    assert poses.shape == (2, 4)
+    assert poses[0, :3].tolist() == [0.0, 1.5, -2.25]
+    assert poses[0, 3] == pytest.approx(theta, abs=1e-8) and poses[1, 3] == pytest.approx(-theta, abs=1e-8)
+    (tmp_path / "empty.tum").write_text("# no rows: a localizer that failed at once\n")
+    assert locsim.read_tum(tmp_path / "empty.tum").shape == (0, 4)
+    (tmp_path / "bad.tum").write_text("1 2 3\n")
+    with pytest.raises(ValueError, match="bad.tum: a TUM line has 8 numbers"):
+        locsim.read_tum(tmp_path / "bad.tum")
+
+
+def test_join_on_time_pairs_equal_instants():
+    truth = np.array([[0.0, 0, 0, 0], [0.02, 1, 0, 0], [0.04, 2, 0, 0], [2.5, 3, 0, 0]])
+    estimate = np.array([[0.04, 2.5, 0, 0], [2.5000000001, 3.5, 0, 0]])  # float noise below 0.1 ms
+    i, j = io.join_on_time(truth, estimate)
+    assert i.tolist() == [2, 3] and j.tolist() == [0, 1]
+
+
+def test_wrap_angle_and_events(tmp_path):
+    assert np.allclose(locsim.wrap_angle([0.0, 3 * math.pi / 2, -3 * math.pi / 2]), [0.0, -math.pi / 2, math.pi / 2])
+    (tmp_path / "events.csv").write_text(
+        "t_s,kind,robot,details\n"
+        '20.0000,kidnap,robot,"from=(8.7101,2.1391,1.5508) carry_s=2.000 to=(1.2000,5.0000,-1.5708)"\n')
+    (event,) = locsim.read_events(tmp_path / "events.csv")
+    assert event["t_s"] == 20.0 and event["kind"] == "kidnap"
+    assert event["details"]["to"] == (1.2, 5.0, -1.5708) and event["details"]["carry_s"] == "2.000"
+    assert locsim.read_events(tmp_path / "none.csv") == []
