@@ -27,15 +27,6 @@ using testing::kDemo;
 
 using testing::test_plugin;
 
-json entry(const fs::path& metrics_file, const std::string& label) {
-  const json metrics = json::parse(testing::read_file(metrics_file));
-  for (const json& e : metrics["localizers"]) {
-    if (e["label"] == label) return e;
-  }
-  ADD_FAILURE() << "no localizer " << label << " in " << metrics_file;
-  return {};
-}
-
 TEST(Isolation, CrashingExitingAndHangingPluginsFailAloneInRunAndReplay) {
   const fs::path dir = testing::temp_dir("isolation");
   const std::string common = " --duration 12 --seed 3 -q --localizer ekf_landmarks";
@@ -60,9 +51,9 @@ TEST(Isolation, CrashingExitingAndHangingPluginsFailAloneInRunAndReplay) {
     // The survivor's estimates and metrics are those of a run without the faulty plugins.
     EXPECT_EQ(testing::read_file(dir / "clean/ekf_landmarks.tum"),
               testing::read_file(out / "ekf_landmarks.tum"));
-    EXPECT_EQ(entry(dir / "clean/metrics.json", "ekf_landmarks"),
-              entry(out / "metrics.json", "ekf_landmarks"));
-    const json segfault = entry(out / "metrics.json", "test_segfault");
+    EXPECT_EQ(testing::localizer_entry(dir / "clean/metrics.json", "ekf_landmarks"),
+              testing::localizer_entry(out / "metrics.json", "ekf_landmarks"));
+    const json segfault = testing::localizer_entry(out / "metrics.json", "test_segfault");
     EXPECT_EQ(segfault["status"], "failed");
     EXPECT_EQ(segfault["failure"]["call"], "update");
     EXPECT_DOUBLE_EQ(segfault["failure"]["t_s"].get<double>(), 1.0);
@@ -71,12 +62,13 @@ TEST(Isolation, CrashingExitingAndHangingPluginsFailAloneInRunAndReplay) {
               std::string::npos);
     // What it estimated before it crashed is scored: 50 samples at 50 Hz before t = 1 s.
     EXPECT_EQ(segfault["samples"], 50);
-    EXPECT_EQ(entry(out / "metrics.json", "test_aborts")["failure"]["signal"], 6);
-    const json exits = entry(out / "metrics.json", "test_exits");
+    EXPECT_EQ(testing::localizer_entry(out / "metrics.json", "test_aborts")["failure"]["signal"],
+              6);
+    const json exits = testing::localizer_entry(out / "metrics.json", "test_exits");
     EXPECT_EQ(exits["status"], "failed");
     EXPECT_NE(exits["failure"]["message"].get<std::string>().find("exited with code 0"),
               std::string::npos);
-    const json hang = entry(out / "metrics.json", "test_hang");
+    const json hang = testing::localizer_entry(out / "metrics.json", "test_hang");
     EXPECT_EQ(hang["failure"]["call"], "update");
     EXPECT_DOUBLE_EQ(hang["failure"]["t_s"].get<double>(), 1.0);
     EXPECT_DOUBLE_EQ(hang["failure"]["timeout_s"].get<double>(), 1.0);
@@ -99,10 +91,10 @@ TEST(Isolation, CtrlCEndsARunWithAHungPluginPromptly) {
   EXPECT_EQ(WEXITSTATUS(status), 130);
   EXPECT_LT(wall, 3.0);
   EXPECT_EQ(json::parse(testing::read_file(out / "run.json"))["status"], "interrupted");
-  const json hang = entry(out / "metrics.json", "test_hang");
+  const json hang = testing::localizer_entry(out / "metrics.json", "test_hang");
   EXPECT_EQ(hang["status"], "interrupted");
   EXPECT_EQ(hang["failure"]["call"], "update");
-  EXPECT_EQ(entry(out / "metrics.json", "odometry")["status"], "ok");
+  EXPECT_EQ(testing::localizer_entry(out / "metrics.json", "odometry")["status"], "ok");
 }
 
 TEST(Isolation, AVideoOfARunWithACrashedPluginShowsTheSurvivors) {
@@ -136,7 +128,8 @@ TEST(RunAndReplay, ConvergenceOptionsReachRunsMetricsToo) {
                            " --converged-within-deg 20 --converged-hold 3 --out " +
                            out.string());
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const json convergence = entry(out / "metrics.json", "odometry")["convergence"];
+  const json convergence =
+      testing::localizer_entry(out / "metrics.json", "odometry")["convergence"];
   EXPECT_DOUBLE_EQ(convergence["position_m"].get<double>(), 0.5);
   EXPECT_NEAR(convergence["heading_deg"].get<double>(), 20.0, 1e-9);
   EXPECT_EQ(convergence["hold_samples"], 3);

@@ -169,6 +169,9 @@ TEST(Stream, TheBuiltinPluginsAreTheOnesTested) {
       found.insert(name.substr(7, name.size() - 7 - 3));
     }
   }
+  // The python plugin is a loader: its scripts are tested in python_plugin_test.cpp (in and out of
+  // process a numpy filter agrees to the files' decimals, not always to the last bit).
+  EXPECT_EQ(found.erase("python"), 1u);
   std::set<std::string> tested;
   for (const auto& [plugin, spec] : kBuiltins) tested.insert(plugin);
   EXPECT_EQ(found, tested) << "a plugin was added or removed: update kBuiltins";

@@ -73,6 +73,17 @@ inline std::string json_without_timing(const std::filesystem::path& file) {
   return j.dump();
 }
 
+/// One localizer's block of a metrics.json (a failure, and an empty object, when it has none).
+inline nlohmann::json localizer_entry(const std::filesystem::path& metrics_file,
+                                      const std::string& label) {
+  const nlohmann::json metrics = nlohmann::json::parse(read_file(metrics_file));
+  for (const nlohmann::json& e : metrics["localizers"]) {
+    if (e["label"] == label) return e;
+  }
+  ADD_FAILURE() << "no localizer " << label << " in " << metrics_file;
+  return {};
+}
+
 /// `text` (a message) holds `part`; says both when not.
 inline void expect_contains(const std::string& text, const std::string& part) {
   EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;

@@ -35,9 +35,10 @@ _find_debian_numpy()
 
 from .cli import LocsimError, binary, replay, report, run, sweep  # noqa: E402
 from .io import read_events, read_tum, wrap_angle  # noqa: E402
+from .plugin import Init, Localizer, Param, param  # noqa: E402
 from .run_folder import Run, error_arrays, load_run  # noqa: E402
 from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
 from .sweep_folder import Sweep, load_sweep  # noqa: E402
 
-__all__ = ["Aggregate", "LocsimError", "Run", "Sweep", "aggregate", "binary", "error_arrays", "load_run", "load_sweep",
-           "mean_ci", "read_events", "read_tum", "replay", "report", "run", "sweep", "t975", "wrap_angle"]
+__all__ = ["Aggregate", "Init", "Localizer", "LocsimError", "Param", "Run", "Sweep", "aggregate", "binary", "error_arrays", "load_run", "load_sweep",
+           "mean_ci", "param", "read_events", "read_tum", "replay", "report", "run", "sweep", "t975", "wrap_angle"]

@@ -240,8 +240,25 @@ ExperimentDef load_experiment(const fs::path& file) {
   for (const YamlNode& item : localizers.items()) {
     item.allow_keys({"plugin", "label", "params", "params_file", "grid"});
     const YamlNode plugin_node = item["plugin"];
-    const std::string plugin = plugin_node.as_string();
-    const std::string label = item.get_string("label", fs::path(plugin).stem().string());
+    std::string plugin = plugin_node.as_string();
+    // A loader plugin's source (`python:filters/pf.py`, or `filters/pf.py` alone) is relative to
+    // the experiment's folder, as every file the experiment names; a bare name (`python:pf`) is
+    // looked for in the plugin path when the runs load it.
+    const auto colon = plugin.find(':');
+    const bool bare_script = colon == std::string::npos && plugin.ends_with(".py");
+    const std::string source =
+        bare_script ? plugin : (colon == std::string::npos ? "" : plugin.substr(colon + 1));
+    if ((source.find('/') != std::string::npos || source.ends_with(".py")) &&
+        fs::path(source).is_relative()) {
+      const fs::path path = base / source;
+      std::error_code error;
+      if (!fs::is_regular_file(path, error))
+        plugin_node.fail("no such file '" + path.string() + "'");
+      plugin = (bare_script ? std::string("python") : plugin.substr(0, colon)) + ":" +
+               fs::absolute(path).lexically_normal().string();
+    }
+    const std::string label =
+        item.get_string("label", fs::path(source.empty() ? plugin : source).stem().string());
     const auto place = [](const YamlNode& node) { return InputPlace{node.where(), node.path()}; };
     auto item_params_file = params_file;
     if (const auto node = item.find("params_file"))

@@ -583,8 +583,8 @@ json check_localizers(const ExperimentDef& experiment) {
   const auto at = [](const InputPlace& place, const std::string& message) {
     return place.where.str() + ": '" + place.key + "': " + message;
   };
-  std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;  // by file
-  std::map<std::string, std::shared_ptr<const ParamFile>> files;          // by path
+  PluginCache libraries;
+  std::map<std::string, std::shared_ptr<const ParamFile>> files;  // by path
   // Each params file, in the order of first use, with the plugins given it.
   std::vector<std::pair<const ParamFile*, std::vector<const locsim_localizer*>>> users;
   for (const LocalizerConfig& config : experiment.localizers) {
@@ -601,13 +601,13 @@ json check_localizers(const ExperimentDef& experiment) {
     }
     std::shared_ptr<const PluginLibrary> library;
     try {
-      const fs::path file = find_plugin(spec.plugin);
-      std::shared_ptr<const PluginLibrary>& loaded = libraries[file.string()];
-      if (!loaded) loaded = std::make_shared<const PluginLibrary>(file);
-      library = loaded;
-      stamps[spec.plugin] = {{"name", library->table().name},
-                             {"abi_version", library->table().abi_version},
-                             {"hash", content_hash(file)}};
+      library = libraries.load(spec.plugin, spec.source);
+      // A script's fingerprint is its own and its loader's: either edited, the results differ.
+      json stamp = {{"name", library->table().name},
+                    {"abi_version", library->table().abi_version},
+                    {"hash", content_hash(library->path())}};
+      if (!library->source().empty()) stamp["source_hash"] = content_hash(library->source());
+      stamps[spec.source.empty() ? spec.plugin : spec.plugin + ":" + spec.source] = stamp;
       const ParamSet params(library->table(), spec);
     } catch (const PluginError& e) {
       throw PluginError(at(config.plugin_place, e.what()));

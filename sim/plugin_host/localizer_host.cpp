@@ -51,7 +51,7 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
     std::string params_json;
   };
   std::vector<Resolved> resolved;
-  std::map<std::string, std::shared_ptr<const PluginLibrary>> libraries;
+  PluginCache libraries;
   for (std::size_t k = 0; k < specs.size(); ++k) {
     const LocalizerSpec& spec = specs[k];
     for (std::size_t j = 0; j < k; ++j) {
@@ -60,9 +60,7 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
                          "' used twice; give one with @label");
       }
     }
-    const std::filesystem::path file = find_plugin(spec.plugin);
-    auto& library = libraries[file.string()];
-    if (!library) library = std::make_shared<const PluginLibrary>(file);
+    const auto library = libraries.load(spec.plugin, spec.source);
     const ParamSet params(library->table(), spec);
     resolved.push_back({library, params.to_json().dump()});
   }
@@ -93,7 +91,7 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
                   robot.name,
                   specs[k].label,
                   resolved[k].library->table().name,
-                  resolved[k].library->path().string(),
+                  resolved[k].library->definition().string(),
                   resolved[k].params_json,
                   resolved[k].library->readings()};
       def.spec = specs[k];

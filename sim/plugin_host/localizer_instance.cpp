@@ -67,9 +67,26 @@ LocalizerSpec parse_localizer_spec(const std::string& text) {
                        "' may hold only a-z, 0-9, '_', '-', '.', '=' (it names a file)");
     }
   }
-  const auto colon = rest.find(':');
+  auto colon = rest.find(':');
   spec.plugin = rest.substr(0, colon);
   if (spec.plugin.empty()) throw InputError("--localizer '" + text + "': no plugin name");
+  if (spec.plugin.ends_with(".py")) {
+    spec.source = spec.plugin;
+    spec.plugin = "python";
+  } else if (colon != std::string::npos) {
+    const auto next = rest.find(':', colon + 1);
+    const std::string field =
+        rest.substr(colon + 1, next == std::string::npos ? next : next - colon - 1);
+    // A source: any field after `python:` without '=', or a file's path after another loader's
+    // name (`probe:gain` stays a parameter given no value).
+    const bool names_file = field.find('/') != std::string::npos || field.ends_with(".py");
+    if (field.find('=') == std::string::npos && (spec.plugin == "python" || names_file)) {
+      spec.source = field;
+      if (spec.source.empty())
+        throw InputError("--localizer '" + text + "': empty source after '" + spec.plugin + ":'");
+      colon = next;
+    }
+  }
   if (colon != std::string::npos) {
     std::stringstream items(rest.substr(colon + 1));
     std::string item;
@@ -93,7 +110,8 @@ LocalizerSpec parse_localizer_spec(const std::string& text) {
     }
   }
   if (spec.label.empty()) {
-    spec.label = std::filesystem::path(spec.plugin).stem().string();
+    spec.label =
+        std::filesystem::path(spec.source.empty() ? spec.plugin : spec.source).stem().string();
     if (spec.label.starts_with("locsim_")) spec.label = spec.label.substr(7);
   }
   return spec;

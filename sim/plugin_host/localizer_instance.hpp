@@ -28,9 +28,13 @@
 
 namespace locsim {
 
-/// `NAME[:key=value,...][@label]` from the command line. A key given twice is refused.
+/// `NAME[:SOURCE][:key=value,...][@label]` from the command line. A key given twice is refused.
+/// SOURCE is what a loader plugin runs: after `python:` a script's path or name
+/// (`python:my_filter.py`, `python:landmark_pf` for landmark_pf.py in the plugin path), after
+/// another plugin a file's path; a bare `my_filter.py` is short for `python:my_filter.py`.
 struct LocalizerSpec {
   std::string plugin;  // name or .so path
+  std::string source;  // name or path of the source a loader plugin runs; empty for most
   std::vector<std::pair<std::string, std::string>> params;
   std::string label;  // default: the plugin's name
   /// `--params FILE`: values for the parameters the spec does not give (may be null).

@@ -15,7 +15,8 @@ namespace locsim {
 
 namespace fs = std::filesystem;
 
-PluginLibrary::PluginLibrary(const fs::path& file) : path_(file) {
+PluginLibrary::PluginLibrary(const fs::path& file, const fs::path& source)
+    : path_(file), source_(source) {
   if (!fs::exists(file)) throw PluginError("plugin file '" + file.string() + "' does not exist");
   dlerror();
   handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -42,6 +43,23 @@ PluginLibrary::PluginLibrary(const fs::path& file) : path_(file) {
   if (table_ == nullptr) {
     fail("plugin '" + file.string() + "' refused host ABI version " +
          std::to_string(LOCSIM_LOCALIZER_ABI_VERSION));
+  }
+  if (!source.empty()) {
+    auto load =
+        reinterpret_cast<locsim_localizer_load_fn>(dlsym(handle_, LOCSIM_LOCALIZER_LOAD_SYMBOL));
+    if (load == nullptr) {
+      fail("plugin '" + file.string() + "' runs no source files (it exports no " +
+           LOCSIM_LOCALIZER_LOAD_SYMBOL + "), so '" + source.string() +
+           "' cannot be given to it; PLUGIN:SOURCE is for loader plugins such as python");
+    }
+    char error[1024] = "";
+    table_ = load(LOCSIM_LOCALIZER_ABI_VERSION, source.c_str(), error, sizeof error);
+    if (table_ == nullptr) {
+      error[sizeof error - 1] = '\0';
+      fail(error[0] != '\0' ? std::string(error)
+                            : "plugin '" + file.string() + "' could not load '" + source.string() +
+                                  "' (it said nothing more)");
+    }
   }
   abi_version_ = table_->abi_version;
   if (abi_version_ < LOCSIM_LOCALIZER_ABI_VERSION_OLDEST ||
@@ -103,6 +121,31 @@ std::vector<fs::path> plugin_search_path() {
     folders.push_back(exe_dir.parent_path() / "lib/locsim/plugins");  // install: bin/../lib
   }
   return folders;
+}
+
+fs::path find_source(const std::string& name_or_file) {
+  if (name_or_file.find('/') != std::string::npos || name_or_file.ends_with(".py")) {
+    if (!fs::is_regular_file(name_or_file))
+      throw PluginError("localizer source '" + name_or_file + "' does not exist");
+    return fs::absolute(name_or_file).lexically_normal();
+  }
+  const std::string file = name_or_file + ".py";
+  std::string looked;
+  for (const fs::path& folder : plugin_search_path()) {
+    if (fs::is_regular_file(folder / file)) return fs::absolute(folder / file).lexically_normal();
+    looked += "\n  " + folder.string();
+  }
+  throw PluginError("no localizer source '" + name_or_file + "' (" + file + ") found; looked in:" +
+                    looked + "\n(set LOCSIM_PLUGIN_PATH or give the file's path)");
+}
+
+std::shared_ptr<const PluginLibrary> PluginCache::load(const std::string& plugin,
+                                                       const std::string& source) {
+  const fs::path file = find_plugin(plugin);
+  const fs::path source_file = source.empty() ? fs::path() : find_source(source);
+  auto& library = loaded_[file.string() + '\n' + source_file.string()];
+  if (!library) library = std::make_shared<const PluginLibrary>(file, source_file);
+  return library;
 }
 
 fs::path find_plugin(const std::string& name_or_file) {

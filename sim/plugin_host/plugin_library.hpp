@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,14 +15,22 @@ namespace locsim {
 
 class PluginLibrary {
  public:
-  /// Loads a plugin file. Throws PluginError saying exactly what is wrong.
-  explicit PluginLibrary(const std::filesystem::path& file);
+  /// Loads a plugin file; with a `source`, the filter that source defines, through the plugin's
+  /// locsim_localizer_load (a loader plugin such as python). Throws PluginError saying exactly
+  /// what is wrong.
+  explicit PluginLibrary(const std::filesystem::path& file,
+                         const std::filesystem::path& source = {});
   ~PluginLibrary();
   PluginLibrary(const PluginLibrary&) = delete;
   PluginLibrary& operator=(const PluginLibrary&) = delete;
 
   const locsim_localizer& table() const { return *table_; }
   const std::filesystem::path& path() const { return path_; }
+  /// The source file a loader plugin runs (empty for a plain plugin).
+  const std::filesystem::path& source() const { return source_; }
+  /// The file that defines the filter, for messages and fingerprints: its source, else the
+  /// library.
+  const std::filesystem::path& definition() const { return source_.empty() ? path_ : source_; }
   /// The ABI version the plugin was built for, LOCSIM_LOCALIZER_ABI_VERSION_OLDEST to
   /// LOCSIM_LOCALIZER_ABI_VERSION: the host gives it the structs of that version.
   std::uint32_t abi_version() const { return abi_version_; }
@@ -30,7 +39,7 @@ class PluginLibrary {
   std::uint32_t readings() const { return readings_; }
 
  private:
-  std::filesystem::path path_;
+  std::filesystem::path path_, source_;
   void* handle_ = nullptr;
   const locsim_localizer* table_ = nullptr;
   std::uint32_t abi_version_ = 0;
@@ -47,5 +56,20 @@ std::filesystem::path find_plugin(const std::string& name_or_file);
 
 /// Every locsim_*.so in the search path (the first of each name wins).
 std::vector<std::filesystem::path> list_plugin_files();
+
+/// The source file a loader plugin is to run, absolute: `name_or_file` itself when it names a file
+/// (has a '/' or ends in .py), else NAME.py in the search path. Throws PluginError listing where
+/// it looked.
+std::filesystem::path find_source(const std::string& name_or_file);
+
+/// Plugins loaded once per library and source, shared by the specs that name them.
+class PluginCache {
+ public:
+  /// `plugin` as find_plugin takes it; `source` as find_source takes it, or empty.
+  std::shared_ptr<const PluginLibrary> load(const std::string& plugin, const std::string& source);
+
+ private:
+  std::map<std::string, std::shared_ptr<const PluginLibrary>> loaded_;  // by file and source
+};
 
 }  // namespace locsim

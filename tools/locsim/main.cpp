@@ -430,8 +430,9 @@ int main(int argc, char** argv) {
   const auto add_session_options = [&](CLI::App* command, locsim::SessionOptions& session) {
     command->add_option(
         "--localizer", session.localizers,
-        "Localizer plugin to run on every robot, NAME[:key=value,...][@label]; repeat for "
-        "several (all get the same readings)");
+        "Localizer plugin to run on every robot, NAME[:key=value,...][@label], or one written "
+        "in Python, python:FILE.py[:key=value,...][@label] (docs/python.md); repeat for several "
+        "(all get the same readings)");
     command->add_option(
         "--params", session.params_file,
         "Parameter file (YAML, e.g. `locsim calibrate`'s): its localizer_params give every "

@@ -283,6 +283,20 @@ typedef struct locsim_localizer {
 typedef const locsim_localizer* (*locsim_localizer_entry_fn)(uint32_t host_abi_version);
 #define LOCSIM_LOCALIZER_ENTRY_SYMBOL "locsim_localizer_entry"
 
+/* Optional, for a loader plugin: one that runs filters written in another language (locsim_python
+ * runs Python scripts: `--localizer python:my_filter.py`). Given a source file (an absolute path),
+ * returns the table of the filter it defines, or NULL with a message naming the file and line in
+ * `error`. The table (its name, description, parameters and readings are the source's) lives as
+ * long as the library, and each source's table is its own; the host calls
+ * locsim_localizer_entry first, as for any plugin, and this only for a spec naming a source.
+ * Reading the source must not run it: the host asks in the process that later forks the filters'
+ * workers, and a failure of the filter's own code belongs to its create call. Additive: the ABI
+ * version is unchanged and plugins without it are unaffected. */
+typedef const locsim_localizer* (*locsim_localizer_load_fn)(uint32_t host_abi_version,
+                                                            const char* source, char* error,
+                                                            size_t error_size);
+#define LOCSIM_LOCALIZER_LOAD_SYMBOL "locsim_localizer_load"
+
 #ifdef __cplusplus
 }
 #endif

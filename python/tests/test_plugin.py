@@ -1,0 +1,65 @@
+"""Localizers written in Python: the declarations the host reads from a script's text, and a
+numpy particle filter run through the binary from Python, beside a C++ filter."""
+import os
+import subprocess
+import sys
+
+import pytest
+
+import locsim
+
+DESCRIBE = os.path.join(os.path.dirname(locsim.__file__), "_describe.py")
+
+
+def describe(path):
+    return subprocess.run([sys.executable, "-I", "-S", DESCRIBE, str(path)], capture_output=True, text=True)
+
+
+def script(tmp_path, body, name="f.py"):
+    path = tmp_path / name
+    path.write_text("import numpy as np\nimport locsim\n\n\nclass F(locsim.Localizer):\n" + body)
+    return path
+
+
+def test_declarations_are_read_without_running(tmp_path):
+    path = script(tmp_path, '    """One line.\n\n    More."""\n'
+                            '    params = [locsim.param("n", int, 5, 1, 10, "count [-]"),\n'
+                            '              locsim.param("on", bool, False, doc="switch")]\n'
+                            '    raise SystemExit("the class body never runs")\n'
+                            '    def on_laser(self, t_s, scan): pass\n'
+                            '    def estimate(self): pass\n', name="My-Filter.py")
+    out = describe(path)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert lines[:4] == ["name\tmy_filter", "description\tOne line.", "class\tF", f"readings\t{1 << 5}"]
+    assert lines[4:] == ["param\tn\tint\t5\t1\t10\tcount [-]", "param\ton\tbool\t0\t\t\tswitch"]
+
+
+@pytest.mark.parametrize("body, line, message", [
+    ('    params = [locsim.param("n", int, 50, 1, 10)]\n    def estimate(self): pass\n', 6, "outside [1, 10]"),
+    ('    params = [locsim.param("N", int, 5)]\n    def estimate(self): pass\n', 6, "must be [a-z0-9_]+"),
+    ('    name = "a" + "b"\n    def estimate(self): pass\n', 6, "must be a literal"),
+    ('    params = [locsim.param("x", float, 1.0), locsim.param("x", int, 1)]\n    def estimate(self): pass\n', 6,
+     "declared twice"),
+    ('    def on_odometry(self, t_s, o): pass\n', 5, "defines no estimate"),
+])
+def test_bad_declarations_name_the_line(tmp_path, body, line, message):
+    out = describe(script(tmp_path, body))
+    assert out.returncode == 1
+    assert out.stderr.startswith(f"{tmp_path / 'f.py'}:{line}: ") and message in out.stderr
+
+
+def test_numpy_particle_filter_through_the_binary(tmp_path):
+    demo = os.path.join(os.environ.get("LOCSIM_SOURCE_DIR", ""), "worlds", "demo", "demo.yaml")
+    if not os.path.exists(demo):
+        demo = os.path.join(os.path.dirname(__file__), "..", "..", "worlds", "demo", "demo.yaml")
+    run = locsim.run(demo, tmp_path / "pf", localizers=["ekf_landmarks", "python:landmark_pf:particles=300@pf"],
+                     duration=8, seed=5)
+    summary = run.summary().set_index("label")
+    assert (summary.status == "ok").all(), summary.failure
+    assert summary.loc["pf", "plugin"] == "landmark_pf"
+    assert run.localizer_metrics("pf")["params"] == {"particles": 300, "alpha": 0.1, "sigma_range_m": 0.3,
+                                                     "sigma_bearing_rad": 0.1}
+    errors = run.errors("pf")
+    assert len(errors) == run.localizer_metrics("pf")["samples"]
+    assert summary.loc["pf", "position_rms_m"] < 0.5
