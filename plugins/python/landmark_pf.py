@@ -8,58 +8,53 @@ class LandmarkPF(locsim.Localizer):
     """Particle filter on landmarks, in numpy: odometry motion, range-bearing detections."""
 
     params = [locsim.param("particles", int, 2000, 10, 1_000_000, "particle count [-]"),
-              locsim.param("alpha", float, 0.1, 0.0, 2.0, "odometry noise per metre or radian moved [-]"),
               locsim.param("sigma_range_m", float, 0.3, 0.001, 10.0, "range noise of a detection [m]"),
-              locsim.param("sigma_bearing_rad", float, 0.1, 0.0001, 1.0, "bearing noise of a detection [rad]")]
+              locsim.param("sigma_bearing_rad", float, 0.1, 0.0001, 1.0, "bearing noise of a detection [rad]"),
+              locsim.param("resample_below", float, 0.5, 0.0, 1.0, "resample when N_eff / N drops below it [-]"),
+              locsim.param("motion_floor_m", float, 0.005, 0.0, 10.0, "position noise of every step, per axis [m]"),
+              locsim.param("motion_floor_deg", float, 0.5, 0.0, 180.0, "heading noise of every step [deg]"),
+              locsim.param("outlier_likelihood", float, 0.05, 0.0, 1.0,
+                           "added to each detection's likelihood (1: a perfect match): the chance it is false [-]")]
 
     def __init__(self, init):
         super().__init__(init)
-        n, self.rng, self.odom = init.params["particles"], init.rng, None
+        n, self.rng, self.odom, self.moved_at = init.params["particles"], init.rng, None, None
         if init.initial_pose_known:
             self.x = self.rng.multivariate_normal(init.initial_pose, init.initial_covariance, n)
         else:  # uniform over the free cells of the map, any heading
-            cells = np.argwhere(init.grid == 0)[self.rng.integers(0, int((init.grid == 0).sum()), n)]
-            xy = (cells[:, ::-1] + self.rng.random((n, 2))) * init.grid_resolution_m + init.grid_origin
-            self.x = np.column_stack((xy, self.rng.uniform(-np.pi, np.pi, n)))
+            self.x = locsim.free_space_poses(init, n, self.rng)
         self.w = np.full(n, 1.0 / n)
+        p = init.params  # the alphas of paper 004 and a floor, so that particles never collapse
+        self.noise = locsim.OdometryNoise(floor_position_m=p["motion_floor_m"],
+                                          floor_heading_rad=np.radians(p["motion_floor_deg"]))
 
     def on_odometry(self, t_s, odometry):
-        pose = np.array(odometry.pose)
-        if self.odom is not None:  # the move in the last odometry pose's frame, applied to each particle
-            d, c, s = pose - self.odom, np.cos(self.odom[2]), np.sin(self.odom[2])
-            forward, left, turn = c * d[0] + s * d[1], -s * d[0] + c * d[1], locsim.wrap_angle(d[2])
-            sd = self.init.params["alpha"] * (np.hypot(forward, left) + abs(turn)) + 1e-9
-            n, theta = len(self.x), self.x[:, 2]
-            f, lt = forward + self.rng.normal(0, sd, n), left + self.rng.normal(0, sd, n)
-            self.x[:, 0] += np.cos(theta) * f - np.sin(theta) * lt
-            self.x[:, 1] += np.sin(theta) * f + np.cos(theta) * lt
-            self.x[:, 2] = locsim.wrap_angle(theta + turn + self.rng.normal(0, sd, n))
-        self.odom = pose
+        self.odom = np.array(odometry.pose)
+        if self.moved_at is None:
+            self.moved_at = self.odom
 
     def on_landmarks(self, t_s, landmarks):
         init, p = self.init, self.init.params
-        log_w = np.log(self.w)
+        if self.odom is not None:  # the motion since the last step, one noisy sample per particle
+            locsim.sample_motion(self.x, locsim.decompose(self.moved_at, self.odom), self.rng, self.noise)
+            self.moved_at = self.odom
+        log_w, log_outlier = np.log(self.w), np.log(max(p["outlier_likelihood"], 1e-300))
         for det, color in zip(landmarks.detections, landmarks.colors):
             known = init.landmark_ids == det["id"] if det["id"] >= 0 else np.array(init.landmark_colors) == color
-            if not known.any():
-                continue  # a phantom of a colour no landmark has
-            dx = init.landmarks[known, 0][None, :] - self.x[:, 0:1]  # particles x candidate landmarks
-            dy = init.landmarks[known, 1][None, :] - self.x[:, 1:2]
-            er = (det["range_m"] - np.hypot(dx, dy)) / p["sigma_range_m"]
-            eb = locsim.wrap_angle(np.arctan2(dy, dx) - self.x[:, 2:3] - det["bearing_rad"]) / p["sigma_bearing_rad"]
-            log_w += np.max(-0.5 * (er * er + eb * eb), axis=1)  # the best-matching landmark
-        w = np.exp(log_w - log_w.max())
-        self.w = w / w.sum()
-        if 1.0 / np.sum(self.w ** 2) < 0.5 * len(self.w):  # low-variance resampling
-            n = len(self.w)
-            picks = np.searchsorted(np.cumsum(self.w), (self.rng.random() + np.arange(n)) / n)
-            self.x, self.w = self.x[np.minimum(picks, n - 1)], np.full(n, 1.0 / n)
+            if known.any():  # the best-matching landmark of its id (or colour) explains it, or it is false
+                match = locsim.landmark_log_match(self.x, det["range_m"], det["bearing_rad"], init.landmarks[known],
+                                                  p["sigma_range_m"], p["sigma_bearing_rad"]).max(axis=1)
+                log_w += np.logaddexp(match, log_outlier)
+        self.w = locsim.weights_from_log(log_w)
+        if locsim.effective_sample_size(self.w) < p["resample_below"] * len(self.w):
+            keep = locsim.low_variance_resample(self.w, self.rng)
+            self.x, self.w = self.x[keep], np.full(len(keep), 1.0 / len(keep))
 
-    def estimate(self):
-        mean = self.w @ self.x[:, :2]
-        theta = np.arctan2(self.w @ np.sin(self.x[:, 2]), self.w @ np.cos(self.x[:, 2]))
-        d = np.column_stack((self.x[:, :2] - mean, locsim.wrap_angle(self.x[:, 2] - theta)))
-        return np.append(mean, theta), (d * self.w[:, None]).T @ d
+    def estimate(self):  # the particles' mean, moved on by the odometry since the last step
+        mean, covariance = locsim.mean_and_covariance(self.x, self.w)
+        if self.odom is not None:
+            mean = locsim.compose(mean, locsim.between(self.moved_at, self.odom))
+        return mean, covariance
 
     def particles(self):
         return self.x, self.w

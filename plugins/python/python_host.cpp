@@ -29,6 +29,9 @@
 // pybind11 before anything else of Python's: it includes Python.h as Python requires.
 #include <pybind11/embed.h>
 #include <pybind11/numpy.h>
+// numpy's own C API, for its allocator hook only (the rest goes through pybind11).
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
 
 #include "locsim/localizer.h"
 
@@ -130,6 +133,61 @@ std::vector<std::string> split(const std::string& line, char separator) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// numpy's array buffers, each on a 64-byte boundary of its own and 128 bytes or more from any
+// other. Why: numpy picks its SIMD loop or its scalar loop for a call (they round transcendental
+// functions differently) by how far apart the input and output buffers are and how they are
+// aligned; with the C library's heap that depends on everything else the process allocated (the
+// log writer, being in a worker or in the host), so a filter's results would change with --log.
+// With this allocator they depend on the script alone. The header keeps the size for realloc.
+constexpr std::size_t kArrayAlignment = 64;
+
+void* aligned_malloc(void* /*context*/, std::size_t size) {
+  const std::size_t padded =
+      kArrayAlignment + (size + kArrayAlignment - 1) / kArrayAlignment * kArrayAlignment;
+  auto* raw = static_cast<unsigned char*>(std::aligned_alloc(kArrayAlignment, padded));
+  if (raw == nullptr) return nullptr;
+  std::memcpy(raw, &size, sizeof size);
+  return raw + kArrayAlignment;
+}
+void* aligned_calloc(void* context, std::size_t count, std::size_t item_size) {
+  if (item_size != 0 && count > SIZE_MAX / item_size) return nullptr;
+  void* p = aligned_malloc(context, count * item_size);
+  if (p != nullptr) std::memset(p, 0, count * item_size);
+  return p;
+}
+void aligned_free(void* /*context*/, void* p, std::size_t /*size*/) {
+  if (p != nullptr) std::free(static_cast<unsigned char*>(p) - kArrayAlignment);
+}
+void* aligned_realloc(void* context, void* p, std::size_t size) {
+  if (p == nullptr) return aligned_malloc(context, size);
+  std::size_t old_size = 0;
+  std::memcpy(&old_size, static_cast<unsigned char*>(p) - kArrayAlignment, sizeof old_size);
+  void* moved = aligned_malloc(context, size);
+  if (moved == nullptr) return nullptr;  // numpy keeps the old buffer, as realloc's contract
+  std::memcpy(moved, p, std::min(old_size, size));
+  aligned_free(context, p, old_size);
+  return moved;
+}
+
+PyDataMem_Handler g_aligned_handler = {
+    "locsim_aligned_64",
+    1,
+    {nullptr, aligned_malloc, aligned_calloc, aligned_realloc, aligned_free}};
+PyObject* g_aligned_handler_capsule = nullptr;  // lives as the process
+
+/// numpy's handler is a context variable: a thread (or a fresh thread state) starts with the
+/// default, so every call makes sure its own context has ours (a pointer compare when it does).
+void use_aligned_arrays() {
+  PyObject* current = PyDataMem_GetHandler();
+  if (current != g_aligned_handler_capsule) {
+    PyObject* previous = PyDataMem_SetHandler(g_aligned_handler_capsule);
+    if (previous == nullptr) throw py::error_already_set();
+    Py_DECREF(previous);
+  }
+  Py_XDECREF(current);
+}
+
+// ---------------------------------------------------------------------------------------------
 // The interpreter: started on the first create of the process.
 struct Interpreter {
   py::object* locsim = nullptr;      // the locsim.plugin module
@@ -165,6 +223,10 @@ void start_interpreter() {
     PyGILState_Ensure();  // inside a Python process: take the GIL as the code below expects
   }
   auto* python = new Interpreter();  // never freed: the interpreter is never finalised
+  if (_import_array() < 0) throw py::error_already_set();  // numpy's C API table
+  g_aligned_handler_capsule = PyCapsule_New(&g_aligned_handler, "mem_handler", nullptr);
+  if (g_aligned_handler_capsule == nullptr) throw py::error_already_set();
+  use_aligned_arrays();  // before the first array below
   py::module_::import("sys").attr("path").attr("insert")(0, package_dir().string());
   python->locsim = new py::object(py::module_::import("locsim.plugin"));
   python->init_class = new py::object(python->locsim->attr("Init"));
@@ -402,6 +464,7 @@ void* create_instance(Script& script, const locsim_init* init, char* error, std:
     return nullptr;
   }
   py::gil_scoped_acquire gil;
+  use_aligned_arrays();
   auto instance = std::make_unique<Instance>();
   instance->script = &script;
   // The script's own failures (an import, its constructor) fail this filter alone, at its first
@@ -463,6 +526,7 @@ int guarded(Instance& instance, char* error, std::size_t size, Body&& body) {
   }
   py::gil_scoped_acquire gil;
   try {
+    use_aligned_arrays();
     return body();
   } catch (py::error_already_set& e) {
     write_error(error, size, describe_error(e, *instance.script));

@@ -35,10 +35,25 @@ _find_debian_numpy()
 
 from .cli import LocsimError, binary, replay, report, run, sweep  # noqa: E402
 from .io import read_events, read_tum, wrap_angle  # noqa: E402
+from .models import (OdometryNoise, add_motion_floor, advance_by_velocity, between,  # noqa: E402
+                     compose, decompose, diff_drive_motion, landmark_log_likelihood, landmark_log_match, motion_spread,
+                     numeric_jacobian, predict_by_wheels, range_bearing, sample_motion,
+                     sample_wheel_motion, sinc, wheel_travel_from_increment)
+from .particles import (circular_mean, effective_sample_size, free_space_poses,  # noqa: E402
+                        low_variance_resample, mean_and_covariance, normalize, roulette_resample,
+                        weights_from_log)
 from .plugin import Init, Localizer, Param, param  # noqa: E402
 from .run_folder import Run, error_arrays, load_run  # noqa: E402
 from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
 from .sweep_folder import Sweep, load_sweep  # noqa: E402
 
-__all__ = ["Aggregate", "Init", "Localizer", "LocsimError", "Param", "Run", "Sweep", "aggregate", "binary", "error_arrays", "load_run", "load_sweep",
-           "mean_ci", "param", "read_events", "read_tum", "replay", "report", "run", "sweep", "t975", "wrap_angle"]
+__all__ = ["Aggregate", "Init", "Localizer", "LocsimError", "OdometryNoise", "Param", "Run", "Sweep",
+           "add_motion_floor", "advance_by_velocity", "aggregate", "between", "binary",
+           "circular_mean", "compose", "decompose", "diff_drive_motion",
+           "effective_sample_size", "error_arrays", "free_space_poses",
+           "landmark_log_likelihood", "landmark_log_match", "load_run", "load_sweep",
+           "low_variance_resample", "mean_and_covariance", "mean_ci", "motion_spread",
+           "normalize", "numeric_jacobian", "param", "predict_by_wheels", "range_bearing",
+           "read_events", "read_tum", "replay", "report", "roulette_resample", "run",
+           "sample_motion", "sample_wheel_motion", "sinc", "sweep", "t975", "weights_from_log",
+           "wheel_travel_from_increment", "wrap_angle"]

@@ -58,8 +58,8 @@ def test_numpy_particle_filter_through_the_binary(tmp_path):
     summary = run.summary().set_index("label")
     assert (summary.status == "ok").all(), summary.failure
     assert summary.loc["pf", "plugin"] == "landmark_pf"
-    assert run.localizer_metrics("pf")["params"] == {"particles": 300, "alpha": 0.1, "sigma_range_m": 0.3,
-                                                     "sigma_bearing_rad": 0.1}
+    params = run.localizer_metrics("pf")["params"]
+    assert params["particles"] == 300 and params["sigma_range_m"] == 0.3 and params["motion_floor_deg"] == 0.5
     errors = run.errors("pf")
     assert len(errors) == run.localizer_metrics("pf")["samples"]
     assert summary.loc["pf", "position_rms_m"] < 0.5

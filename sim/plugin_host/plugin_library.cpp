@@ -166,7 +166,11 @@ fs::path find_plugin(const std::string& name_or_file) {
                     "what is found)");
 }
 
-std::vector<fs::path> list_plugin_files() {
+namespace {
+/// The files of the search path whose names `wanted` accepts, the first of each name, each
+/// folder's sorted.
+template <typename Wanted>
+std::vector<fs::path> list_search_path(Wanted&& wanted) {
   std::vector<fs::path> files;
   std::set<std::string> names;
   for (const fs::path& folder : plugin_search_path()) {
@@ -174,8 +178,7 @@ std::vector<fs::path> list_plugin_files() {
     if (!fs::is_directory(folder, error)) continue;
     std::vector<fs::path> here;
     for (const auto& entry : fs::directory_iterator(folder, error)) {
-      const std::string name = entry.path().filename().string();
-      if (name.starts_with("locsim_") && name.ends_with(".so")) here.push_back(entry.path());
+      if (wanted(entry.path().filename().string())) here.push_back(entry.path());
     }
     std::sort(here.begin(), here.end());
     for (const fs::path& file : here) {
@@ -183,6 +186,16 @@ std::vector<fs::path> list_plugin_files() {
     }
   }
   return files;
+}
+}  // namespace
+
+std::vector<fs::path> list_plugin_files() {
+  return list_search_path(
+      [](const std::string& name) { return name.starts_with("locsim_") && name.ends_with(".so"); });
+}
+
+std::vector<fs::path> list_source_files() {
+  return list_search_path([](const std::string& name) { return name.ends_with(".py"); });
 }
 
 }  // namespace locsim

@@ -57,6 +57,9 @@ std::filesystem::path find_plugin(const std::string& name_or_file);
 /// Every locsim_*.so in the search path (the first of each name wins).
 std::vector<std::filesystem::path> list_plugin_files();
 
+/// Every *.py in the search path (the first of each name wins): the scripts `python:NAME` runs.
+std::vector<std::filesystem::path> list_source_files();
+
 /// The source file a loader plugin is to run, absolute: `name_or_file` itself when it names a file
 /// (has a '/' or ends in .py), else NAME.py in the search path. Throws PluginError listing where
 /// it looked.

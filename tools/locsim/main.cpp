@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "plugin_template.hpp"
@@ -271,11 +272,13 @@ int list_plugins() {
   const auto files = locsim::list_plugin_files();
   if (files.empty()) std::printf("\nNo plugins found.\n");
   int failures = 0;
-  for (const auto& file : files) {
+  const auto show = [&](const std::filesystem::path& file, const std::filesystem::path& source,
+                        const std::string& prefix) {
     try {
-      const locsim::PluginLibrary library(file);
+      const locsim::PluginLibrary library(file, source);
       const locsim_localizer& t = library.table();
-      std::printf("\n%s  %s\n  %s\n", t.name, t.description, file.c_str());
+      std::printf("\n%s%s  %s\n  %s\n", prefix.c_str(), t.name, t.description,
+                  (source.empty() ? file : source).c_str());
       for (std::size_t i = 0; i < t.param_count; ++i) {
         const locsim_param_decl& p = t.params[i];
         std::printf("    %-20s %-6s ", p.name, type_name(p.type));
@@ -290,8 +293,17 @@ int list_plugins() {
       }
     } catch (const locsim::PluginError& e) {
       ++failures;
-      std::printf("\n(failed) %s\n  %s\n", file.c_str(), e.what());
+      std::printf("\n(failed) %s\n  %s\n", (source.empty() ? file : source).c_str(), e.what());
     }
+  };
+  std::optional<std::filesystem::path> python;
+  for (const auto& file : files) {
+    show(file, {}, "");
+    if (file.filename() == "locsim_python.so") python = file;
+  }
+  // The scripts the python plugin runs by name (`--localizer python:NAME`).
+  if (python) {
+    for (const auto& script : locsim::list_source_files()) show(*python, script, "python:");
   }
   return failures > 0 ? locsim::kExitPlugin : locsim::kExitOk;
 }
