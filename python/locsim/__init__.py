@@ -1,5 +1,6 @@
 """locsim from Python: load run and sweep folders as numpy arrays and pandas DataFrames, compute
-the project's statistics, and drive the `locsim` binary (run, replay, sweep, report).
+the project's statistics, drive the `locsim` binary (run, replay, sweep, report), step a world
+(World), and write localizers (Localizer, with the filter maths of models and particles).
 
     >>> import locsim
     >>> r = locsim.load_run("runs/demo-kidnap")
@@ -46,9 +47,10 @@ from .plugin import Init, Localizer, Param, param  # noqa: E402
 from .run_folder import Run, error_arrays, load_run  # noqa: E402
 from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
 from .sweep_folder import Sweep, load_sweep  # noqa: E402
+from .world import World  # noqa: E402
 
 __all__ = ["Aggregate", "Init", "Localizer", "LocsimError", "OdometryNoise", "Param", "Run", "Sweep",
-           "add_motion_floor", "advance_by_velocity", "aggregate", "between", "binary",
+           "World", "add_motion_floor", "advance_by_velocity", "aggregate", "between", "binary",
            "circular_mean", "compose", "decompose", "diff_drive_motion",
            "effective_sample_size", "error_arrays", "free_space_poses",
            "landmark_log_likelihood", "landmark_log_match", "load_run", "load_sweep",

@@ -16,15 +16,7 @@
 #include "sim/world/variation.hpp"
 #include "sim/world/world_loader.hpp"
 
-#ifndef LOCSIM_VERSION_STRING
-#define LOCSIM_VERSION_STRING "unknown"
-#endif
-
 namespace locsim {
-
-const char* locsim_version() {
-  return LOCSIM_VERSION_STRING;
-}
 
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
