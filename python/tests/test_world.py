@@ -8,12 +8,6 @@ import pytest
 
 import locsim
 
-if os.environ.get("LOCSIM_SANITIZED") == "1":
-    # Its sanitizer runtime lives in instrumented executables; python3 is not one. The ci preset
-    # (tools/test's first stage) runs these.
-    pytest.skip("_locsim_world is built with AddressSanitizer here and cannot load into python3",
-                allow_module_level=True)
-
 SOURCE = os.environ.get("LOCSIM_SOURCE_DIR") or os.path.join(os.path.dirname(__file__), "..", "..")
 DEMO = os.path.join(SOURCE, "worlds", "demo", "demo.yaml")
 
