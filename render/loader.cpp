@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <cstdlib>
+#include <utility>
 
 #include "sim/common/errors.hpp"
 
@@ -10,19 +11,18 @@ namespace locsim::render {
 
 namespace fs = std::filesystem;
 
-std::vector<fs::path> render_module_candidates() {
-  std::vector<fs::path> out;
+std::vector<fs::path> render_module_candidates(std::vector<fs::path> folders) {
   // Asked for by name: that one only (falling back to another would hide the mistake).
-  if (const char* env = std::getenv("LOCSIM_RENDER_MODULE"); env != nullptr && *env != '\0') {
-    out.emplace_back(env);
-    return out;
+  if (const char* env = std::getenv("LOCSIM_RENDER_MODULE"); env != nullptr && *env != '\0')
+    return {fs::path(env)};
+  if (folders.empty()) {
+    std::error_code error;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+    if (!error) folders = {exe.parent_path(), exe.parent_path() / LOCSIM_RENDER_FROM_BIN};
   }
-  std::error_code error;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
-  if (!error) {
-    out.push_back(exe.parent_path() / "liblocsim_render.so");  // build tree
-    out.push_back(exe.parent_path().parent_path() / "lib/locsim/liblocsim_render.so");  // install
-  }
+  std::vector<fs::path> out;
+  for (const fs::path& folder : folders)
+    out.push_back((folder / "liblocsim_render.so").lexically_normal());
   return out;
 }
 
@@ -32,9 +32,9 @@ RenderModule::~RenderModule() {
   if (handle_ != nullptr) dlclose(handle_);
 }
 
-std::shared_ptr<RenderModule> RenderModule::load() {
+std::shared_ptr<RenderModule> RenderModule::load(std::vector<fs::path> folders) {
   std::string tried;
-  for (const fs::path& candidate : render_module_candidates()) {
+  for (const fs::path& candidate : render_module_candidates(std::move(folders))) {
     if (!fs::exists(candidate)) {
       tried += "\n  " + candidate.string() + ": not there";
       continue;

@@ -24,14 +24,17 @@ inline constexpr std::uint32_t kRenderAbi =
                                           sizeof(PtzCameraDef) * 13u + sizeof(CameraShot) * 17u +
                                           sizeof(ScenePrism) * 19u + sizeof(ImageBlob) * 23u);
 
-/// Where the module is looked for: $LOCSIM_RENDER_MODULE alone when set; else next to the locsim
-/// binary (the build tree), then the install prefix's lib/locsim.
-std::vector<std::filesystem::path> render_module_candidates();
+/// Where the module is looked for: $LOCSIM_RENDER_MODULE alone when set; else liblocsim_render.so
+/// in each of `folders`, by default the locsim binary's folder (the build tree) then the install's
+/// module folder found from it (LIBDIR/locsim).
+std::vector<std::filesystem::path> render_module_candidates(
+    std::vector<std::filesystem::path> folders = {});
 
 class RenderModule : public std::enable_shared_from_this<RenderModule> {
  public:
-  /// Loads the first module found. Throws RenderError naming where it looked and why it failed.
-  static std::shared_ptr<RenderModule> load();
+  /// Loads the first of render_module_candidates(folders) found. Throws RenderError naming where
+  /// it looked and why it failed.
+  static std::shared_ptr<RenderModule> load(std::vector<std::filesystem::path> folders = {});
   ~RenderModule();
   RenderModule(const RenderModule&) = delete;
   RenderModule& operator=(const RenderModule&) = delete;

@@ -753,6 +753,68 @@ TEST(StaticRaycaster, AgreesWithBox2dOnTheOfficeMap) {
   EXPECT_GT(compared, 2000);
 }
 
+// A laser's broad phase (SceneRays::fan_candidates) keeps, for every beam, each moving body that
+// beam can hit, in order: each beam's range is the same double as when testing every body, for
+// fans of every shape, origins inside a body, an ignored body, fans crossing +-180 deg. And it
+// culls: a beam is tested against few of a crowd's bodies.
+TEST(SceneRays, FanCandidatesGiveTheSameRangesAsTestingEveryBody) {
+  b2World world(b2Vec2(0.0f, 0.0f));
+  RandomStream rng = make_stream(7, "fan");
+  std::vector<DynamicOccluder> occluders;
+  for (int i = 0; i < 120; ++i) {
+    b2BodyDef def;
+    def.type = b2_dynamicBody;
+    def.position.Set(static_cast<float>(rng.uniform(-20.0, 20.0)),
+                     static_cast<float>(rng.uniform(-20.0, 20.0)));
+    def.angle = static_cast<float>(rng.uniform(-3.0, 3.0));
+    b2Body* body = world.CreateBody(&def);
+    double radius_m = 0.0;
+    if (i % 2 == 0) {
+      b2CircleShape circle;
+      circle.m_radius = static_cast<float>(rng.uniform(0.1, 0.6));
+      body->CreateFixture(&circle, 1.0f);
+      radius_m = circle.m_radius;
+    } else {
+      b2PolygonShape box;
+      const double hx = rng.uniform(0.1, 0.8), hy = rng.uniform(0.1, 0.4);
+      box.SetAsBox(static_cast<float>(hx), static_cast<float>(hy));
+      body->CreateFixture(&box, 1.0f);
+      radius_m = std::hypot(hx, hy);
+    }
+    occluders.push_back({body, 1.0, radius_m});
+  }
+  const StaticRaycaster statics({{{-25, -25}, {25, -25}}, {{25, -25}, {25, 25}}}, {});
+  const SceneRays rays(statics, occluders);
+  FanCandidates candidates;
+  std::size_t tested = 0, beams_cast = 0, hits_on_bodies = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const bool inside = trial % 6 == 0;  // the origin at a body's centre, not ignored
+    const b2Body* ignore = trial % 3 == 0 ? occluders[trial].body : nullptr;
+    const Vec2 origin = inside ? from_b2(occluders[trial + 1].body->GetPosition())
+                               : Vec2{rng.uniform(-20.0, 20.0), rng.uniform(-20.0, 20.0)};
+    const double heading = rng.uniform(-std::numbers::pi, std::numbers::pi);
+    const int beams = std::vector<int>{360, 271, 31, 1}[trial % 4];
+    const double fov = std::vector<double>{2.0 * std::numbers::pi, 4.71, 0.3, 0.0}[trial % 4];
+    const double max_range_m = trial % 5 == 0 ? 4.0 : 30.0;
+    std::vector<double> angles;
+    for (int i = 0; i < beams; ++i) angles.push_back(laser_beam_angle(i, beams, fov));
+    rays.fan_candidates(origin, heading, angles, max_range_m, ignore, candidates);
+    const double c = std::cos(heading), s = std::sin(heading);
+    for (int i = 0; i < beams; ++i) {
+      const Vec2 local{std::cos(angles[i]), std::sin(angles[i])};
+      const Vec2 d{c * local.x() - s * local.y(), s * local.x() + c * local.y()};
+      const double all = rays.cast(origin, d, max_range_m, ignore);
+      const double culled = rays.cast(origin, d, max_range_m, candidates.of(i));
+      ASSERT_EQ(all, culled) << "trial " << trial << " beam " << i;
+      hits_on_bodies += all < statics.cast(origin, d, max_range_m);
+      tested += candidates.of(i).size();
+      ++beams_cast;
+    }
+  }
+  EXPECT_GT(hits_on_bodies, 500u);  // the bodies are seen: the comparison means something
+  EXPECT_LT(static_cast<double>(tested), 0.1 * static_cast<double>(beams_cast * occluders.size()));
+}
+
 // ----------------------------------------------------------------------------------- faults
 TEST(SensorFaults, DropoutStuckAndBiasStepApplyForTheirIntervals) {
   Simulation sim = make_sim(R"(

@@ -3,12 +3,14 @@
 // same Simulation, so a world stepped here is the run's world step for step (a test compares the
 // state hashes); readings come out as Python objects with numpy arrays, robots without a driver
 // take velocity commands. No localizers, files or video: `locsim.run` does those.
+#include <dlfcn.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <cmath>
 #include <cstddef>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <type_traits>
@@ -104,11 +106,24 @@ py::dict to_python(const Reading& r) {
   return out;
 }
 
+/// Where the render module is, from this module's folder: the build's (build/python/..), then the
+/// install's (share/locsim/python to LIBDIR/locsim). The executable here is python3, so the
+/// loader's default (the locsim binary's folder) does not apply.
+std::vector<std::filesystem::path> render_module_folders() {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&render_module_folders), &info) == 0 ||
+      info.dli_fname == nullptr)
+    return {};
+  const std::filesystem::path here = std::filesystem::path(info.dli_fname).parent_path();
+  return {here.parent_path(), here / LOCSIM_RENDER_FROM_PYTHON};
+}
+
 /// PTZ cameras in mode: rendered draw their images with the render module, loaded on first use as
-/// `locsim run` loads it (locsim.World points LOCSIM_RENDER_MODULE at the build's or install's).
+/// `locsim run` loads it ($LOCSIM_RENDER_MODULE, else beside this module's build or install).
 LandmarkImagerFactory imagers() {
   return [](const WorldDef& world, const PtzCameraDef& camera) {
-    static const std::shared_ptr<render::RenderModule> module = render::RenderModule::load();
+    static const std::shared_ptr<render::RenderModule> module =
+        render::RenderModule::load(render_module_folders());
     return module->make_imager(world, camera, "osmesa");
   };
 }

@@ -30,8 +30,12 @@ def binary():
     if env:
         return env
     here = os.path.dirname(os.path.abspath(__file__))
-    for candidate in (os.path.join(here, "..", "..", "build", "locsim"),  # source tree: python/locsim
-                      os.path.join(here, "..", "..", "..", "..", "bin", "locsim")):  # share/locsim/python/locsim
+    try:  # an install writes where its binary is (python/CMakeLists.txt)
+        from ._installed import BINARY_FROM_PACKAGE
+        candidates = [os.path.join(here, BINARY_FROM_PACKAGE)]
+    except ImportError:  # the source tree: python/locsim, the build in build/
+        candidates = [os.path.join(here, "..", "..", "build", "locsim")]
+    for candidate in candidates:
         if os.access(candidate, os.X_OK) and os.path.isfile(candidate):
             return os.path.normpath(candidate)
     found = shutil.which("locsim")

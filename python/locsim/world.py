@@ -30,14 +30,6 @@ def _extension():
         folders.append(os.path.join(os.path.dirname(binary()), "python"))  # the build: build/python
     except FileNotFoundError:
         pass
-    build = folders[-1] if len(folders) > 2 else None
-    # The render module (for PTZ cameras in mode: rendered) is found next to the executable, which
-    # here is python3: point at the build's or the install's.
-    for render in ([os.path.join(os.path.dirname(build), "liblocsim_render.so")] if build else []) + [
-            os.path.join(here, "..", "..", "..", "..", "lib", "locsim", "liblocsim_render.so")]:
-        if os.path.exists(render):
-            os.environ.setdefault("LOCSIM_RENDER_MODULE", os.path.normpath(render))
-            break
     for folder in folders:
         if folder and glob.glob(os.path.join(folder, "_locsim_world*.so")):
             if folder not in sys.path:

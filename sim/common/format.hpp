@@ -8,6 +8,8 @@ namespace locsim {
 
 /// Fixed-precision decimal text, independent of the C locale; never "-0.000". Appends to `out`.
 void append_fixed(std::string& out, double value, int decimals);
+/// The same text by std::to_chars' exact fixed format (slower): append_fixed's reference.
+void append_fixed_exact(std::string& out, double value, int decimals);
 std::string fixed(double value, int decimals);
 
 /// A number for a message, short and exact: the shortest text that reads back as `value`

@@ -117,8 +117,9 @@ std::vector<fs::path> plugin_search_path() {
   }
   const fs::path exe_dir = executable_dir();
   if (!exe_dir.empty()) {
-    folders.push_back(exe_dir / "plugins");                           // build tree: build/plugins
-    folders.push_back(exe_dir.parent_path() / "lib/locsim/plugins");  // install: bin/../lib
+    folders.push_back(exe_dir / "plugins");  // build tree: build/plugins
+    // An install: bin/ to the plugin folder of its libdir (lib/locsim/plugins under /usr/local).
+    folders.push_back((exe_dir / LOCSIM_PLUGINS_FROM_BIN).lexically_normal());
   }
   return folders;
 }

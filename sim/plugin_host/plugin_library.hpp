@@ -47,7 +47,8 @@ class PluginLibrary {
 };
 
 /// Where plugins are looked for, in order: each folder of LOCSIM_PLUGIN_PATH (colon-separated),
-/// the build's plugin folder (next to the locsim binary), the install prefix's lib/locsim/plugins.
+/// the build's plugin folder (next to the locsim binary), the install's plugin folder
+/// (LIBDIR/locsim/plugins, found from the binary's folder).
 std::vector<std::filesystem::path> plugin_search_path();
 
 /// A plugin's file: `name_or_file` itself when it names a file (has a '/' or ends in .so), else

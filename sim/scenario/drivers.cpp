@@ -174,6 +174,10 @@ class WanderDriver final : public Driver {
   VelocityCommand update(double t_s, const DiffDriveRobot& robot,
                          const PhysicsWorld& world) override {
     if (t_s < turning_until_s_) return {t_s, 0.0, turn_direction_ * def_.max_turn_rate_radps};
+    // Between looks it drives on as decided. A look a microsecond early counts as due: step
+    // times are sums of dt, and the look falls on the step it is meant for.
+    if (t_s < next_look_s_) return {t_s, def_.speed_mps, 0.0};
+    next_look_s_ = t_s + 1.0 / def_.clearance_check_hz - kDueEarlyS;
     const Pose2 pose = robot.pose();
     const double reach = def_.clearance_m + bounding_radius(robot.def().footprint);
     const auto free_distance = [&](double bearing) {
@@ -185,15 +189,18 @@ class WanderDriver final : public Driver {
       turn_direction_ = free_distance(1.2) >= free_distance(-1.2) ? 1.0 : -1.0;
       const double turn_rad = rng_.uniform(0.4, 1.0) * std::numbers::pi;
       turning_until_s_ = t_s + turn_rad / def_.max_turn_rate_radps;
+      next_look_s_ = turning_until_s_;  // looks again as soon as it has turned
       return {t_s, 0.0, turn_direction_ * def_.max_turn_rate_radps};
     }
     return {t_s, def_.speed_mps, 0.0};
   }
 
  private:
+  static constexpr double kDueEarlyS = 1e-6;
   DriveDef def_;
   RandomStream rng_;
   double turning_until_s_ = -1.0;
+  double next_look_s_ = -1.0;
   double turn_direction_ = 1.0;
 };
 

@@ -50,6 +50,10 @@ struct DriveDef {
   // kWander
   double clearance_m = 0.6;  // turn away when something is this close ahead [m]
   static constexpr Range kClearanceRange{0.001, 100.0, "m"};
+  // How often it looks ahead (three rays), as a robot's controller would, not at every physics
+  // step: the rays were most of a wandering fleet's physics time [Hz].
+  double clearance_check_hz = 20.0;
+  static constexpr Range kClearanceCheckRange{0.1, 10000.0, "Hz"};
   // kTrajectory: the poses to be at, times increasing (the twin of a recorded robot, say:
   // `locsim twin`); tracked by feedback, so the robot stays on the path whatever the physics.
   std::vector<StampedPose> trajectory;

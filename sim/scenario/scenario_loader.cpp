@@ -33,7 +33,7 @@ InputPlace place_of(const YamlNode& node, const std::string& key) {
 DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir) {
   node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
                    "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
-                   "start_after_s", "poses", "poses_file"});
+                   "clearance_check_hz", "start_after_s", "poses", "poses_file"});
   DriveDef drive;
   drive.where = node.where();
   drive.key_path = node.path();
@@ -44,7 +44,7 @@ DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir
   const auto only = [&](std::initializer_list<std::string_view> keys) {
     for (const std::string_view key :
          {"path", "loop", "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
-          "speed_mps", "max_turn_rate_radps", "poses", "poses_file"}) {
+          "clearance_check_hz", "speed_mps", "max_turn_rate_radps", "poses", "poses_file"}) {
       if (node.has(key) && std::find(keys.begin(), keys.end(), key) == keys.end()) {
         node[key].fail("not used by mode '" + mode_name + "'");
       }
@@ -90,9 +90,11 @@ DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir
     }
   } else if (mode_name == "wander") {
     drive.mode = DriveDef::Mode::kWander;
-    only({"speed_mps", "max_turn_rate_radps", "clearance_m"});
+    only({"speed_mps", "max_turn_rate_radps", "clearance_m", "clearance_check_hz"});
     drive.clearance_m =
         node.get_double("clearance_m", drive.clearance_m, DriveDef::kClearanceRange);
+    drive.clearance_check_hz = node.get_double("clearance_check_hz", drive.clearance_check_hz,
+                                               DriveDef::kClearanceCheckRange);
   } else if (mode_name == "trajectory") {
     drive.mode = DriveDef::Mode::kTrajectory;
     only({"poses", "poses_file"});

@@ -630,6 +630,7 @@ LaserSensor::LaserSensor(const LaserDef& def, RandomStream rng)
   for (int i = 0; i < def_.beams; ++i) {
     const double angle = laser_beam_angle(i, def_.beams, def_.fov_rad);
     directions_.emplace_back(std::cos(angle), std::sin(angle));
+    angles_rad_.push_back(angle);
   }
 }
 
@@ -639,11 +640,13 @@ std::optional<ReadingData> LaserSensor::measure(const SensorContext& context) {
   const double c = std::cos(sensor.theta), s = std::sin(sensor.theta);
   LaserScan scan;
   scan.ranges_m.resize(directions_.size());
+  context.rays.fan_candidates(sensor.position(), sensor.theta, angles_rad_, def_.max_range_m,
+                              context.robot.body(), candidates_);
   for (std::size_t i = 0; i < directions_.size(); ++i) {
     const Vec2& local = directions_[i];
     const Vec2 direction{c * local.x() - s * local.y(), s * local.x() + c * local.y()};
     const double hit =
-        context.rays.cast(sensor.position(), direction, def_.max_range_m, context.robot.body());
+        context.rays.cast(sensor.position(), direction, def_.max_range_m, candidates_.of(i));
     double range = def_.max_range_m;
     const double u = rng().uniform();
     if (u < def_.p_random) {

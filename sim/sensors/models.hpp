@@ -155,7 +155,9 @@ class LaserSensor final : public Sensor {
 
  private:
   LaserDef def_;
-  std::vector<Vec2> directions_;  // unit beam directions in the mount frame
+  std::vector<Vec2> directions_;    // unit beam directions in the mount frame
+  std::vector<double> angles_rad_;  // their angles, increasing
+  FanCandidates candidates_;        // the moving bodies each beam can hit, scan by scan
 };
 
 /// Angle of beam `i` of `beams` over `fov_rad`, centred on 0.

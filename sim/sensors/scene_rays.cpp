@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "sim/common/errors.hpp"
 #include "sim/world/physics_world.hpp"
@@ -273,6 +274,66 @@ double SceneRays::cast(const Vec2& o, const Vec2& d, double max_range, const b2B
     best = std::min(best, cast_body(occluder.body, o, d, std::min(best, max_range)));
   }
   return best;
+}
+
+double SceneRays::cast(const Vec2& o, const Vec2& d, double max_range,
+                       std::span<const std::uint32_t> candidates) const {
+  // The loop above over a subset that holds every body near_ray can pass, in the same order.
+  double best = statics_.cast(o, d, max_range);
+  for (const std::uint32_t index : candidates) {
+    const DynamicOccluder& occluder = dynamics_[index];
+    if (!near_ray(occluder, o, d, std::min(best, max_range))) continue;
+    best = std::min(best, cast_body(occluder.body, o, d, std::min(best, max_range)));
+  }
+  return best;
+}
+
+void SceneRays::fan_candidates(const Vec2& o, double heading_rad,
+                               std::span<const double> angles_rad, double max_range,
+                               const b2Body* ignore, FanCandidates& out) const {
+  const std::size_t rays = angles_rad.size();
+  out.spans_.clear();
+  const auto add = [&](std::uint32_t body, double lo_rad, double hi_rad) {
+    const auto lo = std::lower_bound(angles_rad.begin(), angles_rad.end(), lo_rad);
+    const auto hi = std::upper_bound(lo, angles_rad.end(), hi_rad);
+    if (lo != hi) {
+      out.spans_.push_back({body, static_cast<std::uint32_t>(lo - angles_rad.begin()),
+                            static_cast<std::uint32_t>(hi - angles_rad.begin())});
+    }
+  };
+  // Wider than the exact tangent angle: rounding in the beams' directions (1e-15) and in near_ray
+  // must never drop a body that near_ray would pass.
+  constexpr double kPadRad = 1e-6;
+  for (std::uint32_t i = 0; i < dynamics_.size(); ++i) {
+    const DynamicOccluder& occluder = dynamics_[i];
+    if (occluder.body == ignore || !occluder.body->IsEnabled()) continue;
+    const Vec2 to_body = from_b2(occluder.body->GetPosition()) - o;
+    const double distance = to_body.norm();
+    const double radius = occluder.radius_m * (1.0 + 1e-9) + 1e-9;
+    if (distance <= radius) {  // the origin is within its bounding circle: any ray may hit it
+      add(i, -kNoHit, kNoHit);
+      continue;
+    }
+    if (distance - radius > max_range) continue;  // out of reach of every ray
+    const double half_width = std::asin(radius / distance) + kPadRad;
+    const double bearing =
+        std::remainder(std::atan2(to_body.y(), to_body.x()) - heading_rad, 2.0 * std::numbers::pi);
+    // The angle window, and its copies a turn either way (a fan crossing +-pi).
+    for (const double turn : {0.0, -2.0 * std::numbers::pi, 2.0 * std::numbers::pi})
+      add(i, bearing + turn - half_width, bearing + turn + half_width);
+  }
+  // Compressed rows, filled body by body: each ray's list is in the body order.
+  out.first_.assign(rays + 1, 0);
+  for (const FanCandidates::Span& span : out.spans_) {
+    for (std::uint32_t r = span.ray_lo; r < span.ray_hi; ++r) ++out.first_[r + 1];
+  }
+  for (std::size_t r = 0; r < rays; ++r) out.first_[r + 1] += out.first_[r];
+  out.bodies_.resize(out.first_[rays]);
+  std::vector<std::uint32_t>& next = out.fill_;
+  next.assign(out.first_.begin(), out.first_.end() - 1);
+  for (const FanCandidates::Span& span : out.spans_) {
+    for (std::uint32_t r = span.ray_lo; r < span.ray_hi; ++r) out.bodies_[next[r]++] = span.body;
+  }
 }
 
 bool SceneRays::blocked(const Vec2& a, double za_m, const Vec2& b, double zb_m,

@@ -349,3 +349,16 @@ std::optional<double> PhysicsWorld::ray_cast(const Vec2& from, const Vec2& to,
 }
 
 }  // namespace locsim
+
+// ---------------------------------------------------------------------------------------------
+// Box2D 2.4's profiling timer, made free. b2World::Step times itself and each phase (b2Profile)
+// with about ten b2Timer calls per step, each a gettimeofday: on the 2-core VM about half of the
+// demo's physics-only time. locsim never reads b2Profile. These definitions take the place of
+// libbox2d's own (which calls them through its PLT, so the program's definitions win: ELF symbol
+// interposition), keeping Debian's package as the dependency. Nothing simulated depends on them:
+// the state hash is the same with either (tests/physics_test.cpp checks they are the ones used).
+b2Timer::b2Timer() = default;
+void b2Timer::Reset() {}
+float b2Timer::GetMilliseconds() const {
+  return 0.0f;
+}

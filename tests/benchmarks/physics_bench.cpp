@@ -4,7 +4,11 @@
 #include <benchmark/benchmark.h>
 #include <box2d/box2d.h>
 
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
 
 #include "sim/producers/simulation.hpp"
 #include "sim/run/runner.hpp"
@@ -83,12 +87,95 @@ void BM_Scene(benchmark::State& state, const char* world_file, bool sensors) {
   benchmark::DoNotOptimize(readings);
   report(state, steps, sim.world_def().physics.step_hz);
 }
+/// The demo's geometry (walls, shapes, the robot, the people) stepped by Box2D alone: no drive,
+/// no movers' walking, no contact bookkeeping, after a second of the scenario so that the bodies
+/// move. Issue 21's target: demo_physics_only at >= 0.9 of this rate.
+void BM_Box2dDemoGeometry(benchmark::State& state) {
+  Simulation sim = make(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml", false);
+  for (int i = 0; i < 200; ++i) sim.step();
+  const PhysicsDef& physics = sim.world_def().physics;
+  b2World& world = sim.world().box2d();
+  const auto dt_s = static_cast<float>(1.0 / physics.step_hz);
+  std::int64_t steps = 0;
+  for (auto _ : state) {
+    world.Step(dt_s, physics.velocity_iterations, physics.position_iterations);
+    ++steps;
+  }
+  report(state, steps, physics.step_hz);
+}
+BENCHMARK(BM_Box2dDemoGeometry);
+
 // Issue 2's target: the demo world's physics >= 2000x real time; issue 3's: with every sensor
 // on (encoders, IMU, PTZ and omni cameras, ultrasonic, 271-beam laser) >= 1000x.
 BENCHMARK_CAPTURE(BM_Scene, demo_physics_only, "worlds/demo/demo.yaml", false);
 BENCHMARK_CAPTURE(BM_Scene, demo_all_sensors, "worlds/demo/demo.yaml", true);
 BENCHMARK_CAPTURE(BM_Scene, office_map, "worlds/maps/office_world.yaml", true);
 BENCHMARK_CAPTURE(BM_Scene, four_robots, "worlds/demo/four_robots.yaml", true);
+
+/// A fleet: `robots` robots wandering a room sized to hold them (one per 3 m x 3 m cell, a wall
+/// grid's worth of landmarks and beacons), two people walking across; every robot with the demo's
+/// sensors, or none. Issue 21's targets: 100 robots with every sensor >= 100x real time, 10
+/// robots >= 1000x physics only.
+std::string fleet_yaml(int robots, bool sensors) {
+  const int per_row = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(robots))));
+  const double side_m = 3.0 * per_row;
+  std::ostringstream yaml;
+  yaml << "name: fleet\nwalls:\n  - points: [[0, 0], [" << side_m << ", 0], [" << side_m << ", "
+       << side_m << "], [0, " << side_m << "]]\n    closed: true\nlandmarks:\n";
+  int id = 0;
+  for (double x = 1.5; x < side_m; x += 6.0) {
+    for (double y : {0.3, side_m - 0.3})
+      yaml << "  - {id: " << ++id << ", position: [" << x << ", " << y << "]}\n";
+  }
+  yaml << "beacons:\n";
+  for (int b = 0; b < 4; ++b) {
+    yaml << "  - {id: " << b + 1 << ", position: [" << (b % 2 ? side_m - 0.1 : 0.1) << ", "
+         << (b / 2 ? side_m - 0.1 : 0.1) << "], height_m: 2.5}\n";
+  }
+  yaml << "movers:\n  - {name: alice, path: [[1, " << side_m / 2 + 1.5 << "], [" << side_m - 1
+       << ", " << side_m / 2 + 1.5 << "]], speed_mps: 0.9}\n  - {name: bob, path: [["
+       << side_m / 2 + 1.5 << ", " << side_m - 1 << "], [" << side_m / 2 + 1.5
+       << ", 1]], speed_mps: 0.7}\nrobots:\n";
+  for (int r = 0; r < robots; ++r) {
+    yaml << "  - name: r" << r << "\n    start: {x: " << 1.5 + 3.0 * (r % per_row)
+         << ", y: " << 1.5 + 3.0 * (r / per_row) << ", theta_deg: " << (r * 37) % 360 << "}\n";
+    if (sensors) {
+      yaml << "    sensors: {encoders: {rate_hz: 50}, imu: {rate_hz: 100}, ptz_camera: {rate_hz: "
+              "10}, omni_camera: {rate_hz: 10}, ultrasonic: {rate_hz: 20}, laser: {rate_hz: 10}}\n";
+    }
+  }
+  yaml << "scenario:\n  duration_s: 1000000\n  drive:\n";
+  for (int r = 0; r < robots; ++r)
+    yaml << "    - {robot: r" << r << ", mode: wander, speed_mps: 0.5}\n";
+  return yaml.str();
+}
+
+void BM_Fleet(benchmark::State& state) {
+  const int robots = static_cast<int>(state.range(0));
+  const bool sensors = state.range(1) != 0;
+  const fs::path file =
+      fs::temp_directory_path() / ("locsim_bench_fleet_" + std::to_string(robots) + ".yaml");
+  std::ofstream(file) << fleet_yaml(robots, sensors);
+  WorldDef world = load_world(file);
+  fs::remove(file);
+  ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
+  bind_scenario(scenario, world);
+  Simulation sim(world, scenario, 1);
+  std::int64_t steps = 0;
+  std::size_t readings = 0;
+  for (auto _ : state) {
+    sim.step();
+    readings += sim.take_readings().size();
+    ++steps;
+  }
+  benchmark::DoNotOptimize(readings);
+  report(state, steps, sim.world_def().physics.step_hz);
+  state.counters["robots"] = robots;
+}
+BENCHMARK(BM_Fleet)
+    ->ArgNames({"robots", "sensors"})
+    ->ArgsProduct({{1, 10, 100}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond);
 
 /// `locsim run` of the demo world end to end: loading, 60 s of simulation, writing the folder.
 void BM_DemoRunWithOutput(benchmark::State& state) {
