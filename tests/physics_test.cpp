@@ -391,17 +391,21 @@ scenario:
   EXPECT_GT(sim.robot(0).pose().position().x(), 0.5);  // then off at 0.5 m/s
 }
 
-TEST(Drivers, WanderNeverLeavesAClosedRoom) {
-  Simulation sim = make_sim(R"(
+/// One robot wandering a closed 4 m x 4 m room for `duration_s`, driven by `drive` (YAML keys).
+Simulation wander_in_room(double duration_s, const std::string& drive) {
+  return make_sim(R"(
 walls:
   - points: [[0, 0], [4, 0], [4, 4], [0, 4]]
     closed: true
 robots:
   - start: {x: 2, y: 2}
 scenario:
-  duration_s: 60
-  drive: {mode: wander, speed_mps: 0.5}
-)");
+  duration_s: )" + std::to_string(duration_s) +
+                  "\n  drive: {mode: wander, " + drive + "}\n");
+}
+
+TEST(Drivers, WanderNeverLeavesAClosedRoom) {
+  Simulation sim = wander_in_room(60.0, "speed_mps: 0.5");
   while (!sim.done()) sim.step();
   const Pose2 pose = sim.robot(0).pose();
   EXPECT_GT(sim.stats(0).ground_distance_m, 10.0);
@@ -414,16 +418,8 @@ scenario:
 // is what decides, not the physics step.
 TEST(Drivers, WanderLooksAheadAtItsCheckRate) {
   const auto collisions = [](double check_hz) {
-    Simulation sim = make_sim(R"(
-walls:
-  - points: [[0, 0], [4, 0], [4, 4], [0, 4]]
-    closed: true
-robots:
-  - start: {x: 2, y: 2}
-scenario:
-  duration_s: 30
-  drive: {mode: wander, speed_mps: 1.0, clearance_check_hz: )" +
-                              std::to_string(check_hz) + "}\n");
+    Simulation sim =
+        wander_in_room(30.0, "speed_mps: 1.0, clearance_check_hz: " + std::to_string(check_hz));
     while (!sim.done()) sim.step();
     return sim.stats(0).collisions;
   };

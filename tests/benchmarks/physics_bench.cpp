@@ -74,9 +74,8 @@ Simulation make(const fs::path& world_file, bool sensors = true) {
   return Simulation(world, scenario, 1);
 }
 
-/// Steps of a world file's scenario, readings taken but not written.
-void BM_Scene(benchmark::State& state, const char* world_file, bool sensors) {
-  Simulation sim = make(fs::path(LOCSIM_SOURCE_DIR) / world_file, sensors);
+/// The benchmark's loop over a scene: a physics step and its readings (taken, not written).
+void step_scene(benchmark::State& state, Simulation& sim) {
   std::int64_t steps = 0;
   std::size_t readings = 0;
   for (auto _ : state) {
@@ -86,6 +85,12 @@ void BM_Scene(benchmark::State& state, const char* world_file, bool sensors) {
   }
   benchmark::DoNotOptimize(readings);
   report(state, steps, sim.world_def().physics.step_hz);
+}
+
+/// Steps of a world file's scenario, readings taken but not written.
+void BM_Scene(benchmark::State& state, const char* world_file, bool sensors) {
+  Simulation sim = make(fs::path(LOCSIM_SOURCE_DIR) / world_file, sensors);
+  step_scene(state, sim);
 }
 /// The demo's geometry (walls, shapes, the robot, the people) stepped by Box2D alone: no drive,
 /// no movers' walking, no contact bookkeeping, after a second of the scenario so that the bodies
@@ -161,15 +166,7 @@ void BM_Fleet(benchmark::State& state) {
   ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
   bind_scenario(scenario, world);
   Simulation sim(world, scenario, 1);
-  std::int64_t steps = 0;
-  std::size_t readings = 0;
-  for (auto _ : state) {
-    sim.step();
-    readings += sim.take_readings().size();
-    ++steps;
-  }
-  benchmark::DoNotOptimize(readings);
-  report(state, steps, sim.world_def().physics.step_hz);
+  step_scene(state, sim);
   state.counters["robots"] = robots;
 }
 BENCHMARK(BM_Fleet)
