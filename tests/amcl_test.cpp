@@ -5,11 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <locsim/laser.hpp>
 #include <locsim/particles.hpp>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
@@ -64,6 +67,63 @@ TEST(LikelihoodField, IsTheHitAndRandomMixtureOfTheDistance) {
   EXPECT_NEAR(field.log_p(1.85, 1.85), expected(1.0), 1e-5);    // beyond max_dist: capped
   EXPECT_NEAR(field.log_p(5.0, 0.0), std::log(uniform), 1e-6);  // off the map
   EXPECT_NEAR(field.log_p(-2.01, 0.0), std::log(uniform), 1e-6);
+}
+
+TEST(LikelihoodField, SumsOfManyPosesAreTheSumsOfTheirEndPoints) {
+  // A 6 x 4 m grid at 5 cm with walls and a pillar, so that cells differ.
+  std::vector<std::uint8_t> cells(120 * 80, 0);
+  for (int c = 0; c < 120; ++c) cells[c] = cells[79 * 120 + c] = 100;
+  for (int r = 30; r < 40; ++r) cells[r * 120 + 60] = 100;
+  const locsim_occupancy_grid grid{-1.0, -2.0, 0.05, 120, 80, cells.data()};
+  const sdk::LikelihoodField field(grid, {});
+  // Headings 0 and pi / 2 with end points and poses on cell centres: no rounding at cell edges,
+  // so each sum must equal log_p summed point by point (in float, in end-point order).
+  const std::vector<double> ex = {0.0, 0.5, 1.25, -0.75, 3.0, 9.0},
+                            ey = {0.0, -0.25, 0.5, 1.0, 0.0, 0.0};
+  std::vector<double> x, y, theta;
+  for (int i = 0; i < 300; ++i) {
+    x.push_back(-0.975 + 0.05 * (i % 110)), y.push_back(-1.975 + 0.05 * (i % 70));
+    theta.push_back(i % 2 == 0 ? 0.0 : std::numbers::pi / 2);
+  }
+  std::vector<double> sums(x.size());
+  field.sum_log_p(x, y, theta, ex, ey, sums, false);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double c = theta[i] == 0.0 ? 1.0 : 0.0, s = 1.0 - c;
+    float expected = 0.0f;
+    for (std::size_t b = 0; b < ex.size(); ++b)
+      expected += field.log_p(x[i] + c * ex[b] - s * ey[b], y[i] + s * ex[b] + c * ey[b]);
+    ASSERT_EQ(sums[i], static_cast<double>(expected)) << i;
+  }
+}
+
+TEST(LikelihoodField, TheFourPosePathIsBitIdenticalToTheOnePosePath) {
+  // Whichever path the processor takes, a filter's weights are the same: random poses on and
+  // off the map, on cell edges, NaN, counts that are not a multiple of four nor of the block.
+  if (!sdk::LikelihoodField::simd_available()) GTEST_SKIP() << "no AVX2 on this processor";
+  std::vector<std::uint8_t> cells(200 * 150, 0);
+  std::mt19937_64 engine(3);
+  for (std::uint8_t& cell : cells) cell = engine() % 17 == 0 ? 100 : 0;
+  const locsim_occupancy_grid grid{-3.0, 2.0, 0.05, 200, 150, cells.data()};
+  const sdk::LikelihoodField field(grid, {});
+  std::uniform_real_distribution<double> along(-4.0, 8.0), across(1.0, 10.0), turn(-4.0, 4.0),
+      reach(-8.0, 8.0);
+  std::vector<double> ex, ey;
+  for (int b = 0; b < 61; ++b) ex.push_back(reach(engine)), ey.push_back(reach(engine));
+  ex.push_back(0.05), ey.push_back(0.0);  // exactly a cell away
+  for (const std::size_t n : {1u, 3u, 4u, 255u, 256u, 257u, 1031u}) {
+    std::vector<double> x, y, theta;
+    for (std::size_t i = 0; i < n; ++i) {
+      x.push_back(i % 7 == 3 ? -3.0 + 0.05 * static_cast<double>(i % 200) : along(engine));
+      y.push_back(i % 11 == 5 ? std::numeric_limits<double>::quiet_NaN() : across(engine));
+      theta.push_back(i % 5 == 1 ? 0.0 : turn(engine));
+    }
+    std::vector<double> scalar(n), simd(n);
+    field.sum_log_p(x, y, theta, ex, ey, scalar, false);
+    field.sum_log_p(x, y, theta, ex, ey, simd, true);
+    for (std::size_t i = 0; i < n; ++i)
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(scalar[i]), std::bit_cast<std::uint64_t>(simd[i]))
+          << "pose " << i << " of " << n << ": " << scalar[i] << " vs " << simd[i];
+  }
 }
 
 TEST(Kld, NormalQuantileAndSampleCountMatchTheTables) {

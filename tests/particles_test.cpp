@@ -5,7 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
+#include <random>
+#include <tuple>
+#include <vector>
 
 namespace locsim::sdk {
 namespace {
@@ -272,6 +276,68 @@ TEST(Particles, OpenEndedDrawsSpreadEveryPrefixOverAllTheWeights) {
   EXPECT_EQ(OpenEndedDraws::radical_inverse(2), 0.25);
   EXPECT_EQ(OpenEndedDraws::radical_inverse(3), 0.75);
   EXPECT_EQ(OpenEndedDraws::radical_inverse(6), 0.375);
+}
+
+TEST(Particles, OpenEndedDrawsFindWhatUpperBoundFinds) {
+  // The branch-free search and the six-step bit mirror against the plain forms, on weights with
+  // runs of zeros (equal running sums: upper_bound's "first greater" decides) and on large k.
+  const auto radical_inverse = [](std::uint64_t k) {
+    std::uint64_t mirrored = 0;
+    for (int bit = 0; bit < 64; ++bit, k >>= 1) mirrored = (mirrored << 1) | (k & 1u);
+    return static_cast<double>(mirrored >> 11) * 0x1.0p-53;
+  };
+  std::mt19937_64 engine(11);
+  for (int i = 0; i < 10000; ++i) {
+    const std::uint64_t k = engine() >> (engine() % 64);
+    ASSERT_EQ(OpenEndedDraws::radical_inverse(k), radical_inverse(k)) << k;
+  }
+  for (const std::size_t n : {1u, 2u, 3u, 7u, 64u, 1000u, 4097u}) {
+    std::vector<double> cumulative;
+    double sum = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      cumulative.push_back(sum += engine() % 3 == 0 ? 0.0 : static_cast<double>(engine() % 5));
+    if (sum == 0.0) cumulative.back() = sum = 1.0;
+    const double u = static_cast<double>(engine() >> 11) * 0x1.0p-53;
+    OpenEndedDraws draws(cumulative, u);
+    for (std::uint64_t k = 0; k < 3000; ++k) {
+      double v = u + radical_inverse(k);
+      if (v >= 1.0) v -= 1.0;
+      const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), v * sum);
+      const auto expected = std::min(static_cast<std::size_t>(it - cumulative.begin()), n - 1);
+      ASSERT_EQ(draws.next(), expected) << "n " << n << ", draw " << k;
+    }
+  }
+}
+
+TEST(Particles, PoseBinsNumberBinsInTheOrderFirstSeen) {
+  // Against std::map over many bins (the table grows several times), then cleared and refilled.
+  PoseBins bins(0.5, 10.0 * std::numbers::pi / 180.0);
+  std::mt19937_64 engine(5);
+  for (int round = 0; round < 2; ++round) {
+    std::map<std::tuple<std::int64_t, std::int64_t, std::int64_t>, std::size_t> expected;
+    for (int i = 0; i < 20000; ++i) {
+      const double x = static_cast<double>(engine() % 4000) * 0.01 - 20.0;
+      const double y = static_cast<double>(engine() % 4000) * 0.01 - 20.0;
+      const double theta = static_cast<double>(engine() % 6283) * 0.001 - 3.1415;
+      const PoseBin bin = bins.bin_of(x, y, theta);
+      EXPECT_EQ(bin.x, static_cast<std::int64_t>(std::floor(x / 0.5)));
+      const auto [it, added] =
+          expected.emplace(std::tuple(bin.x, bin.y, bin.theta), expected.size());
+      const auto [index, is_new] = bins.insert(bin);
+      ASSERT_EQ(is_new, added) << i;
+      ASSERT_EQ(index, it->second) << i;
+      ASSERT_EQ(bins.find(bin), it->second);
+    }
+    EXPECT_EQ(bins.size(), expected.size());
+    EXPECT_GT(bins.size(), 1000u);
+    for (const auto& [key, index] : expected)
+      EXPECT_EQ(bins.bins()[index],
+                (PoseBin{std::get<0>(key), std::get<1>(key), std::get<2>(key)}));
+    EXPECT_EQ(bins.find({1000000, 0, 0}), PoseBins::kNone);
+    bins.clear();
+    EXPECT_EQ(bins.size(), 0u);
+    EXPECT_EQ(bins.find(bins.bins().empty() ? PoseBin{0, 0, 0} : bins.bins()[0]), PoseBins::kNone);
+  }
 }
 
 TEST(Particles, RouletteResamplingIsMultinomial) {

@@ -30,7 +30,6 @@
 #include <numbers>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -96,35 +95,19 @@ inline constexpr locsim_param_decl kAmclParams[] = {
      "translation noise from rotation [m^2/rad^2]"},
     LOCSIM_GYRO_PARAMS};
 
-/// A particle's KLD / cluster bin: (x, y, theta) cells of bin_xy_m and bin_theta_rad.
-struct Bin {
-  std::int64_t x, y, theta;
-  bool operator==(const Bin&) const = default;
-};
-struct BinHash {
-  std::size_t operator()(const Bin& b) const {
-    std::uint64_t h = 1469598103934665603ull;
-    for (const std::int64_t v : {b.x, b.y, b.theta}) {
-      h ^= static_cast<std::uint64_t>(v);
-      h *= 1099511628211ull;
-    }
-    return static_cast<std::size_t>(h);
-  }
-};
-
 class AmclFilter {
  public:
   /// `params` holds the kAmclParams (among others); `seed` drives its random stream.
   AmclFilter(const sdk::Params& params, const locsim_init& init, std::uint64_t seed)
-      : pf_(static_cast<std::size_t>(params.integer("max_particles")), seed) {
+      : pf_(static_cast<std::size_t>(params.integer("max_particles")), seed),
+        bins_(params.number("kld_bin_xy"),
+              params.number("kld_bin_theta_deg") * std::numbers::pi / 180.0) {
     min_particles_ = static_cast<std::size_t>(params.integer("min_particles"));
     max_particles_ = static_cast<std::size_t>(params.integer("max_particles"));
     if (min_particles_ > max_particles_)
       throw std::invalid_argument("min_particles exceeds max_particles");
     kld_err_ = params.number("kld_err");
     kld_z_ = sdk::normal_quantile(params.number("kld_z"));
-    bin_xy_m_ = params.number("kld_bin_xy");
-    bin_theta_rad_ = params.number("kld_bin_theta_deg") * std::numbers::pi / 180.0;
     update_min_d_ = params.number("update_min_d");
     update_min_a_ = params.number("update_min_a");
     resample_interval_ = static_cast<int>(params.integer("resample_interval"));
@@ -225,7 +208,7 @@ class AmclFilter {
  private:
   /// Each particle's weight *= p(scan | particle) over the chosen beams: the end points in the
   /// robot frame once per scan, then per particle a rotation, a translation and a table lookup
-  /// per beam.
+  /// per beam (LikelihoodField::sum_log_p).
   void weigh(const locsim_laser_scan& scan) {
     beam_x_.clear(), beam_y_.clear();
     const std::size_t count = scan.count;
@@ -242,29 +225,8 @@ class AmclFilter {
     const sdk::ParticleSet& particles = pf_.particles();
     const std::size_t n = particles.size();
     log_w_.resize(n);
-    const double ox = field_.origin_x(), oy = field_.origin_y(), inv = field_.inv_resolution();
-    const std::int64_t width = field_.width();
-    const auto fwidth = static_cast<double>(width), fheight = static_cast<double>(field_.height());
-    const float* table = field_.table().data();
-    const float off_map = field_.log_off_map();
+    field_.sum_log_p(particles.x, particles.y, particles.theta, beam_x_, beam_y_, log_w_);
     const std::size_t beams = beam_x_.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      const double c = std::cos(particles.theta[i]), s = std::sin(particles.theta[i]);
-      // Grid coordinates of the robot, and the beam end points rotated into grid units.
-      const double px = (particles.x[i] - ox) * inv, py = (particles.y[i] - oy) * inv;
-      const double cx = c * inv, sx = s * inv;
-      float sum = 0.0f;
-      for (std::size_t b = 0; b < beams; ++b) {
-        const double gx = px + cx * beam_x_[b] - sx * beam_y_[b];
-        const double gy = py + sx * beam_x_[b] + cx * beam_y_[b];
-        // Compared as doubles first: truncation is then floor, without a libm call.
-        const bool on_map = gx >= 0.0 && gy >= 0.0 && gx < fwidth && gy < fheight;
-        const std::int64_t col = on_map ? static_cast<std::int64_t>(gx) : 0;
-        const std::int64_t row = on_map ? static_cast<std::int64_t>(gy) : 0;
-        sum += on_map ? table[row * width + col] : off_map;
-      }
-      log_w_[i] = static_cast<double>(sum);
-    }
     const sdk::Evidence evidence = pf_.weigh(log_w_, n - fresh_);
     fresh_ = 0;
     // The scan's likelihood under the belief (weighted by the prior weights), per beam as a
@@ -372,12 +334,6 @@ class AmclFilter {
     return sum;
   }
 
-  Bin bin_of(double x, double y, double theta) const {
-    return {static_cast<std::int64_t>(std::floor(x / bin_xy_m_)),
-            static_cast<std::int64_t>(std::floor(y / bin_xy_m_)),
-            static_cast<std::int64_t>(std::floor(sdk::wrap(theta) / bin_theta_rad_))};
-  }
-
   /// Low-variance draws, as many as KLD sampling asks for; with recovery, some uniform poses.
   void resample() {
     double inject_probability = 0.0;
@@ -419,7 +375,7 @@ class AmclFilter {
         x = particles.x[i], y = particles.y[i], theta = particles.theta[i];
         next_.x.push_back(x), next_.y.push_back(y), next_.theta.push_back(theta);
       }
-      if (bins_.emplace(bin_of(x, y, theta), 0).second)
+      if (bins_.insert(bins_.bin_of(x, y, theta)).second)
         needed = sdk::kld_sample_count(bins_.size(), kld_err_, kld_z_);
     }
     last_bins_ = bins_.size();
@@ -463,37 +419,38 @@ class AmclFilter {
     const std::size_t counted = fresh_ < n ? n - fresh_ : n;
     bins_.clear();
     particle_bin_.resize(n);
-    constexpr std::size_t kNoBin = static_cast<std::size_t>(-1);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (i >= counted) {
-        particle_bin_[i] = kNoBin;  // neither weighs nor bridges clusters
-        continue;
-      }
-      const auto [it, added] =
-          bins_.emplace(bin_of(particles.x[i], particles.y[i], particles.theta[i]), bins_.size());
-      particle_bin_[i] = it->second;
-    }
-    // Union-find over the bins and their neighbours.
+    constexpr std::size_t kNoBin = sdk::PoseBins::kNone;
+    for (std::size_t i = 0; i < n; ++i)
+      particle_bin_[i] =
+          i < counted  // the rest neither weigh nor bridge clusters
+              ? bins_.insert(bins_.bin_of(particles.x[i], particles.y[i], particles.theta[i])).first
+              : kNoBin;
+    // Union-find over the bins and their neighbours. A cluster's root is its lowest-numbered bin
+    // (the first a particle fell in), whatever the order of the joins: the tie-break between
+    // equally heavy clusters below is then the particles' order, not the hash table's.
     parent_.resize(bins_.size());
     for (std::size_t b = 0; b < parent_.size(); ++b) parent_[b] = b;
     const auto root = [&](std::size_t b) {
       while (parent_[b] != b) b = parent_[b] = parent_[parent_[b]];
       return b;
     };
-    const std::int64_t theta_bins =
-        static_cast<std::int64_t>(std::ceil(2.0 * std::numbers::pi / bin_theta_rad_));
-    for (const auto& [bin, index] : bins_) {
+    const double bin_theta_rad = bins_.bin_theta_rad();
+    const auto theta_bins =
+        static_cast<std::int64_t>(std::ceil(2.0 * std::numbers::pi / bin_theta_rad));
+    const auto low_theta = static_cast<std::int64_t>(std::floor(-std::numbers::pi / bin_theta_rad));
+    for (std::size_t index = 0; index < bins_.size(); ++index) {
+      const sdk::PoseBin bin = bins_.bins()[index];
       for (std::int64_t dx = -1; dx <= 1; ++dx)
         for (std::int64_t dy = -1; dy <= 1; ++dy)
           for (std::int64_t dt = -1; dt <= 1; ++dt) {
-            Bin other{bin.x + dx, bin.y + dy, bin.theta + dt};
+            sdk::PoseBin other{bin.x + dx, bin.y + dy, bin.theta + dt};
             // Headings wrap around.
-            const std::int64_t low =
-                static_cast<std::int64_t>(std::floor(-std::numbers::pi / bin_theta_rad_));
-            if (other.theta < low) other.theta += theta_bins;
-            if (other.theta >= low + theta_bins) other.theta -= theta_bins;
-            const auto it = bins_.find(other);
-            if (it != bins_.end()) parent_[root(index)] = root(it->second);
+            if (other.theta < low_theta) other.theta += theta_bins;
+            if (other.theta >= low_theta + theta_bins) other.theta -= theta_bins;
+            const std::size_t found = bins_.find(other);
+            if (found == sdk::PoseBins::kNone) continue;
+            const std::size_t a = root(index), b = root(found);
+            parent_[std::max(a, b)] = std::min(a, b);
           }
     }
     cluster_weight_.assign(bins_.size(), 0.0);
@@ -522,7 +479,7 @@ class AmclFilter {
   std::vector<std::uint8_t> grid_cells_;
   sdk::FreeSpace free_;
   std::size_t min_particles_, max_particles_, max_beams_, recovery_candidates_;
-  double kld_err_, kld_z_, bin_xy_m_, bin_theta_rad_, update_min_d_, update_min_a_;
+  double kld_err_, kld_z_, update_min_d_, update_min_a_;
   int resample_interval_;
   sdk::LikelihoodAverages averages_;  // recovery_alpha_slow, recovery_alpha_fast
   double w_avg_ = 0.0;
@@ -542,7 +499,7 @@ class AmclFilter {
   sdk::Pose odometry_at_search_ = sdk::Pose::Zero(), moved_since_search_ = sdk::Pose::Zero();
   sdk::Pose estimate_at_mark_ = sdk::Pose::Zero();  // the estimate moved to the latest update
   std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
-  std::unordered_map<Bin, std::size_t, BinHash> bins_;
+  sdk::PoseBins bins_;  // KLD sampling's in resample(), the clusters' in compute_estimate()
   std::vector<std::size_t> particle_bin_, parent_;
   std::size_t fresh_ = 0;  // the last resampling's guesses, at the end of the set, not yet weighed
   sdk::Pose mean_ = sdk::Pose::Zero();
