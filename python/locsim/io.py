@@ -19,8 +19,10 @@ POSE_COLUMNS = ("t_s", "x_m", "y_m", "theta_rad")
 
 
 def wrap_angle(a):
-    """Angles (scalar or array) wrapped into [-pi, pi]."""
-    return np.remainder(np.asarray(a, dtype=float) + math.pi, 2 * math.pi) - math.pi
+    """Angles (scalar or array) wrapped into (-pi, pi], the interval of the C++ SDK's wrap: pi
+    stays pi and -pi becomes pi, so that a Python filter and a C++ one agree at the seam."""
+    w = np.remainder(np.asarray(a, dtype=float) + math.pi, 2 * math.pi) - math.pi  # [-pi, pi)
+    return np.where(w <= -math.pi, w + 2 * math.pi, w)[()]
 
 
 def read_tum(path):

@@ -34,6 +34,16 @@ def test_join_on_time_pairs_equal_instants():
 
 def test_wrap_angle_and_events(tmp_path):
     assert np.allclose(locsim.wrap_angle([0.0, 3 * math.pi / 2, -3 * math.pi / 2]), [0.0, -math.pi / 2, math.pi / 2])
+    # (-pi, pi] as the C++ SDK's wrap (IEEE remainder, then -pi moved to pi), seam included.
+    angles = [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 7.0, -7.0, 1e-300, 100.0]
+    for a in angles:
+        cpp = math.remainder(a, 2 * math.pi)
+        cpp = cpp + 2 * math.pi if cpp <= -math.pi else cpp
+        assert locsim.wrap_angle(a) == pytest.approx(cpp, abs=1e-12), a
+        assert -math.pi < locsim.wrap_angle(a) <= math.pi
+    assert locsim.wrap_angle(math.pi) == math.pi and locsim.wrap_angle(-math.pi) == math.pi
+    assert np.all(locsim.wrap_angle(np.array(angles)) > -math.pi)
+    assert isinstance(locsim.wrap_angle(0.5), float)
     (tmp_path / "events.csv").write_text(
         "t_s,kind,robot,details\n"
         '20.0000,kidnap,robot,"from=(8.7101,2.1391,1.5508) carry_s=2.000 to=(1.2000,5.0000,-1.5708)"\n')

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
+#include <string_view>
+#include <vector>
 
 #include "sim/common/format.hpp"
 #include "sim/producers/text_table.hpp"
@@ -31,9 +34,15 @@ InputPlace place_of(const YamlNode& node, const std::string& key) {
 }
 
 DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir) {
-  node.allow_keys({"robot", "mode", "path", "loop", "speed_mps", "max_turn_rate_radps",
-                   "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
-                   "clearance_check_hz", "start_after_s", "poses", "poses_file"});
+  // The keys of the modes, in one list: unknown keys are refused, and a key of another mode
+  // than the drive's is named as such (only() below).
+  static constexpr std::string_view kModeKeys[] = {
+      "path",     "loop",        "tolerance_m",        "heading_gain", "after_kidnap",
+      "commands", "clearance_m", "clearance_check_hz", "speed_mps",    "max_turn_rate_radps",
+      "poses",    "poses_file"};
+  std::vector<std::string_view> allowed = {"robot", "mode", "start_after_s"};
+  allowed.insert(allowed.end(), std::begin(kModeKeys), std::end(kModeKeys));
+  node.allow_keys(allowed);
   DriveDef drive;
   drive.where = node.where();
   drive.key_path = node.path();
@@ -42,9 +51,7 @@ DriveDef parse_drive(const YamlNode& node, const std::filesystem::path& base_dir
   const YamlNode mode = node["mode"];
   const std::string mode_name = mode.as_string();
   const auto only = [&](std::initializer_list<std::string_view> keys) {
-    for (const std::string_view key :
-         {"path", "loop", "tolerance_m", "heading_gain", "after_kidnap", "commands", "clearance_m",
-          "clearance_check_hz", "speed_mps", "max_turn_rate_radps", "poses", "poses_file"}) {
+    for (const std::string_view key : kModeKeys) {
       if (node.has(key) && std::find(keys.begin(), keys.end(), key) == keys.end()) {
         node[key].fail("not used by mode '" + mode_name + "'");
       }
