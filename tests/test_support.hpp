@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -89,10 +90,17 @@ inline void expect_contains(const std::string& text, const std::string& part) {
   EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;
 }
 
-/// A fresh, empty temporary folder named after the running test and `name`.
+/// A fresh, empty temporary folder named after the running test and `name`, under a folder of
+/// this build's own (named after a hash of its locsim binary's path): the test suites of two
+/// builds (the ci and sanitize presets, two clones) may run at once without emptying each
+/// other's folders (they did: a sweep test read a results file another build's run had
+/// rewritten).
 inline std::filesystem::path temp_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "locsim_tests" /
+  char build[24];
+  std::snprintf(build, sizeof(build), "locsim_tests-%08zx",
+                std::hash<std::string>{}(LOCSIM_BINARY)&0xffffffffu);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / build /
                                     (std::string(info->test_suite_name()) + "." + info->name()) /
                                     name;
   std::filesystem::remove_all(dir);
