@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <map>
 #include <set>
+#include <thread>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/format.hpp"
@@ -349,10 +350,34 @@ std::vector<LocalizerFinal> LocalizerHost::finish(double t_end_s) {
 }
 
 void LocalizerHost::abort() {
+  // A worker still inside a call a moment after Ctrl-C is the one the user may have pressed it
+  // for: it says so. One that was merely busy with the last records sent (any worker is, most of
+  // the time) is given this long to get out of its call and ends as it was, status ok.
+  constexpr auto kGrace = std::chrono::milliseconds(250);
+  const auto pressed = std::chrono::steady_clock::now();
+  std::vector<WorkerProcess*> busy;
+  for (const auto& worker : workers_)
+    if (worker->alive()) busy.push_back(worker.get());
+  while (true) {
+    std::erase_if(busy, [&](WorkerProcess* worker) {
+      if (worker->alive() && worker->current_call()) return false;
+      worker->kill_now();  // out of its calls: ended before it can start another
+      worker->reap();
+      return true;
+    });
+    if (busy.empty() || std::chrono::steady_clock::now() - pressed >= kGrace) break;
+    for (WorkerProcess* worker : busy) {
+      // What it sends meanwhile reaches the outputs; a full socket must not keep it in a call.
+      worker->forward_output();
+      const std::size_t w = slot_of(*worker);
+      if (!worker->receive_some(
+              [&](std::uint8_t type, std::string_view payload) { dispatch(w, type, payload); }))
+        lost(*worker);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
   const auto now = std::chrono::steady_clock::now();
-  for (const auto& worker : workers_) {
-    if (!worker->alive()) continue;
-    // A localizer stopped inside a call says so (it may be why the user pressed Ctrl-C).
+  for (WorkerProcess* worker : busy) {
     if (const auto call = worker->current_call(); call && call->localizer >= 0) {
       LocalizerFailure f;
       f.localizer = static_cast<std::size_t>(call->localizer);

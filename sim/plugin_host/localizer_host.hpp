@@ -52,7 +52,8 @@ class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
   /// The end of the stream at `t_end_s`: waits until every localizer has taken in every record,
   /// then asks for final maps and counts, in `localizers()` order.
   std::vector<LocalizerFinal> finish(double t_end_s);
-  /// Ends every worker at once (Ctrl-C); what they sent before stays with the consumers.
+  /// Ctrl-C: ends every worker, each as soon as it is out of its call (250 ms at most; one still
+  /// in a call then fails as interrupted); what they sent stays with the consumers.
   void abort();
   bool failed(std::size_t localizer) const { return failed_[localizer]; }
 
