@@ -56,6 +56,31 @@ TEST(Particles, MotionNoiseHasThePapersSpreadAndThrunsVarianceForm) {
   }
 }
 
+TEST(Particles, EachParticleMovesByItsOwnDrawsInTheOrderOneAtATimeWouldDrawThem) {
+  // sample_motion draws in blocks and takes the sines and cosines in a vector pass; the draws
+  // must still go to the particles in order (rot1, trans, rot2 of particle 0, then 1, ...).
+  const OdometryDelta d{0.3, 0.8, -0.2};
+  const OdometryNoise noise;
+  Random setup(3);
+  ParticleSet p;
+  p.resize(601);  // two full blocks of 256 and a tail
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.x[i] = setup.uniform(-5, 5), p.y[i] = setup.uniform(-5, 5);
+    p.theta[i] = setup.uniform(-std::numbers::pi, std::numbers::pi);
+  }
+  const ParticleSet before = p;
+  Random random(11), one_at_a_time(11);
+  sample_motion(p, d, noise, random);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const OdometryDelta s = sample_delta(d, noise, one_at_a_time);
+    const double heading = before.theta[i] + s.rot1;
+    ASSERT_NEAR(p.x[i], before.x[i] + s.trans * std::cos(heading), 1e-12) << i;
+    ASSERT_NEAR(p.y[i], before.y[i] + s.trans * std::sin(heading), 1e-12) << i;
+    ASSERT_NEAR(p.theta[i], wrap(heading + s.rot2), 1e-12) << i;
+  }
+  EXPECT_EQ(random.uniform(0, 1), one_at_a_time.uniform(0, 1));  // as many draws
+}
+
 TEST(Particles, WheelMotionSpreadsAsTheEkfPredictsAndTheFloorAddsItsOwn) {
   // Many readings of wheel travel (an arc): the cloud's covariance is the EKF's prediction with
   // the same k (predict_by_wheels), to first order; then the floor adds its variance.
@@ -366,6 +391,36 @@ TEST(Particles, RouletteResamplingIsMultinomial) {
   const std::vector<double> ends = {0.0, 1.0, 0.0};
   roulette_resample(ends, random, chosen, spacings);
   for (const std::size_t c : chosen) EXPECT_EQ(c, 1u);
+}
+
+TEST(Particles, TheMeanAndCovarianceOfManyParticlesAreTheirWeightedSums) {
+  Random random(4);
+  ParticleSet p;
+  p.resize(700);  // blocks of 256 and a tail
+  double sw = 0, sx = 0, sy = 0, ss = 0, sc = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    p.x[i] = random.normal(2.0), p.y[i] = 1.0 + random.normal(0.5);
+    p.theta[i] = wrap(3.0 + random.normal(0.3)), p.weight[i] = random.uniform(0.1, 1.0);
+    sw += p.weight[i], sx += p.weight[i] * p.x[i], sy += p.weight[i] * p.y[i];
+    ss += p.weight[i] * std::sin(p.theta[i]), sc += p.weight[i] * std::cos(p.theta[i]);
+  }
+  Pose mean;
+  Eigen::Matrix3d covariance;
+  mean_and_covariance(p, mean, covariance);
+  EXPECT_NEAR(mean(0), sx / sw, 1e-12);
+  EXPECT_NEAR(mean(1), sy / sw, 1e-12);
+  EXPECT_NEAR(mean(2), std::atan2(ss, sc), 1e-12);
+  Eigen::Matrix3d expected = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector3d e(p.x[i] - mean(0), p.y[i] - mean(1), wrap(p.theta[i] - mean(2)));
+    expected += p.weight[i] / sw * e * e.transpose();
+  }
+  EXPECT_TRUE(covariance.isApprox(expected, 1e-12)) << covariance << "\n" << expected;
+  // The first 300 only: a count inside the second block.
+  mean_and_covariance(p, mean, covariance, 300);
+  double sw300 = 0, sx300 = 0;
+  for (std::size_t i = 0; i < 300; ++i) sw300 += p.weight[i], sx300 += p.weight[i] * p.x[i];
+  EXPECT_NEAR(mean(0), sx300 / sw300, 1e-12);
 }
 
 TEST(Particles, MeanHeadingIsCircularAndResamplingKeepsTheCount) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <locsim/vector_math.hpp>
 
 namespace locsim::particle_filters {
 
@@ -187,9 +188,16 @@ void LandmarkParticleFilter::weigh_particles() {
   for (std::size_t k = 0; k < step_count_; ++k) {
     Eigen::Map<Eigen::ArrayXd> match(detection_match_[k].data(), n);
     if (std::isfinite(log_outlier_likelihood_)) {
-      // log(p + outlier): the larger of the two plus log1p of the smaller over it.
+      // log(p + outlier): the larger of the two plus log1p of the smaller over it. Below e^-40
+      // the term adds less than 5e-18 (nothing to a log likelihood beyond 0.04 in magnitude),
+      // and its tiny values made log1p ten times slower (subnormal intermediates).
       const double floor = log_outlier_likelihood_;
-      match = match.max(floor) + (-(match - floor).abs()).exp().log1p();
+      mixture_.resize(particles.size());
+      Eigen::Map<Eigen::ArrayXd> smaller_over_larger(mixture_.data(), n);
+      smaller_over_larger = (-(match - floor).abs()).max(-40.0);
+      sdk::vector_math::exp(mixture_, mixture_);
+      sdk::vector_math::log1p(mixture_, mixture_);
+      match = match.max(floor) + smaller_over_larger;
     }
     log_w += match;
   }

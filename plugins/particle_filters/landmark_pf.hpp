@@ -154,7 +154,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   bool wheel_motion_ = false;
   double k_left_ = 0.0, k_right_ = 0.0, wheel_base_m_ = 0.0;
   std::optional<sdk::OdometryTracker> wheels_;
-  std::vector<double> log_likelihood_, candidate_match_;
+  std::vector<double> log_likelihood_, candidate_match_, mixture_;
   std::vector<std::vector<double>> detection_match_;  // per detection of the step, per particle
   sdk::Headings headings_;
   std::vector<StepDetection> step_;  // capacity reused from step to step

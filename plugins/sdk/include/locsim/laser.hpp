@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "locsim/localizer.h"
+#include "locsim/vector_math.hpp"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
@@ -147,12 +148,12 @@ class LikelihoodField {
     Block block;
     for (std::size_t start = 0; start < n; start += Block::kPoses) {
       const std::size_t m = std::min(Block::kPoses, n - start);
+      vector_math::sincos(theta.subspan(start, m), std::span(block.sx).first(m),
+                          std::span(block.cx).first(m));
       for (std::size_t k = 0; k < m; ++k) {
-        const double a = theta[start + k];  // one argument in a local: the compiler fuses a sincos
-        const double c = std::cos(a), s = std::sin(a);
         block.px[k] = (x[start + k] - origin_x_) * inv_resolution_;
         block.py[k] = (y[start + k] - origin_y_) * inv_resolution_;
-        block.cx[k] = c * inv_resolution_, block.sx[k] = s * inv_resolution_;
+        block.cx[k] *= inv_resolution_, block.sx[k] *= inv_resolution_;
       }
       std::size_t k = 0;
 #ifdef LOCSIM_SDK_X86_DISPATCH

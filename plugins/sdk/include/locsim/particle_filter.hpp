@@ -332,7 +332,8 @@ class ParticleFilter {
     for (std::size_t i = 0; i < n; ++i)
       log_weight_[i] = (equal ? log_equal : std::log(std::max(w[i], 1e-300))) + log_likelihood[i];
     const double top = *std::max_element(log_weight_.begin(), log_weight_.end());
-    for (std::size_t i = 0; i < n; ++i) w[i] = std::exp(log_weight_[i] - top);
+    for (std::size_t i = 0; i < n; ++i) w[i] = log_weight_[i] - top;
+    vector_math::exp(w, w);
     double sum_head = 0.0;
     for (std::size_t i = 0; i < head; ++i) sum_head += w[i];
     const double sum = normalize(w);

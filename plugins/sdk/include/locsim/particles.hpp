@@ -6,10 +6,12 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <span>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -17,6 +19,7 @@
 #include "locsim/localizer.h"
 #include "locsim/models.hpp"
 #include "locsim/random.hpp"
+#include "locsim/vector_math.hpp"
 
 namespace locsim::sdk {
 
@@ -110,14 +113,27 @@ inline void add_motion_floor(ParticleSet& p, const OdometryNoise& n, Random& ran
 inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const OdometryNoise& n,
                           Random& random) {
   const OdometryDelta s = motion_spread(d, n);
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double rot1 = d.rot1 + random.normal(s.rot1);
-    const double trans = d.trans + random.normal(s.trans);
-    const double rot2 = d.rot2 + random.normal(s.rot2);
-    const double heading = p.theta[i] + rot1;
-    p.x[i] += trans * std::cos(heading);
-    p.y[i] += trans * std::sin(heading);
-    p.theta[i] = wrap(heading + rot2);
+  // Per block of particles: the noise drawn particle after particle (rot1, trans, rot2: the
+  // random stream's order does not depend on the block size), then the sines and cosines of the
+  // new headings in one vector pass, which costs a fifth of a sincos call per particle.
+  constexpr std::size_t kBlock = 256;
+  std::array<double, kBlock> heading, trans, rot2, sin_h, cos_h;
+  for (std::size_t start = 0; start < p.size(); start += kBlock) {
+    const std::size_t m = std::min(kBlock, p.size() - start);
+    for (std::size_t k = 0; k < m; ++k) {
+      const double rot1 = d.rot1 + random.normal(s.rot1);
+      trans[k] = d.trans + random.normal(s.trans);
+      rot2[k] = d.rot2 + random.normal(s.rot2);
+      heading[k] = p.theta[start + k] + rot1;
+    }
+    vector_math::sincos(std::span(heading).first(m), std::span(sin_h).first(m),
+                        std::span(cos_h).first(m));
+    for (std::size_t k = 0; k < m; ++k) {
+      const std::size_t i = start + k;
+      p.x[i] += trans[k] * cos_h[k];
+      p.y[i] += trans[k] * sin_h[k];
+      p.theta[i] = wrap(heading[k] + rot2[k]);
+    }
   }
   add_motion_floor(p, n, random);
 }
@@ -207,11 +223,7 @@ struct Headings {
   std::vector<double> cos, sin;
   void compute(const ParticleSet& p) {
     cos.resize(p.size()), sin.resize(p.size());
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      const double theta = p.theta[i];  // one argument in a local: the compiler fuses a sincos
-      const double c = std::cos(theta), s = std::sin(theta);
-      cos[i] = c, sin[i] = s;
-    }
+    vector_math::sincos(p.theta, sin, cos);
   }
 };
 
@@ -496,10 +508,17 @@ inline void mean_and_covariance(const ParticleSet& p, Pose& mean, Eigen::Matrix3
                                 std::size_t count = SIZE_MAX) {
   const std::size_t n = std::min(count, p.size());
   double sw = 0, sx = 0, sy = 0, ss = 0, sc = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double w = p.weight[i];
-    sw += w, sx += w * p.x[i], sy += w * p.y[i], ss += w * std::sin(p.theta[i]),
-        sc += w * std::cos(p.theta[i]);
+  constexpr std::size_t kBlock = 256;
+  std::array<double, kBlock> sin_t, cos_t;
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t m = std::min(kBlock, n - start);
+    vector_math::sincos(std::span(p.theta).subspan(start, m), std::span(sin_t).first(m),
+                        std::span(cos_t).first(m));
+    for (std::size_t k = 0; k < m; ++k) {
+      const double w = p.weight[start + k];
+      sw += w, sx += w * p.x[start + k], sy += w * p.y[start + k], ss += w * sin_t[k],
+          sc += w * cos_t[k];
+    }
   }
   if (!(sw > 0.0)) sw = 1.0;
   mean = {sx / sw, sy / sw, std::atan2(ss, sc)};
