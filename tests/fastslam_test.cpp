@@ -4,6 +4,9 @@
 // directed resampling raises the particle diversity without starving N_eff.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <vector>
+
 #include "run_support.hpp"
 #include "sim/world/generator.hpp"
 
@@ -65,27 +68,42 @@ TEST(FastSlam, MapsTheFieldPrunesDuplicatesAndTheFishSwarmKeepsN_eff) {
 TEST(FastSlam, MapsAGeneratedRoomOnTheDefaultOmnidirectionalCamera) {
   // A generated room (not the paper's field; no people, no kidnap) with the simulator's default
   // omni camera: 0.25 m of noise along the ray, 0.08 m across it, 6 m range. The defaults weigh
-  // its detections by that noise and map every landmark it saw, its shape to centimetres (its
+  // its detections by that noise and map the landmarks it saw, their shape to centimetres (their
   // placement is the start guess's: 0.2 m and 1.3 degrees off). With paper 001's settings
   // (worlds/fastslam/presets/paper001.yaml: weighed as its 1 cm / 0.1 degree sensor out to 15 m,
   // the wheels' odometry alone), a landmark's detections fell outside each other's gates and most
-  // were mapped again and again, then pruned: 2 of 6 matched.
+  // were mapped again and again, then pruned. Over six seeds, as one seed's map is a few draws:
+  // on seeds 1-6 (two random engines) the defaults matched 5-6 of the 6 landmarks seen, with 0-2
+  // duplicates, 0.01-0.11 m aligned; the paper's settings 0-4.
   GeneratorDef def;
   def.family = "room";
   def.seed = 44;
   def.people = 0;
   def.kidnaps = 0;
-  const auto metrics = testing::run_metrics(testing::generated_run(
-      "fastslam_room", def, 1, 120.0,
-      {"fastslam", "fastslam:omni_as_range_bearing=true,max_range_m=15,use_gyro=false@paper"}));
-  const auto& fastslam = metrics["localizers"][0]["landmark_map"];
-  const auto& paper = metrics["localizers"][1]["landmark_map"];
-  ASSERT_EQ(metrics["localizers"][0]["status"], "ok");
-  EXPECT_EQ(fastslam["missed"].get<int>(), 0);
-  EXPECT_LE(fastslam["spurious"].get<int>(), 1);
-  EXPECT_LT(fastslam["error_aligned_m"]["rms"].get<double>(), 0.1);
-  EXPECT_LT(fastslam["error_m"]["rms"].get<double>(), 0.5);
-  EXPECT_LE(paper["matched"].get<int>(), fastslam["matched"].get<int>() / 2);
+  int observed = 0, matched = 0, spurious = 0, paper_matched = 0;
+  std::vector<double> aligned_m, placed_m;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const auto metrics = testing::run_metrics(testing::generated_run(
+        "fastslam_room", def, seed, 120.0,
+        {"fastslam", "fastslam:omni_as_range_bearing=true,max_range_m=15,use_gyro=false@paper"}));
+    ASSERT_EQ(metrics["localizers"][0]["status"], "ok") << seed;
+    const auto& fastslam = metrics["localizers"][0]["landmark_map"];
+    observed += fastslam["observed"].get<int>();
+    matched += fastslam["matched"].get<int>();
+    spurious += fastslam["spurious"].get<int>();
+    aligned_m.push_back(fastslam["error_aligned_m"]["rms"].get<double>());
+    placed_m.push_back(fastslam["error_m"]["rms"].get<double>());
+    paper_matched += metrics["localizers"][1]["landmark_map"]["matched"].get<int>();
+  }
+  EXPECT_GE(matched, 0.85 * observed);  // 33 of 36
+  EXPECT_LE(spurious, 9);               // 4-5 over the six runs
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + 3, v.end());
+    return v[3];
+  };
+  EXPECT_LT(median(aligned_m), 0.08);  // 0.05-0.06
+  EXPECT_LT(median(placed_m), 0.6);    // 0.48-0.49: the start guess is off
+  EXPECT_LE(paper_matched, matched / 2);
 }
 
 }  // namespace

@@ -100,9 +100,13 @@ TEST(Particles, WheelMotionSpreadsAsTheEkfPredictsAndTheFloorAddsItsOwn) {
   mean_and_covariance(p, mean, covariance);
   // The mean lags the noiseless pose a little (the heading spread bends the paths inwards).
   EXPECT_LT((mean - x).head<2>().norm(), 0.01);
-  for (int i = 0; i < 3; ++i) {
-    EXPECT_NEAR(covariance(i, i), P(i, i), 0.05 * P(i, i)) << i;
-  }
+  // Across the path and in heading, the first-order prediction holds to sampling noise (0.98-1.02
+  // of it over twelve seeds). Along the path (x) the cloud is wider by a second-order term the
+  // linearisation drops (a path that wanders in heading ends shorter): 1.03-1.06 of it.
+  EXPECT_NEAR(covariance(1, 1), P(1, 1), 0.03 * P(1, 1));
+  EXPECT_NEAR(covariance(2, 2), P(2, 2), 0.03 * P(2, 2));
+  EXPECT_GT(covariance(0, 0), P(0, 0));
+  EXPECT_LT(covariance(0, 0), 1.1 * P(0, 0));
   OdometryNoise floor;
   floor.floor_position_m = 0.05;
   floor.floor_heading_rad = 0.1;
