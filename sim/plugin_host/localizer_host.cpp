@@ -350,35 +350,52 @@ std::vector<LocalizerFinal> LocalizerHost::finish(double t_end_s) {
 }
 
 void LocalizerHost::abort() {
-  // A worker still inside a call a moment after Ctrl-C is the one the user may have pressed it
-  // for: it says so. One that was merely busy with the last records sent (any worker is, most of
-  // the time) is given this long to get out of its call and ends as it was, status ok.
+  // A worker still inside the call it was in at Ctrl-C a moment later is the one the user may
+  // have pressed it for: it says so. One that was merely busy with the last records sent (any
+  // worker is, most of the time) gets this long to leave that call and ends as it was, status ok,
+  // even if it has started on the next queued record meanwhile.
   constexpr auto kGrace = std::chrono::milliseconds(250);
   const auto pressed = std::chrono::steady_clock::now();
-  std::vector<WorkerProcess*> busy;
-  for (const auto& worker : workers_)
-    if (worker->alive()) busy.push_back(worker.get());
-  while (true) {
-    std::erase_if(busy, [&](WorkerProcess* worker) {
-      if (worker->alive() && worker->current_call()) return false;
-      worker->kill_now();  // out of its calls: ended before it can start another
+  struct Busy {
+    WorkerProcess* worker;
+    std::chrono::steady_clock::time_point call_started;  // of the call it was in at Ctrl-C
+  };
+  std::vector<Busy> busy;
+  for (const auto& worker : workers_) {
+    if (!worker->alive()) continue;
+    const auto call = worker->current_call();
+    if (call) {
+      busy.push_back({worker.get(), call->started});
+    } else {
+      worker->kill_now();  // between calls: ended before it can start another
       worker->reap();
+    }
+  }
+  const auto still_in_that_call = [](const Busy& b) {
+    const auto call = b.worker->current_call();
+    return b.worker->alive() && call && call->started == b.call_started;
+  };
+  while (true) {
+    std::erase_if(busy, [&](const Busy& b) {
+      if (still_in_that_call(b)) return false;
+      b.worker->kill_now();  // it left that call: what it was doing at Ctrl-C is done
+      b.worker->reap();
       return true;
     });
     if (busy.empty() || std::chrono::steady_clock::now() - pressed >= kGrace) break;
-    for (WorkerProcess* worker : busy) {
+    for (const Busy& b : busy) {
       // What it sends meanwhile reaches the outputs; a full socket must not keep it in a call.
-      worker->forward_output();
-      const std::size_t w = slot_of(*worker);
-      if (!worker->receive_some(
+      b.worker->forward_output();
+      const std::size_t w = slot_of(*b.worker);
+      if (!b.worker->receive_some(
               [&](std::uint8_t type, std::string_view payload) { dispatch(w, type, payload); }))
-        lost(*worker);
+        lost(*b.worker);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   const auto now = std::chrono::steady_clock::now();
-  for (WorkerProcess* worker : busy) {
-    if (const auto call = worker->current_call(); call && call->localizer >= 0) {
+  for (const Busy& b : busy) {
+    if (const auto call = b.worker->current_call(); call && call->localizer >= 0) {
       LocalizerFailure f;
       f.localizer = static_cast<std::size_t>(call->localizer);
       f.t_s = call->t_s;
@@ -388,8 +405,8 @@ void LocalizerHost::abort() {
       f.interrupted = true;
       failure(f);
     }
-    worker->kill_now();
-    worker->reap();
+    b.worker->kill_now();
+    b.worker->reap();
   }
 }
 

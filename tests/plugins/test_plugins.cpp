@@ -130,6 +130,16 @@ class Plugin final : public Probe {
     while (r.t_s >= 1.0) std::this_thread::sleep_for(std::chrono::seconds(1));  // never returns
   }
 };
+#elif defined(LOCSIM_TEST_SLOW)
+/// Healthy but slow: every reading takes 20 ms, so records queue up and it is nearly always in a
+/// call, a new one as soon as the last returns.
+class Plugin final : public Probe {
+ public:
+  using Probe::Probe;
+  void on_reading(const locsim_reading&) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+};
 #elif defined(LOCSIM_TEST_SLAM_MAP)
 /// A fake SLAM filter whose landmark map is the known map's first `count` landmarks shifted by
 /// (`offset_x`, `offset_y`), the one at index `skip` left out, optionally one far from every
