@@ -156,8 +156,10 @@ TEST(LocalizerRun, ThrowingAndNanPluginsFailAloneWithTheReasonRecorded) {
 TEST(LocalizerRun, ACovarianceThatIsNotOneFailsThePluginLikeANan) {
   const fs::path out = testing::temp_dir("run") / "out";
   const std::string nan = test_plugin("nan");
-  const auto metrics = run_demo(
-      out, 4.0, {nan + ":mode=asymmetric@asymmetric", nan + ":mode=negative@negative", "odometry"});
+  const auto metrics =
+      run_demo(out, 4.0,
+               {nan + ":mode=asymmetric@asymmetric", nan + ":mode=negative@negative",
+                nan + ":mode=collapsed@collapsed", "odometry"});
   const auto& asymmetric = entry(metrics, "asymmetric");
   EXPECT_EQ(asymmetric["status"], "failed");
   EXPECT_EQ(asymmetric["failure"]["call"], "estimate");
@@ -168,6 +170,8 @@ TEST(LocalizerRun, ACovarianceThatIsNotOneFailsThePluginLikeANan) {
   EXPECT_EQ(negative["status"], "failed");
   expect_contains(negative["failure"]["message"],
                   "is not positive semidefinite: it has an eigenvalue of -0.01");
+  // A cloud collapsed onto one pose is a covariance (its asymmetry is underflow), not a failure.
+  EXPECT_EQ(entry(metrics, "collapsed")["status"], "ok");
   // Before it failed, its estimates were scored, an identity covariance among them.
   EXPECT_GT(asymmetric["consistency"]["samples"].get<double>(), 0.0);
   EXPECT_EQ(entry(metrics, "odometry")["status"], "ok");

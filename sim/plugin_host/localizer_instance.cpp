@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -26,9 +27,14 @@ namespace {
 /// positive semidefinite, as a NaN must not be scored (the NEES of metrics.json needs an honest
 /// matrix, and a negative variance would make it negative). Both up to 1e-6 of the largest
 /// variance: above the rounding a filter's algebra leaves (an EKF's Joseph-form update on a
-/// covariance of 1e-14 m^2 was 1e-8 asymmetric), far below anything it means.
+/// covariance of 1e-14 m^2 was 1e-8 asymmetric), far below anything it means. Never below the
+/// smallest normal double: a particle cloud collapsed onto one pose has variances of 0 and, from
+/// the products of its tiny deviations, off-diagonal pairs like 0 and -5e-324 (underflow, which
+/// has no relative precision; fastslam on an MRCLAM twin failed so).
 std::string covariance_problem(const double (&c)[9]) {
-  const double tolerance = 1e-6 * std::max({std::abs(c[0]), std::abs(c[4]), std::abs(c[8])});
+  const double tolerance =
+      std::max(1e-6 * std::max({std::abs(c[0]), std::abs(c[4]), std::abs(c[8])}),
+               std::numeric_limits<double>::min());
   constexpr std::array<std::tuple<int, int, const char*>, 3> kPairs{
       {{1, 3, "(x, y) and (y, x)"},
        {2, 6, "(x, theta) and (theta, x)"},

@@ -68,7 +68,8 @@ class Plugin final : public Probe {
 #elif defined(LOCSIM_TEST_NAN)
 /// From two seconds on, an estimate that is not one: by `mode`, a NaN position (the default,
 /// "fast"), a covariance that is not symmetric ("asymmetric") or one with a negative variance
-/// ("negative").
+/// ("negative"); or one that is: a particle cloud collapsed onto one pose ("collapsed": zero
+/// variances, an off-diagonal pair of 0 and the smallest subnormal, as rounding leaves it).
 class Plugin final : public Probe {
  public:
   explicit Plugin(const locsim_init& init)
@@ -81,6 +82,9 @@ class Plugin final : public Probe {
       e.covariance(0, 1) = 0.5;
     } else if (mode_ == "negative") {
       e.covariance(2, 2) = -0.01;
+    } else if (mode_ == "collapsed") {
+      e.covariance.setZero();
+      e.covariance(0, 2) = -std::numeric_limits<double>::denorm_min();
     } else {
       e.pose.x = std::numeric_limits<double>::quiet_NaN();
     }
