@@ -99,6 +99,82 @@ scenario:
   EXPECT_NE(final_hash(3), final_hash(4));
 }
 
+// Six robots with every sensor, among people, a kidnap and a sensor fault: the sensors of
+// different robots are sampled side by side with --threads, and every file is the same.
+TEST(Determinism, ThreadCountDoesNotChangeARunsFiles) {
+  const fs::path base = testing::temp_dir("threads");
+  std::ofstream(base / "fleet.yaml") << R"(
+name: fleet
+walls:
+  - points: [[0, 0], [9, 0], [9, 6], [0, 6]]
+    closed: true
+landmarks:
+  - {id: 1, position: [1.5, 0.3]}
+  - {id: 2, position: [7.5, 5.7]}
+  - {id: 3, position: [4.5, 0.3]}
+beacons:
+  - {id: 1, position: [0.1, 0.1], height_m: 2.5}
+  - {id: 2, position: [8.9, 5.9], height_m: 2.5}
+  - {id: 3, position: [8.9, 0.1], height_m: 2.5}
+movers:
+  - {name: alice, path: [[1, 3], [8, 3]], speed_mps: 0.9}
+robots:
+)" << [] {
+    std::string robots;
+    for (int r = 0; r < 6; ++r) {
+      robots += "  - name: r" + std::to_string(r) +
+                "\n    start: {x: " + std::to_string(1.5 + 3.0 * (r % 3)) +
+                ", y: " + std::to_string(1.5 + 3.0 * (r / 3)) +
+                ", theta_deg: " + std::to_string(r * 61) +
+                "}\n    sensors: {encoders: {rate_hz: 50}, imu: {rate_hz: 100}, ptz_camera: "
+                "{rate_hz: 10}, omni_camera: {rate_hz: 10}, ultrasonic: {rate_hz: 20}, laser: "
+                "{rate_hz: 10}}\n";
+    }
+    robots += "scenario:\n  duration_s: 12\n  drive:\n";
+    for (int r = 0; r < 6; ++r)
+      robots += "    - {robot: r" + std::to_string(r) + ", mode: wander, speed_mps: 0.6}\n";
+    return robots +
+           "  events:\n    - {at_s: 4, kidnap: {robot: r2, to: random}}\n"
+           "    - {at_s: 6, sensor_fault: {robot: r4, sensor: laser, mode: dropout, "
+           "duration_s: 2}}\n";
+  }();
+  const auto run = [&](int threads) {
+    RunOptions options;
+    options.world_file = base / "fleet.yaml";
+    options.seed = 5;
+    options.threads = threads;
+    options.out_dir = base / ("threads_" + std::to_string(threads));
+    options.localizers = {"ekf_landmarks"};
+    // The record stream as one file: every robot's readings in the order the stream has them.
+    options.log_file = base / ("threads_" + std::to_string(threads) + ".log");
+    return run_simulation(options);
+  };
+  const RunResult one = run(1);
+  ASSERT_EQ(one.status, "completed");
+  for (const int threads : {2, 5}) {
+    const RunResult many = run(threads);
+    EXPECT_EQ(many.state_hash, one.state_hash) << threads << " threads";
+    std::size_t files = 0;
+    for (const auto& entry : fs::recursive_directory_iterator(one.out_dir)) {
+      if (!entry.is_regular_file()) continue;
+      const fs::path relative = fs::relative(entry.path(), one.out_dir);
+      const fs::path other = many.out_dir / relative;
+      ++files;
+      const fs::path name = relative.filename();
+      if (name == "run.json" || name == "metrics.json") {  // wall-clock "timing" left out
+        EXPECT_EQ(json_without_timing(entry.path()), json_without_timing(other)) << relative;
+      } else {
+        EXPECT_EQ(testing::read_file(entry.path()), testing::read_file(other)) << relative;
+      }
+    }
+    EXPECT_GT(files, 6u * 8u);  // each robot: ground truth, six sensors' readings, an estimate
+    EXPECT_EQ(testing::read_file(base / "threads_1.log"),
+              testing::read_file(base / ("threads_" + std::to_string(threads) + ".log")));
+  }
+  // The readings are really there (a laser scan of every robot, faults and all).
+  EXPECT_GT(testing::read_file(one.out_dir / "r5/readings/laser.csv").size(), 10000u);
+}
+
 TEST(RunFolder, HoldsTumGroundTruthEventsAndResolvedConfig) {
   const fs::path out = testing::temp_dir("run") / "out";
   const RunResult result = run_demo(out, 1);

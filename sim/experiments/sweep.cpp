@@ -24,6 +24,7 @@
 #include "sim/common/capped_text.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
+#include "sim/common/parallel.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
@@ -848,6 +849,9 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       task.args.insert(task.args.end(), {"--robots", run.log->robot});
     return task;
   };
+  // The jobs share the cores: each recording gets its share for its robots' sensors (what it
+  // writes does not depend on it).
+  const int run_threads = std::max(1, default_thread_count() / options.jobs);
   for (const RunUnit* run : pending) {
     if (run->log != nullptr) {
       queue.push_back(replay_task(*run));
@@ -870,6 +874,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                    "--out",
                    recording_dir(recording).string(),
                    "-q",
+                   "--threads",
+                   std::to_string(run_threads),
                    "--log",
                    log_of(recording).string()};
       if (experiment.scenario)

@@ -1,7 +1,9 @@
 #include "sim/producers/simulation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 
 #include "sim/common/errors.hpp"
 #include "sim/sensors/models.hpp"
@@ -77,6 +79,9 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
     for (const auto& sensor : slot.sensors) {
       slot.sensor_strides.push_back(
           std::llround(world_def_.physics.step_hz / sensor->common().rate_hz));
+      if (std::find(sample_strides_.begin(), sample_strides_.end(), slot.sensor_strides.back()) ==
+          sample_strides_.end())
+        sample_strides_.push_back(slot.sensor_strides.back());
     }
   }
   fire_due_events();  // those at t = 0
@@ -98,25 +103,47 @@ void Simulation::refresh_moving_prisms() {
   }
 }
 
+void Simulation::use_threads(int threads) {
+  parallel_.reset();
+  if (threads > 1 && robots_.size() > 1 && !renders_images_) {
+    parallel_ = std::make_unique<ParallelLoop>(std::min(threads, static_cast<int>(robots_.size())));
+    robot_readings_.resize(robots_.size());
+  }
+}
+
+void Simulation::run_robot_sensors(std::size_t i, bool physics_stepped, std::vector<Reading>& out) {
+  RobotSlot& slot = robots_[i];
+  SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
+  context.robots = &robot_views_;
+  if (renders_images_) context.moving = &moving_prisms_;
+  for (std::size_t k = 0; k < slot.sensors.size(); ++k) {
+    Sensor& sensor = *slot.sensors[k];
+    if (physics_stepped) sensor.on_physics_step(context);
+    if (step_index_ % slot.sensor_strides[k] != 0) continue;
+    if (std::optional<ReadingData> data = sensor.sample(context)) {
+      out.push_back(Reading{time_s(), static_cast<int>(i), sensor.kind(), std::move(*data)});
+    }
+  }
+}
+
 void Simulation::run_sensors(bool physics_stepped) {
-  bool refreshed = false;
-  for (std::size_t i = 0; i < robots_.size(); ++i) {
-    RobotSlot& slot = robots_[i];
-    SensorContext context{time_s(), dt_s_, *slot.robot, world_def_, *rays_};
-    context.robots = &robot_views_;
-    if (renders_images_) {
-      if (!refreshed) refresh_moving_prisms(), refreshed = true;
-      context.moving = &moving_prisms_;
-    }
-    for (std::size_t k = 0; k < slot.sensors.size(); ++k) {
-      Sensor& sensor = *slot.sensors[k];
-      if (physics_stepped) sensor.on_physics_step(context);
-      if (step_index_ % slot.sensor_strides[k] != 0) continue;
-      if (std::optional<ReadingData> data = sensor.sample(context)) {
-        readings_.push_back(
-            Reading{time_s(), static_cast<int>(i), sensor.kind(), std::move(*data)});
-      }
-    }
+  if (renders_images_ && !robots_.empty()) refresh_moving_prisms();
+  // Most steps only integrate (encoders, IMU between samples): too little work to share.
+  const bool samples = std::any_of(sample_strides_.begin(), sample_strides_.end(),
+                                   [&](std::int64_t s) { return step_index_ % s == 0; });
+  if (!parallel_ || !samples) {
+    for (std::size_t i = 0; i < robots_.size(); ++i)
+      run_robot_sensors(i, physics_stepped, readings_);
+    return;
+  }
+  // Each robot's sensors read the world and write only their own state and readings.
+  parallel_->for_each(robots_.size(), [&](std::size_t i) {
+    robot_readings_[i].clear();
+    run_robot_sensors(i, physics_stepped, robot_readings_[i]);
+  });
+  for (std::vector<Reading>& own : robot_readings_) {
+    std::move(own.begin(), own.end(), std::back_inserter(readings_));
+    own.clear();
   }
 }
 

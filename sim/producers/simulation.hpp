@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "sim/common/format.hpp"
+#include "sim/common/parallel.hpp"
 #include "sim/common/random.hpp"
 #include "sim/robot/diff_drive.hpp"
 #include "sim/scenario/drivers.hpp"
@@ -47,6 +48,10 @@ class Simulation {
   /// the state at time t includes every event scheduled at or before t.
   void step();
   bool done() const { return done_; }
+  /// Samples the sensors of different robots on `threads` threads (the caller's included) from
+  /// the next step on: the same readings, in the same order, for any count. A world with one
+  /// robot, or a camera that renders its images (one GL context), stays on the caller's thread.
+  void use_threads(int threads);
 
   std::int64_t step_index() const { return step_index_; }
   double time_s() const { return static_cast<double>(step_index_) * dt_s_; }
@@ -96,6 +101,7 @@ class Simulation {
 
   void fire_due_events();
   void run_sensors(bool physics_stepped);
+  void run_robot_sensors(std::size_t robot, bool physics_stepped, std::vector<Reading>& out);
   void refresh_moving_prisms();
   void fire(const EventDef& event);
   void put_down(RobotSlot& slot);
@@ -127,6 +133,11 @@ class Simulation {
   bool renders_images_ = false;            // a camera in mode: rendered
   std::vector<ScenePrism> moving_prisms_;  // refreshed for each sensor round when it does
   std::vector<Reading> readings_;
+  // Sensors on several threads (use_threads): each robot's readings of a step, merged in robot
+  // order; the sample periods of every sensor, to wake the threads only on steps that sample.
+  std::unique_ptr<ParallelLoop> parallel_;
+  std::vector<std::vector<Reading>> robot_readings_;
+  std::vector<std::int64_t> sample_strides_;
 };
 
 /// "(x,y,theta)" with four decimals, for events and messages.

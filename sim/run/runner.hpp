@@ -24,9 +24,10 @@ struct RunOptions : SessionOptions {
   std::uint64_t seed = 1;
   std::optional<double> duration_s;  // overrides the scenario's duration [s]
   bool no_variation = false;  // the world as declared, whatever its `variation:` (--no-variation)
-  std::filesystem::path out_dir;                  // empty: a new folder under runs/
-  bool realtime = false;                          // pace the simulation to the wall clock
-  bool progress = false;                          // progress line on stderr
+  std::filesystem::path out_dir;  // empty: a new folder under runs/
+  bool realtime = false;          // pace the simulation to the wall clock
+  bool progress = false;          // progress line on stderr
+  int threads = 0;  // for the sensors of different robots; 0: every core (default_thread_count)
   std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
   FrameSink* video = nullptr;  // frames of the run (render/), at video_options' frame times
   VideoOptions video_options;

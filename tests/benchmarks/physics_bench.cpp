@@ -166,12 +166,20 @@ void BM_Fleet(benchmark::State& state) {
   ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
   bind_scenario(scenario, world);
   Simulation sim(world, scenario, 1);
+  sim.use_threads(static_cast<int>(state.range(2)));
   step_scene(state, sim);
   state.counters["robots"] = robots;
 }
+// On one thread, and on two (the sensors of different robots side by side; wall clock, which
+// is what a run with --threads takes).
 BENCHMARK(BM_Fleet)
-    ->ArgNames({"robots", "sensors"})
-    ->ArgsProduct({{1, 10, 100}, {0, 1}})
+    ->ArgNames({"robots", "sensors", "threads"})
+    ->ArgsProduct({{1, 10, 100}, {0, 1}, {1}})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Fleet)
+    ->ArgNames({"robots", "sensors", "threads"})
+    ->ArgsProduct({{10, 100}, {1}, {2}})
+    ->UseRealTime()
     ->Unit(benchmark::kMicrosecond);
 
 /// `locsim run` of the demo world end to end: loading, 60 s of simulation, writing the folder.

@@ -420,6 +420,11 @@ int main(int argc, char** argv) {
                 "(docs/worlds.md#variation)");
   run->add_option("--out", out_dir, "Output folder (default: a new folder under runs/)");
   run->add_flag("--realtime", options.realtime, "Pace the simulation to the wall clock");
+  run->add_option("--threads", options.threads,
+                  "Threads for the sensors of different robots; the outputs are the same for "
+                  "any count (0: one per core)")
+      ->transform(whole_number_in(0, 256))
+      ->capture_default_str();
   run->add_flag("-q,--quiet", quiet, "No progress line and no summary");
   std::string log_file;
   run->add_option("--log", log_file,
