@@ -57,8 +57,8 @@ class TopDownRenderer {
 
   /// Draws `frame` with GL into the current context (of width_px x height_px).
   void draw(const FrameState& frame);
-  /// The frame's image (BGR): the static world, the particle clouds, and over them the drawn layer
-  /// (RGBA, premultiplied, rows from the top, as the context returns it).
+  /// The frame's image (BGR): the static world with the trails, the particle clouds, and over them
+  /// the drawn layer (RGBA, premultiplied, rows from the top, as the context returns it).
   void compose(const FrameState& frame, const std::uint8_t* rgba, cv::Mat& bgr) const;
   /// Text, legend and labels onto the composed image (BGR). Returns the row under the legend
   /// (-1: no side panel).
@@ -74,9 +74,16 @@ class TopDownRenderer {
  private:
   struct Trail {
     std::vector<std::vector<cv::Point2d>> segments;  // broken where the robot was carried
+    // How far it is painted onto trails_: up to point `painted_point` of segment
+    // `painted_segment`; its painted length for the dashes [px].
+    std::size_t painted_segment = 0, painted_point = 0;
+    double painted_px = 0.0;
   };
   void remember(const FrameState& frame);
   void draw_static();
+  /// Paints the trails' pieces added since the last frame onto trails_.
+  void paint_trails();
+  void paint(Trail& trail, const Rgb& colour, int thickness_px, bool dashed);
 
   WorldDef world_;
   int width_px_, height_px_;
@@ -85,6 +92,7 @@ class TopDownRenderer {
   View view_;
   unsigned int map_texture_ = 0;  // occupancy map, if the world has one
   cv::Mat background_;            // the static world as drawn (BGR), from the first frame on
+  cv::Mat trails_;                // background_ with the trails painted so far (BGR)
   std::vector<Trail> truth_, odometry_;
   std::vector<Trail> estimates_;  // by localizer
   std::vector<std::string> labels_;

@@ -1,7 +1,8 @@
 // Writes BGR frames into a video file with FFmpeg's libraries: H.264 (libx264, preset
-// "veryfast", CRF 23, yuv420p: plays in every common player) when the installed FFmpeg has it,
-// else MPEG-4 part 2. Direct use of libavcodec, not OpenCV's writer, because OpenCV 4.6 offers no
-// way to pick the x264 preset, and the default one spends 2x the time for a run's video.
+// "veryfast" with superfast's motion search, CRF 23, yuv420p: plays in every common player) when
+// the installed FFmpeg has it, else MPEG-4 part 2. Direct use of libavcodec, not OpenCV's writer,
+// because OpenCV 4.6 offers no way to pick the x264 preset, and the default one spends 2x the
+// time for a run's video.
 #pragma once
 
 #include <filesystem>
@@ -22,6 +23,11 @@ class VideoEncoder {
 
   /// Appends one frame (CV_8UC3, BGR, width x height).
   void write(const cv::Mat& bgr);
+  /// Appends one frame already in the encoder's colours: YUV 4:2:0 as to_i420() makes it.
+  void write_i420(const cv::Mat& i420);
+  /// BGR to YUV 4:2:0 (I420: CV_8UC1, the Y plane, then U, then V; height * 3/2 rows), as
+  /// write() converts; for a caller that converts on another thread than the encoder's.
+  static void to_i420(const cv::Mat& bgr, cv::Mat& i420);
   /// Flushes the encoder and writes the container's index; the file plays after this. Called by
   /// the destructor if not before (errors then go unreported).
   void close();

@@ -56,7 +56,7 @@ void VideoRecorder::frame(const FrameState& frame) {
   rethrow_worker_error();
   context_->make_current();
   renderer_->draw(frame);
-  cv::Mat bgr;  // a new buffer per frame: the worker owns the queued ones
+  cv::Mat& bgr = bgr_;  // the worker gets copies: this one is reused
   renderer_->compose(frame, context_->finish_frame(), bgr);
   const int legend_end_y = renderer_->overlay(frame, bgr);
   if (options_.camera_view && !frame.robots.empty() && frame.robots[0].camera) {
@@ -77,11 +77,22 @@ void VideoRecorder::frame(const FrameState& frame) {
     cv::cvtColor(rgba, camera_bgr_, cv::COLOR_RGBA2BGR);
     renderer_->inset_camera(frame, camera_bgr_, legend_end_y, bgr);
   }
-  bgr_ = bgr;
+  Queued item;
+  {
+    std::lock_guard lock(mutex_);
+    if (!spare_.empty()) {
+      item = std::move(spare_.back());  // no new buffers (and page faults) for every frame
+      spare_.pop_back();
+    }
+  }
+  item.index = frames_;
+  // The colour conversion here rather than on the worker: x264 there is the slower of the two.
+  if (encoder_) VideoEncoder::to_i420(bgr, item.i420);
+  if (options_.frames_dir) bgr.copyTo(item.bgr);
   {
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return queue_.size() < kQueued || worker_error_; });
-    queue_.emplace_back(frames_, std::move(bgr));
+    queue_.push_back(std::move(item));
   }
   changed_.notify_all();
   ++frames_;
@@ -89,7 +100,7 @@ void VideoRecorder::frame(const FrameState& frame) {
 
 void VideoRecorder::work() {
   for (;;) {
-    std::pair<long, cv::Mat> item;
+    Queued item;
     {
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return !queue_.empty() || closing_; });
@@ -97,13 +108,13 @@ void VideoRecorder::work() {
       item = std::move(queue_.front());
     }
     try {
-      if (encoder_) encoder_->write(item.second);
+      if (encoder_) encoder_->write_i420(item.i420);
       if (options_.frames_dir) {
         char name[32];
-        std::snprintf(name, sizeof name, "frame_%06ld.png", item.first);
+        std::snprintf(name, sizeof name, "frame_%06ld.png", item.index);
         const fs::path file = *options_.frames_dir / name;
         // Fast zlib level: frames are for looking at, not archiving.
-        if (!cv::imwrite(file.string(), item.second, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+        if (!cv::imwrite(file.string(), item.bgr, {cv::IMWRITE_PNG_COMPRESSION, 1}))
           throw RenderError("cannot write '" + file.string() + "'");
       }
     } catch (...) {
@@ -116,6 +127,7 @@ void VideoRecorder::work() {
     {
       std::lock_guard lock(mutex_);
       queue_.pop_front();
+      spare_.push_back(std::move(item));
     }
     changed_.notify_all();
   }

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "render/camera_view.hpp"
 #include "render/gl_context.hpp"
@@ -55,13 +56,19 @@ class VideoRecorder final : public FrameSink {
   bool finished_ = false;
 
   // The worker: frames waiting to be written, at most kQueued (the renderer waits beyond).
+  struct Queued {
+    long index = 0;
+    cv::Mat i420;  // for the video: converted by the renderer, as the encoder is the slower
+    cv::Mat bgr;   // for --frames
+  };
   static constexpr std::size_t kQueued = 3;
   void work();
   void rethrow_worker_error();
   std::thread worker_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<std::pair<long, cv::Mat>> queue_;
+  std::deque<Queued> queue_;
+  std::vector<Queued> spare_;  // written ones, whose buffers the next frames reuse
   bool closing_ = false;
   std::exception_ptr worker_error_;
 };

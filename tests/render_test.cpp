@@ -122,6 +122,54 @@ TEST(Render, KnownSceneHasTheExpectedColoursAtTheExpectedPixels) {
                "a particle of the lowest weight");
 }
 
+TEST(Render, TrailsGrowFrameByFrameBreakAtKidnapsAndTheOdometrysIsDashed) {
+  // The trails are painted piece by piece, as frames come, onto a kept image: the robot drives
+  // east along y = 1.3 (its odometry along y = 0.6), is kidnapped, and drives on along y = 2.3.
+  const WorldDef world = testing::world_from_yaml(kRoom);
+  const auto context = render::make_gl_context("osmesa", 640, 480);
+  render::TopDownRenderer renderer(world, 640, 480);
+  FrameState frame = room_frame(world);
+  frame.localizers[0].particles.clear();
+  frame.localizers[0].weights.clear();
+  cv::Mat bgr;
+  const auto draw = [&](double x, double y, int kidnaps) {
+    frame.robots[0].pose = {x, y, 0.0};
+    frame.robots[0].odometry = Pose2{x, 0.6, 0.0};
+    frame.robots[0].kidnaps = kidnaps;
+    frame.localizers[0].estimate = Pose2{x, y + 0.3, 0.0};
+    renderer.draw(frame);
+    renderer.compose(frame, context->finish_frame(), bgr);
+  };
+  for (int k = 0; k <= 40; ++k) draw(0.5 + 0.03 * k, 1.3, 0);  // to x = 1.7
+  for (int k = 0; k <= 40; ++k) draw(0.5 + 0.03 * k, 2.3, 1);  // after the kidnap
+  const render::View& view = renderer.view();
+  const render::Palette& palette = renderer.palette();
+  // The truth: dark where the robot drove, on both sides of the kidnap, and nothing between
+  // where it was picked up (1.7, 1.3) and where it landed (0.5, 2.3).
+  for (const double x : {0.8, 1.1, 1.4}) {  // the robot covers 1.5-1.9
+    for (const double y : {1.3, 2.3}) {
+      const cv::Vec3b p = pixel_at(bgr, view, x, y);
+      EXPECT_LT(p[0] + p[1] + p[2], 120) << "truth at " << x << ", " << y << ": " << p;
+    }
+  }
+  expect_color(pixel_at(bgr, view, 1.1, 1.8), palette.floor, 3, "between the kidnap's ends");
+  // The estimate's path in the filter's colour, 0.3 m above the truth's.
+  expect_color(pixel_at(bgr, view, 1.0, 1.6), palette.filter(0), 40, "estimate's path");
+  // The odometry, dashed (8 pixels on, 8 off, continued across the frames' 2-pixel pieces):
+  // every 16 pixels along its path hold a dash (grey, 140) and a gap (floor, 225-230).
+  const cv::Point2d from = view.to_pixel(0.6, 0.6), to = view.to_pixel(1.6, 0.6);
+  const int row = static_cast<int>(from.y);
+  for (int x = static_cast<int>(from.x); x + 16 <= static_cast<int>(to.x); ++x) {
+    int darkest = 255, lightest = 0;
+    for (int i = x; i < x + 16; ++i) {
+      darkest = std::min<int>(darkest, bgr.at<cv::Vec3b>(row, i)[0]);
+      lightest = std::max<int>(lightest, bgr.at<cv::Vec3b>(row, i)[0]);
+    }
+    EXPECT_LT(darkest, 160) << "no dash in the 16 pixels from " << x;
+    EXPECT_GT(lightest, 200) << "no gap in the 16 pixels from " << x;
+  }
+}
+
 TEST(Render, VideoDecodesWithTheExpectedFrameCountAndSize) {
   const WorldDef world = testing::world_from_yaml(kRoom);
   for (const std::string name : {"room.mp4", "room.avi"}) {
