@@ -24,6 +24,8 @@ namespace fs = std::filesystem;
 // on purpose, with a one-line note in the commit message saying why the behaviour changed.
 constexpr std::string_view kPinnedStateHash = "ae09117b0263683b";   // run.json "state_hash"
 constexpr std::uint64_t kPinnedOutputHash = 0x6c29c252e54a373eULL;  // FNV-1a of the outputs
+// FNV-1a of the particle filters' estimates on the demo (PinnedEstimatesOfTheParticleFilters).
+constexpr std::uint64_t kPinnedFilterHash = 0xbfd3753257fbdf52ULL;
 
 RunResult run_demo(const fs::path& out, std::uint64_t seed) {
   RunOptions options;
@@ -434,6 +436,26 @@ TEST(Determinism, PinnedHashesOfTheDemo) {
   const Pins pins = pinned_run(testing::kDemo, testing::temp_dir("pinned") / "out");
   EXPECT_EQ(pins.state_hash, kPinnedStateHash);
   EXPECT_EQ(pins.output_hash, kPinnedOutputHash) << std::hex << "0x" << pins.output_hash;
+}
+
+TEST(Determinism, PinnedEstimatesOfTheParticleFilters) {
+  // The laser's AMCL and the landmark filters (plain, sensor resetting, augmented) through both
+  // of the demo's kidnaps: work on their speed (the SDK's draws, bins and sums) must leave every
+  // estimate byte for byte, and a change of results must show here to be explained, not slip in.
+  RunOptions options;
+  options.world_file = testing::kDemo;
+  options.seed = 7;
+  options.duration_s = 45.0;
+  options.out_dir = testing::temp_dir("pinned_filters") / "out";
+  options.localizers = {"amcl", "mcl", "asrl", "augmented_mcl"};
+  run_simulation(options);
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const std::string& label : options.localizers) {
+    const std::string file = label + ".tum";
+    hash = fnv1a(file + '\0', hash);
+    hash = fnv1a(testing::read_file(options.out_dir / file), hash);
+  }
+  EXPECT_EQ(hash, kPinnedFilterHash) << std::hex << "0x" << hash;
 }
 
 TEST(Determinism, WithoutVariationTheDemoWritesWhatItDidBeforeVariationExisted) {

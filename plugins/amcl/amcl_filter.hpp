@@ -30,6 +30,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -357,26 +358,33 @@ class AmclFilter {
     guesses_.resize(0);
     guess_place_.clear();
     // Systematic draws until KLD says stop, every prefix an even spread over all the weights.
-    sdk::OpenEndedDraws draws(cumulative_, random.uniform());
+    draws_.reset(cumulative_, random.uniform());
+    // A particle drawn again is in the bin it was in: binned once (drawn_bin_, per particle of
+    // the old set), where a tracking filter draws its heavy particles many times over.
+    drawn_bin_.assign(n, kNoBin);
+    next_bin_.clear();
     // The guesses go after the draws (fresh_ of them at the end): weigh() and the estimate tell
     // them apart.
     std::size_t drawn = 0;
     for (; drawn < std::max(needed, min_particles_) && drawn < max_particles_; ++drawn) {
-      double x, y, theta;
+      bool new_bin = false;
       if (inject_probability > 0.0 && random.uniform() < inject_probability) {
         const Guess g = guess(random);
-        x = g.pose(0), y = g.pose(1), theta = g.pose(2);
+        const double x = g.pose(0), y = g.pose(1), theta = g.pose(2);
         guesses_.x.push_back(x), guesses_.y.push_back(y), guesses_.theta.push_back(theta);
         guesses_.weight.push_back(g.prior);
         guess_place_.push_back(g.place);
         ++injected_;
+        new_bin = bins_.insert(bins_.bin_of(x, y, theta)).second;
       } else {
-        const std::size_t i = draws.next();
-        x = particles.x[i], y = particles.y[i], theta = particles.theta[i];
+        const std::size_t i = draws_.next();
+        const double x = particles.x[i], y = particles.y[i], theta = particles.theta[i];
         next_.x.push_back(x), next_.y.push_back(y), next_.theta.push_back(theta);
+        if (drawn_bin_[i] == kNoBin)
+          std::tie(drawn_bin_[i], new_bin) = bins_.insert(bins_.bin_of(x, y, theta));
+        next_bin_.push_back(drawn_bin_[i]);
       }
-      if (bins_.insert(bins_.bin_of(x, y, theta)).second)
-        needed = sdk::kld_sample_count(bins_.size(), kld_err_, kld_z_);
+      if (new_bin) needed = sdk::kld_sample_count(bins_.size(), kld_err_, kld_z_);
     }
     last_bins_ = bins_.size();
     next_.x.insert(next_.x.end(), guesses_.x.begin(), guesses_.x.end());
@@ -386,6 +394,10 @@ class AmclFilter {
     std::swap(particles.x, next_.x), std::swap(particles.y, next_.y),
         std::swap(particles.theta, next_.theta);
     pf_.equalise_weights();
+    // Without guesses the bins are those of the new set, numbered in its order: what
+    // compute_estimate() would bin again.
+    binned_ = fresh_ == 0;
+    if (binned_) std::swap(particle_bin_, next_bin_);
     if (fresh_ > 0) {
       // The prior of "carried to a searched place" is recovery_far_prior, however many guesses
       // were drawn about it: split among them. (Uniform guesses are each a place of their own.)
@@ -417,14 +429,17 @@ class AmclFilter {
     const std::size_t n = particles.size();
     // The guesses (the last fresh_) count once weighed, or when nothing else is left.
     const std::size_t counted = fresh_ < n ? n - fresh_ : n;
-    bins_.clear();
-    particle_bin_.resize(n);
-    constexpr std::size_t kNoBin = sdk::PoseBins::kNone;
-    for (std::size_t i = 0; i < n; ++i)
-      particle_bin_[i] =
-          i < counted  // the rest neither weigh nor bridge clusters
-              ? bins_.insert(bins_.bin_of(particles.x[i], particles.y[i], particles.theta[i])).first
-              : kNoBin;
+    if (!binned_) {
+      bins_.clear();
+      particle_bin_.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        particle_bin_[i] =
+            i < counted  // the rest neither weigh nor bridge clusters
+                ? bins_.insert(bins_.bin_of(particles.x[i], particles.y[i], particles.theta[i]))
+                      .first
+                : kNoBin;
+    }
+    binned_ = false;
     // Union-find over the bins and their neighbours. A cluster's root is its lowest-numbered bin
     // (the first a particle fell in), whatever the order of the joins: the tie-break between
     // equally heavy clusters below is then the particles' order, not the hash table's.
@@ -454,9 +469,19 @@ class AmclFilter {
           }
     }
     cluster_weight_.assign(bins_.size(), 0.0);
-    for (std::size_t i = 0; i < n; ++i)
-      if (particle_bin_[i] != kNoBin)
-        cluster_weight_[root(particle_bin_[i])] += particles.weight[i];
+    // A run of particles in one cluster (resampled copies sit side by side) summed in a local
+    // and stored once: the same sums in the same order, without a store and reload per particle.
+    std::size_t current = kNoBin;
+    double current_weight = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (particle_bin_[i] == kNoBin) continue;
+      if (const std::size_t cluster = root(particle_bin_[i]); cluster != current) {
+        if (current != kNoBin) cluster_weight_[current] = current_weight;
+        current = cluster, current_weight = cluster_weight_[cluster];
+      }
+      current_weight += particles.weight[i];
+    }
+    if (current != kNoBin) cluster_weight_[current] = current_weight;
     const std::size_t best = static_cast<std::size_t>(
         std::max_element(cluster_weight_.begin(), cluster_weight_.end()) - cluster_weight_.begin());
     cluster_.resize(0);
@@ -500,7 +525,12 @@ class AmclFilter {
   sdk::Pose estimate_at_mark_ = sdk::Pose::Zero();  // the estimate moved to the latest update
   std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
   sdk::PoseBins bins_;  // KLD sampling's in resample(), the clusters' in compute_estimate()
-  std::vector<std::size_t> particle_bin_, parent_;
+  static constexpr std::size_t kNoBin = sdk::PoseBins::kNone;
+  sdk::OpenEndedDraws draws_;
+  // Per particle: its bin (particle_bin_), in the old set while resampling (drawn_bin_), in the
+  // new one (next_bin_); binned_: particle_bin_ and bins_ are the current set's already.
+  std::vector<std::size_t> particle_bin_, drawn_bin_, next_bin_, parent_;
+  bool binned_ = false;
   std::size_t fresh_ = 0;  // the last resampling's guesses, at the end of the set, not yet weighed
   sdk::Pose mean_ = sdk::Pose::Zero();
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Identity();
