@@ -126,6 +126,45 @@ TEST(LikelihoodField, TheFourPosePathIsBitIdenticalToTheOnePosePath) {
   }
 }
 
+TEST(LikelihoodField, AScanTriedAtManyPositionsSumsAsPointByPoint) {
+  // The place search's inner loop: both paths give the bits of log_p summed point after point
+  // (in double, in point order), every stride-th point; positions on and off the map, NaN,
+  // counts that are not a multiple of four.
+  std::vector<std::uint8_t> cells(160 * 120, 0);
+  std::mt19937_64 engine(11);
+  for (std::uint8_t& cell : cells) cell = engine() % 13 == 0 ? 100 : 0;
+  const locsim_occupancy_grid grid{-2.0, 1.0, 0.05, 160, 120, cells.data()};
+  const sdk::LikelihoodField field(grid, {});
+  std::uniform_real_distribution<double> across_x(-3.0, 7.0), across_y(0.0, 8.0), reach(-6.0, 6.0);
+  std::vector<double> dx, dy;
+  for (int i = 0; i < 47; ++i) dx.push_back(reach(engine)), dy.push_back(reach(engine));
+  for (const std::size_t n : {1u, 3u, 4u, 5u, 64u, 67u}) {
+    for (const std::size_t stride : {1u, 3u, 50u}) {
+      std::vector<double> x, y;
+      for (std::size_t k = 0; k < n; ++k) {
+        x.push_back(k % 9 == 4 ? std::numeric_limits<double>::quiet_NaN() : across_x(engine));
+        y.push_back(across_y(engine));
+      }
+      std::vector<double> scalar(n), simd(n);
+      field.sum_log_p_shifted(x, y, dx, dy, stride, scalar, false);
+      field.sum_log_p_shifted(x, y, dx, dy, stride, simd, sdk::LikelihoodField::simd_available());
+      for (std::size_t k = 0; k < n; ++k) {
+        double expected = 0.0;
+        for (std::size_t i = 0; i < dx.size(); i += stride)
+          expected += field.log_p(x[k] + dx[i], y[k] + dy[i]);
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(scalar[k]), std::bit_cast<std::uint64_t>(expected))
+            << k << " of " << n << ", stride " << stride;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(simd[k]), std::bit_cast<std::uint64_t>(expected))
+            << k << " of " << n << ", stride " << stride;
+      }
+    }
+  }
+  std::vector<double> one(1);
+  EXPECT_THROW(
+      field.sum_log_p_shifted(std::vector<double>{0.0}, std::vector<double>{0.0}, dx, dy, 0, one),
+      std::invalid_argument);
+}
+
 TEST(Kld, NormalQuantileAndSampleCountMatchTheTables) {
   EXPECT_NEAR(sdk::normal_quantile(0.99), 2.3263478740408408, 1e-12);
   EXPECT_NEAR(sdk::normal_quantile(0.975), 1.959963984540054, 1e-12);

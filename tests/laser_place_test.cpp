@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -171,6 +172,64 @@ TEST(PlaceSearch, AnEmptyRoomGivesTheTruthAndItsHalfTurnedTwin) {
       search.best(x, y, 1, [&](const sdk::Pose& p) { return !search.distinct(p, truth); });
   ASSERT_EQ(others.size(), 1u);
   EXPECT_TRUE(near(others[0].pose, twin)) << others[0].pose.transpose();
+}
+
+TEST(PlaceSearch, PicksWhatSortingEveryLatticePoseWouldPick) {
+  // The search selects its second pass as it weighs (a buffer cut back to the best half when
+  // full) rather than sorting every pose: the same poses, scores and order as the plain
+  // algorithm written out here, ties included (an empty room's symmetric twins score alike).
+  const OccupancyGrid grid = room(10.0, 6.0, {});
+  sdk::PlaceSearchDef def;
+  def.second_pass_min = 100;  // so that the buffer fills and is cut many times
+  const sdk::PlaceSearch search(view(grid), def);
+  const auto points = end_points(grid, {2.0, 2.0, 0.3});
+  const std::vector<double>& x = points.first;
+  const std::vector<double>& y = points.second;
+  sdk::LikelihoodFieldDef field_def;
+  field_def.sigma_hit_m = def.sigma_hit_m;
+  const sdk::LikelihoodField smooth(view(grid), field_def);
+  const std::size_t n = x.size(), sparse = n / def.first_pass_points,
+                    dense = n / def.second_pass_points;
+  const auto weigh = [&](const sdk::Pose& pose, std::size_t stride) {
+    const double c = std::cos(pose(2)), s = std::sin(pose(2));
+    double sum = 0.0;
+    for (std::size_t i = 0; i < n; i += stride)
+      sum += smooth.log_p(pose(0) + (c * x[i] - s * y[i]), pose(1) + (s * x[i] + c * y[i]));
+    return sum;
+  };
+  for (const bool skip_truth : {false, true}) {
+    const sdk::Pose truth(2.0, 2.0, 0.3);
+    const auto skip = [&](const sdk::Pose& p) { return skip_truth && !search.distinct(p, truth); };
+    std::vector<sdk::ScoredPose> all;
+    for (std::size_t i = 0; i < search.positions(); ++i) {
+      for (int h = 0; h < def.headings; ++h) {
+        const sdk::Pose pose(search.position(i).first, search.position(i).second,
+                             search.heading(static_cast<std::size_t>(h)));
+        if (!skip(pose)) all.push_back({pose, weigh(pose, sparse)});
+      }
+    }
+    const auto best_first = [](const sdk::ScoredPose& a, const sdk::ScoredPose& b) {
+      return a.log_p > b.log_p;
+    };
+    std::stable_sort(all.begin(), all.end(), best_first);
+    all.resize(
+        std::min(all.size(), std::max(def.second_pass_min, all.size() / def.second_pass_share)));
+    for (sdk::ScoredPose& p : all) p.log_p = weigh(p.pose, dense);
+    std::stable_sort(all.begin(), all.end(), best_first);
+    std::vector<sdk::ScoredPose> expected;
+    for (const sdk::ScoredPose& p : all) {
+      if (expected.size() == 12) break;
+      if (std::all_of(expected.begin(), expected.end(),
+                      [&](const sdk::ScoredPose& e) { return search.distinct(e.pose, p.pose); }))
+        expected.push_back(p);
+    }
+    const std::vector<sdk::ScoredPose> picked = search.best(x, y, 12, skip);
+    ASSERT_EQ(picked.size(), expected.size());
+    for (std::size_t k = 0; k < picked.size(); ++k) {
+      EXPECT_EQ(picked[k].pose, expected[k].pose) << k << (skip_truth ? ", truth skipped" : "");
+      EXPECT_EQ(picked[k].log_p, expected[k].log_p) << k;
+    }
+  }
 }
 
 }  // namespace

@@ -109,20 +109,44 @@ class LikelihoodField {
     const double uniform = def.z_rand / def.range_max_m;
     const double norm = def.z_hit / (std::sqrt(2.0 * std::numbers::pi) * def.sigma_hit_m);
     log_off_map_ = static_cast<float>(std::log(uniform));
+    const auto log_p_of = [&](double squared_cells) {
+      const double dist = std::min(std::sqrt(squared_cells) * grid.resolution_m, def.max_dist_m);
+      return static_cast<float>(std::log(
+          norm * std::exp(-0.5 * dist * dist / (def.sigma_hit_m * def.sigma_hit_m)) + uniform));
+    };
+    // A cell's value depends on its squared distance alone, a whole number of cells squared:
+    // each distinct one below the cap is computed once (an exponential and a logarithm per cell
+    // were most of building a field), every capped one is the same value.
+    const float capped = log_p_of(std::numeric_limits<double>::infinity());
+    const double cap_cells = def.max_dist_m / grid.resolution_m;
+    std::vector<float> by_square(
+        static_cast<std::size_t>(std::clamp(cap_cells * cap_cells + 2.0, 1.0, 65536.0)),
+        std::numeric_limits<float>::quiet_NaN());
     log_p_.resize(d2.size());
     for (std::size_t i = 0; i < d2.size(); ++i) {
-      const double dist = std::min(std::sqrt(d2[i]) * grid.resolution_m, def.max_dist_m);
-      log_p_[i] = static_cast<float>(std::log(
-          norm * std::exp(-0.5 * dist * dist / (def.sigma_hit_m * def.sigma_hit_m)) + uniform));
+      const double squared = d2[i];
+      if (squared < static_cast<double>(by_square.size()) && squared == std::floor(squared)) {
+        float& known = by_square[static_cast<std::size_t>(squared)];
+        if (std::isnan(known)) known = log_p_of(squared);
+        log_p_[i] = known;
+      } else {
+        log_p_[i] =
+            std::sqrt(squared) * grid.resolution_m >= def.max_dist_m ? capped : log_p_of(squared);
+      }
     }
   }
 
   /// log p of an end point at (x, y) in the world.
   float log_p(double x, double y) const {
-    const auto col = static_cast<std::int64_t>(std::floor((x - origin_x_) * inv_resolution_));
-    const auto row = static_cast<std::int64_t>(std::floor((y - origin_y_) * inv_resolution_));
-    if (col < 0 || row < 0 || col >= width_ || row >= height_) return log_off_map_;
-    return log_p_[static_cast<std::size_t>(row * width_ + col)];
+    const double gx = (x - origin_x_) * inv_resolution_, gy = (y - origin_y_) * inv_resolution_;
+    // Compared as doubles first (NaN is off the map), then truncated: on the map that is floor,
+    // without floor's library call (baseline x86-64 has no rounding instruction), and a far-off
+    // point never overflows the integer conversion.
+    if (!(gx >= 0.0 && gy >= 0.0 && gx < static_cast<double>(width_) &&
+          gy < static_cast<double>(height_)))
+      return log_off_map_;
+    return log_p_[static_cast<std::size_t>(static_cast<std::int64_t>(gy) * width_ +
+                                           static_cast<std::int64_t>(gx))];
   }
   /// For each pose i (x[i], y[i], theta[i] in the world), the sum over the end points (ex[b],
   /// ey[b]) in the robot frame of the log p of the end point moved to that pose: a particle's log
@@ -165,6 +189,38 @@ class LikelihoodField {
       (void)simd;
 #endif
       for (; k < m; ++k) out[start + k] = sum_one_pose(block, k, ex, ey);
+    }
+  }
+  /// For each position k (x[k], y[k] in the world), the sum of log_p(x[k] + dx[i], y[k] + dy[i])
+  /// over every stride-th point i: one scan, already turned to a heading, tried at many positions
+  /// (a place search's lattice). Summed in double in point order: the bits of calling log_p point
+  /// after point, which the four-position path (AVX2) keeps.
+  void sum_log_p_shifted(std::span<const double> x, std::span<const double> y,
+                         std::span<const double> dx, std::span<const double> dy, std::size_t stride,
+                         std::span<double> out) const {
+    sum_log_p_shifted(x, y, dx, dy, stride, out, simd_available());
+  }
+  /// The same, with the four-position path allowed or not (tests compare the two).
+  void sum_log_p_shifted(std::span<const double> x, std::span<const double> y,
+                         std::span<const double> dx, std::span<const double> dy, std::size_t stride,
+                         std::span<double> out, bool simd) const {
+    const std::size_t n = x.size();
+    if (y.size() != n || out.size() != n || dy.size() != dx.size() || stride == 0)
+      throw std::invalid_argument(
+          "sum_log_p_shifted: one x, y and out per position, one dy per dx, a stride above 0");
+    std::size_t k = 0;
+#ifdef LOCSIM_SDK_X86_DISPATCH
+    if (simd && index_fits_int32()) {
+      k = n - n % 4;
+      sum_shifted_four_avx2(x.data(), y.data(), k, dx, dy, stride, out.data());
+    }
+#else
+    (void)simd;
+#endif
+    for (; k < n; ++k) {
+      double sum = 0.0;
+      for (std::size_t i = 0; i < dx.size(); i += stride) sum += log_p(x[k] + dx[i], y[k] + dy[i]);
+      out[k] = sum;
     }
   }
   /// Whether this processor runs sum_log_p's four-pose path.
@@ -263,6 +319,45 @@ class LikelihoodField {
         sum = _mm_add_ps(sum, _mm_mask_i32gather_ps(off_map, log_p_.data(), index, mask, 4));
       }
       _mm256_storeu_pd(out + k, _mm256_cvtps_pd(sum));
+    }
+  }
+#endif
+
+#ifdef LOCSIM_SDK_X86_DISPATCH
+  /// Positions 0..count-1 (count a multiple of four), four at a time: each lane is one position
+  /// going through log_p's operations, accumulated as the one-position loop does.
+  __attribute__((target("avx2"))) void sum_shifted_four_avx2(
+      const double* x, const double* y, std::size_t count, std::span<const double> dx,
+      std::span<const double> dy, std::size_t stride, double* out) const {
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d origin_x = _mm256_set1_pd(origin_x_), origin_y = _mm256_set1_pd(origin_y_);
+    const __m256d inv_resolution = _mm256_set1_pd(inv_resolution_);
+    const __m256d fwidth = _mm256_set1_pd(static_cast<double>(width_));
+    const __m256d fheight = _mm256_set1_pd(static_cast<double>(height_));
+    const __m128i row_stride = _mm_set1_epi32(static_cast<std::int32_t>(width_));
+    const __m128 off_map = _mm_set1_ps(log_off_map_);
+    for (std::size_t k = 0; k < count; k += 4) {
+      const __m256d px = _mm256_loadu_pd(x + k), py = _mm256_loadu_pd(y + k);
+      __m256d sum = zero;
+      for (std::size_t i = 0; i < dx.size(); i += stride) {
+        const __m256d gx = _mm256_mul_pd(
+            _mm256_sub_pd(_mm256_add_pd(px, _mm256_set1_pd(dx[i])), origin_x), inv_resolution);
+        const __m256d gy = _mm256_mul_pd(
+            _mm256_sub_pd(_mm256_add_pd(py, _mm256_set1_pd(dy[i])), origin_y), inv_resolution);
+        const __m256d on_map = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(gx, zero, _CMP_GE_OQ), _mm256_cmp_pd(gy, zero, _CMP_GE_OQ)),
+            _mm256_and_pd(_mm256_cmp_pd(gx, fwidth, _CMP_LT_OQ),
+                          _mm256_cmp_pd(gy, fheight, _CMP_LT_OQ)));
+        const __m128i col = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gx));
+        const __m128i row = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gy));
+        const __m128i index = _mm_add_epi32(_mm_mullo_epi32(row, row_stride), col);
+        const __m128 mask = _mm_shuffle_ps(_mm256_castps256_ps128(_mm256_castpd_ps(on_map)),
+                                           _mm256_extractf128_ps(_mm256_castpd_ps(on_map), 1),
+                                           _MM_SHUFFLE(2, 0, 2, 0));
+        sum = _mm256_add_pd(
+            sum, _mm256_cvtps_pd(_mm_mask_i32gather_ps(off_map, log_p_.data(), index, mask, 4)));
+      }
+      _mm256_storeu_pd(out + k, sum);
     }
   }
 #endif

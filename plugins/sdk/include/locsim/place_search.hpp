@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstddef>
 #include <numbers>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -96,14 +97,21 @@ class PlaceSearch {
                          static_cast<std::size_t>(col)]) *
             grid.resolution_m;
         if (clearance < def.clearance_m || !free.possible(x, y)) continue;
-        positions_.emplace_back(x, y);
+        positions_x_.push_back(x);
+        positions_y_.push_back(y);
       }
     }
   }
 
   const PlaceSearchDef& def() const { return def_; }
   /// Candidate positions of the lattice.
-  std::size_t positions() const { return positions_.size(); }
+  std::size_t positions() const { return positions_x_.size(); }
+  /// Candidate position i (x, y) [m] and candidate heading h [rad] of the lattice, in the order
+  /// the search weighs them (position after position, each at every heading).
+  std::pair<double, double> position(std::size_t i) const {
+    return {positions_x_.at(i), positions_y_.at(i)};
+  }
+  double heading(std::size_t h) const { return heading_of(h); }
 
   /// Whether two poses are different places (distinct_m apart, or distinct_deg turned).
   bool distinct(const Pose& a, const Pose& b) const {
@@ -131,39 +139,95 @@ class PlaceSearch {
       for (std::size_t i = 0; i < n; ++i)
         tx[h * n + i] = c * x[i] - s * y[i], ty[h * n + i] = s * x[i] + c * y[i];
     }
-    const auto weigh = [&](double px, double py, std::size_t h, std::size_t stride) {
-      double sum = 0.0;
-      for (std::size_t i = 0; i < n; i += stride)
-        sum += smooth_.log_p(px + tx[h * n + i], py + ty[h * n + i]);
-      return sum;
-    };
+    const std::size_t positions = positions_x_.size();
+    // The turned end points of heading h.
+    const auto turned_x = [&](std::size_t h) { return std::span(tx).subspan(h * n, n); };
+    const auto turned_y = [&](std::size_t h) { return std::span(ty).subspan(h * n, n); };
+    // The coarse pass keeps a score and a lattice index (position * headings + heading) per pose,
+    // 16 bytes, not the pose: a large map has a few hundred thousand. The index grows in the
+    // lattice's order, so ordering by (score descending, index ascending) is the stable order.
     struct Candidate {
-      Pose pose;
-      std::size_t heading;
       double score;
+      std::size_t index;
+    };
+    const auto better = [](const Candidate& a, const Candidate& b) {
+      return a.score > b.score || (a.score == b.score && a.index < b.index);
+    };
+    const auto pose_of = [&](std::size_t index) {
+      return Pose(positions_x_[index / headings], positions_y_[index / headings],
+                  heading_of(index % headings));
+    };
+    // Only the best share of the lattice goes on to the second pass. They are selected as the
+    // poses are weighed, in a buffer of twice the most that can be kept (the share of the whole
+    // lattice), cut back to the best half whenever it fills: the same poses as a sort of all of
+    // them cut to the share of those weighed (the selection was most of the search's time, and
+    // the full list, megabytes, was paged in afresh at every search).
+    const std::size_t most_kept = std::max(
+        {std::size_t{1}, def_.second_pass_min, positions * headings / def_.second_pass_share});
+    const auto keep_best = [&](std::vector<Candidate>& list, std::size_t kept) {
+      if (list.size() <= kept) return;
+      std::nth_element(list.begin(), list.begin() + static_cast<std::ptrdiff_t>(kept), list.end(),
+                       better);
+      list.resize(kept);
     };
     std::vector<Candidate> coarse;
-    for (const auto& [px, py] : positions_) {
+    coarse.reserve(std::min(2 * most_kept, positions * headings));
+    std::size_t weighed = 0;
+    // Positions a block at a time: each heading's end points tried at all of the block's positions
+    // in one pass (four at a time with AVX2), then the poses taken in the lattice's order.
+    constexpr std::size_t kBlock = 64;
+    std::vector<double> scores(kBlock * headings);
+    for (std::size_t start = 0; start < positions; start += kBlock) {
+      const std::size_t m = std::min(kBlock, positions - start);
+      const auto block_x = std::span(positions_x_).subspan(start, m);
+      const auto block_y = std::span(positions_y_).subspan(start, m);
       for (std::size_t h = 0; h < headings; ++h) {
-        const Pose pose(px, py, heading_of(h));
-        if (skip(pose)) continue;
-        coarse.push_back({pose, h, weigh(px, py, h, sparse)});
+        smooth_.sum_log_p_shifted(block_x, block_y, turned_x(h), turned_y(h), sparse,
+                                  std::span(scores).subspan(h * kBlock, m));
+      }
+      for (std::size_t k = 0; k < m; ++k) {
+        for (std::size_t h = 0; h < headings; ++h) {
+          if (skip(Pose(block_x[k], block_y[k], heading_of(h)))) continue;
+          coarse.push_back({scores[h * kBlock + k], (start + k) * headings + h});
+          ++weighed;
+          if (coarse.size() == 2 * most_kept) keep_best(coarse, most_kept);
+        }
       }
     }
-    const auto best_first = [](const Candidate& a, const Candidate& b) {
-      return a.score > b.score;
-    };
-    std::stable_sort(coarse.begin(), coarse.end(), best_first);
-    coarse.resize(std::min(coarse.size(),
-                           std::max(def_.second_pass_min, coarse.size() / def_.second_pass_share)));
-    for (Candidate& c : coarse) c.score = weigh(c.pose(0), c.pose(1), c.heading, dense);
-    std::stable_sort(coarse.begin(), coarse.end(), best_first);
+    keep_best(coarse, std::max(def_.second_pass_min, weighed / def_.second_pass_share));
+    std::sort(coarse.begin(), coarse.end(), better);
+    // Rescored on more end points, heading by heading (a heading's positions in one pass, four
+    // at a time); equal new scores keep the coarse order.
+    std::vector<std::size_t> first_of_heading(headings + 1, 0), by_heading(coarse.size());
+    for (const Candidate& c : coarse) ++first_of_heading[c.index % headings + 1];
+    for (std::size_t h = 0; h < headings; ++h) first_of_heading[h + 1] += first_of_heading[h];
+    {
+      std::vector<std::size_t> next(first_of_heading.begin(), first_of_heading.end() - 1);
+      for (std::size_t k = 0; k < coarse.size(); ++k)
+        by_heading[next[coarse[k].index % headings]++] = k;
+    }
+    std::vector<double> heading_x, heading_y, heading_scores;
+    for (std::size_t h = 0; h < headings; ++h) {
+      heading_x.clear(), heading_y.clear();
+      for (std::size_t j = first_of_heading[h]; j < first_of_heading[h + 1]; ++j) {
+        const std::size_t p = coarse[by_heading[j]].index / headings;
+        heading_x.push_back(positions_x_[p]), heading_y.push_back(positions_y_[p]);
+      }
+      heading_scores.resize(heading_x.size());
+      smooth_.sum_log_p_shifted(heading_x, heading_y, turned_x(h), turned_y(h), dense,
+                                heading_scores);
+      for (std::size_t j = first_of_heading[h]; j < first_of_heading[h + 1]; ++j)
+        coarse[by_heading[j]].score = heading_scores[j - first_of_heading[h]];
+    }
+    std::stable_sort(coarse.begin(), coarse.end(),
+                     [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
     std::vector<ScoredPose> picked;
     for (const Candidate& c : coarse) {
       if (picked.size() == count) break;
+      const Pose pose = pose_of(c.index);
       if (std::all_of(picked.begin(), picked.end(),
-                      [&](const ScoredPose& p) { return distinct(p.pose, c.pose); }))
-        picked.push_back({c.pose, c.score});
+                      [&](const ScoredPose& p) { return distinct(p.pose, pose); }))
+        picked.push_back({pose, c.score});
     }
     return picked;
   }
@@ -183,7 +247,7 @@ class PlaceSearch {
 
   PlaceSearchDef def_;
   LikelihoodField smooth_;
-  std::vector<std::pair<double, double>> positions_;
+  std::vector<double> positions_x_, positions_y_;
 };
 
 }  // namespace locsim::sdk
