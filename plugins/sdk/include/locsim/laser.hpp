@@ -283,17 +283,38 @@ class LikelihoodField {
   }
 
 #ifdef LOCSIM_SDK_X86_DISPATCH
+  /// log p at four grid coordinates (cells, as doubles), log_off_map_ in the lanes off the map:
+  /// log_p's lookup four lanes at a time. Inlined into both AVX2 loops, where the compiler hoists
+  /// the constants out of the loops.
+  __attribute__((target("avx2"), always_inline)) __m128 gather_log_p_avx2(__m256d gx,
+                                                                          __m256d gy) const {
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d fwidth = _mm256_set1_pd(static_cast<double>(width_));
+    const __m256d fheight = _mm256_set1_pd(static_cast<double>(height_));
+    const __m256d on_map = _mm256_and_pd(
+        _mm256_and_pd(_mm256_cmp_pd(gx, zero, _CMP_GE_OQ), _mm256_cmp_pd(gy, zero, _CMP_GE_OQ)),
+        _mm256_and_pd(_mm256_cmp_pd(gx, fwidth, _CMP_LT_OQ),
+                      _mm256_cmp_pd(gy, fheight, _CMP_LT_OQ)));
+    // Off-map lanes are zeroed before the conversion (no overflow) and masked in the gather.
+    const __m128i col = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gx));
+    const __m128i row = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gy));
+    const __m128i index =
+        _mm_add_epi32(_mm_mullo_epi32(row, _mm_set1_epi32(static_cast<std::int32_t>(width_))), col);
+    // The four 64-bit masks as four 32-bit ones: the low half of each.
+    const __m128 mask =
+        _mm_shuffle_ps(_mm256_castps256_ps128(_mm256_castpd_ps(on_map)),
+                       _mm256_extractf128_ps(_mm256_castpd_ps(on_map), 1), _MM_SHUFFLE(2, 0, 2, 0));
+    return _mm_mask_i32gather_ps(_mm_set1_ps(log_off_map_), log_p_.data(), index, mask, 4);
+  }
+#endif
+
+#ifdef LOCSIM_SDK_X86_DISPATCH
   /// Poses 0..count-1 of the block (count a multiple of four), four at a time: the lanes of each
   /// vector are four poses, each going through sum_one_pose's operations in its order.
   __attribute__((target("avx2"))) void sum_four_poses_avx2(const Block& p, std::size_t count,
                                                            std::span<const double> ex,
                                                            std::span<const double> ey,
                                                            double* out) const {
-    const __m256d zero = _mm256_setzero_pd();
-    const __m256d fwidth = _mm256_set1_pd(static_cast<double>(width_));
-    const __m256d fheight = _mm256_set1_pd(static_cast<double>(height_));
-    const __m128i stride = _mm_set1_epi32(static_cast<std::int32_t>(width_));
-    const __m128 off_map = _mm_set1_ps(log_off_map_);
     for (std::size_t k = 0; k < count; k += 4) {
       const __m256d px = _mm256_loadu_pd(p.px + k), py = _mm256_loadu_pd(p.py + k);
       const __m256d cx = _mm256_loadu_pd(p.cx + k), sx = _mm256_loadu_pd(p.sx + k);
@@ -304,19 +325,7 @@ class LikelihoodField {
             _mm256_sub_pd(_mm256_add_pd(px, _mm256_mul_pd(cx, bx)), _mm256_mul_pd(sx, by));
         const __m256d gy =
             _mm256_add_pd(_mm256_add_pd(py, _mm256_mul_pd(sx, bx)), _mm256_mul_pd(cx, by));
-        const __m256d on_map = _mm256_and_pd(
-            _mm256_and_pd(_mm256_cmp_pd(gx, zero, _CMP_GE_OQ), _mm256_cmp_pd(gy, zero, _CMP_GE_OQ)),
-            _mm256_and_pd(_mm256_cmp_pd(gx, fwidth, _CMP_LT_OQ),
-                          _mm256_cmp_pd(gy, fheight, _CMP_LT_OQ)));
-        // Off-map lanes are zeroed before the conversion (no overflow) and masked in the gather.
-        const __m128i col = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gx));
-        const __m128i row = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gy));
-        const __m128i index = _mm_add_epi32(_mm_mullo_epi32(row, stride), col);
-        // The four 64-bit masks as four 32-bit ones: the low half of each.
-        const __m128 mask = _mm_shuffle_ps(_mm256_castps256_ps128(_mm256_castpd_ps(on_map)),
-                                           _mm256_extractf128_ps(_mm256_castpd_ps(on_map), 1),
-                                           _MM_SHUFFLE(2, 0, 2, 0));
-        sum = _mm_add_ps(sum, _mm_mask_i32gather_ps(off_map, log_p_.data(), index, mask, 4));
+        sum = _mm_add_ps(sum, gather_log_p_avx2(gx, gy));
       }
       _mm256_storeu_pd(out + k, _mm256_cvtps_pd(sum));
     }
@@ -332,10 +341,6 @@ class LikelihoodField {
     const __m256d zero = _mm256_setzero_pd();
     const __m256d origin_x = _mm256_set1_pd(origin_x_), origin_y = _mm256_set1_pd(origin_y_);
     const __m256d inv_resolution = _mm256_set1_pd(inv_resolution_);
-    const __m256d fwidth = _mm256_set1_pd(static_cast<double>(width_));
-    const __m256d fheight = _mm256_set1_pd(static_cast<double>(height_));
-    const __m128i row_stride = _mm_set1_epi32(static_cast<std::int32_t>(width_));
-    const __m128 off_map = _mm_set1_ps(log_off_map_);
     for (std::size_t k = 0; k < count; k += 4) {
       const __m256d px = _mm256_loadu_pd(x + k), py = _mm256_loadu_pd(y + k);
       __m256d sum = zero;
@@ -344,18 +349,7 @@ class LikelihoodField {
             _mm256_sub_pd(_mm256_add_pd(px, _mm256_set1_pd(dx[i])), origin_x), inv_resolution);
         const __m256d gy = _mm256_mul_pd(
             _mm256_sub_pd(_mm256_add_pd(py, _mm256_set1_pd(dy[i])), origin_y), inv_resolution);
-        const __m256d on_map = _mm256_and_pd(
-            _mm256_and_pd(_mm256_cmp_pd(gx, zero, _CMP_GE_OQ), _mm256_cmp_pd(gy, zero, _CMP_GE_OQ)),
-            _mm256_and_pd(_mm256_cmp_pd(gx, fwidth, _CMP_LT_OQ),
-                          _mm256_cmp_pd(gy, fheight, _CMP_LT_OQ)));
-        const __m128i col = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gx));
-        const __m128i row = _mm256_cvttpd_epi32(_mm256_and_pd(on_map, gy));
-        const __m128i index = _mm_add_epi32(_mm_mullo_epi32(row, row_stride), col);
-        const __m128 mask = _mm_shuffle_ps(_mm256_castps256_ps128(_mm256_castpd_ps(on_map)),
-                                           _mm256_extractf128_ps(_mm256_castpd_ps(on_map), 1),
-                                           _MM_SHUFFLE(2, 0, 2, 0));
-        sum = _mm256_add_pd(
-            sum, _mm256_cvtps_pd(_mm_mask_i32gather_ps(off_map, log_p_.data(), index, mask, 4)));
+        sum = _mm256_add_pd(sum, _mm256_cvtps_pd(gather_log_p_avx2(gx, gy)));
       }
       _mm256_storeu_pd(out + k, sum);
     }
