@@ -2,7 +2,9 @@
 // field of view, pan limits, slip and kidnapping as the sensors see them; faults.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 
 #include "sim/sensors/models.hpp"
@@ -753,6 +755,18 @@ TEST(StaticRaycaster, AgreesWithBox2dOnTheOfficeMap) {
   EXPECT_GT(compared, 2000);
 }
 
+/// A dynamic body (no fixture yet) at a random place within spread_m of the origin, turned at
+/// random.
+b2Body* scattered_body(b2World& world, RandomStream& rng, double spread_m) {
+  b2BodyDef def;
+  def.type = b2_dynamicBody;
+  const double x = rng.uniform(-spread_m, spread_m);
+  const double y = rng.uniform(-spread_m, spread_m);
+  def.position.Set(static_cast<float>(x), static_cast<float>(y));
+  def.angle = static_cast<float>(rng.uniform(-3.0, 3.0));
+  return world.CreateBody(&def);
+}
+
 // A laser's broad phase (SceneRays::fan_candidates) keeps, for every beam, each moving body that
 // beam can hit, in order: each beam's range is the same double as when testing every body, for
 // fans of every shape, origins inside a body, an ignored body, fans crossing +-180 deg. And it
@@ -762,12 +776,7 @@ TEST(SceneRays, FanCandidatesGiveTheSameRangesAsTestingEveryBody) {
   RandomStream rng = make_stream(7, "fan");
   std::vector<DynamicOccluder> occluders;
   for (int i = 0; i < 120; ++i) {
-    b2BodyDef def;
-    def.type = b2_dynamicBody;
-    def.position.Set(static_cast<float>(rng.uniform(-20.0, 20.0)),
-                     static_cast<float>(rng.uniform(-20.0, 20.0)));
-    def.angle = static_cast<float>(rng.uniform(-3.0, 3.0));
-    b2Body* body = world.CreateBody(&def);
+    b2Body* body = scattered_body(world, rng, 20.0);
     double radius_m = 0.0;
     if (i % 2 == 0) {
       b2CircleShape circle;
@@ -813,6 +822,85 @@ TEST(SceneRays, FanCandidatesGiveTheSameRangesAsTestingEveryBody) {
   }
   EXPECT_GT(hits_on_bodies, 500u);  // the bodies are seen: the comparison means something
   EXPECT_LT(static_cast<double>(tested), 0.1 * static_cast<double>(beams_cast * occluders.size()));
+}
+
+// While the sensors sample, SceneRays files the moving bodies in a grid (SceneRays::Indexed) and
+// a ray tests only the bodies in the cells it crosses: every answer (casts past an ignored body,
+// lines of sight in 2D and 3D, a laser's fan) is the same as testing every body, for a crowd with
+// disabled bodies, rays starting inside bodies and outside the crowd, rays of every length.
+TEST(SceneRays, IndexedQueriesGiveTheSameAnswersAsTestingEveryBody) {
+  for (const bool stragglers : {false, true}) {
+    SCOPED_TRACE(stragglers ? "with stragglers" : "a crowd");
+    b2World world(b2Vec2(0.0f, 0.0f));
+    RandomStream rng = make_stream(11, "index");
+    std::vector<DynamicOccluder> occluders;
+    for (int i = 0; i < 150; ++i) {
+      // A crowd (cells of about 2.5 m, each body filed in one to four), then with a few stragglers
+      // far off (cells of 16 m: coarse, and still the same answers).
+      b2Body* body = scattered_body(world, rng, stragglers && i % 50 == 49 ? 200.0 : 15.0);
+      b2PolygonShape box;
+      const double hx = rng.uniform(0.1, 0.6), hy = rng.uniform(0.1, 0.4);
+      box.SetAsBox(static_cast<float>(hx), static_cast<float>(hy));
+      body->CreateFixture(&box, 1.0f);
+      if (i % 17 == 0) body->SetEnabled(false);  // carried: seen by nothing
+      occluders.push_back({body, rng.uniform(0.3, 2.0), std::hypot(hx, hy)});
+    }
+    const StaticRaycaster statics({{{-18, -18}, {18, -18}}, {{18, -18}, {18, 18}}}, {});
+    SceneRays rays(statics, occluders);
+    struct Answers {
+      std::vector<double> casts;
+      std::vector<bool> blocked;
+    };
+    const auto ask = [&](RandomStream queries) {
+      Answers answers;
+      FanCandidates fan;
+      for (int q = 0; q < 3000; ++q) {
+        const bool inside = q % 10 == 0;
+        const Vec2 a = inside ? from_b2(occluders[q % occluders.size()].body->GetPosition())
+                              : Vec2{queries.uniform(-25.0, 25.0), queries.uniform(-25.0, 25.0)};
+        const double length_m = std::vector<double>{0.5, 4.0, 12.0, 60.0}[q % 4];
+        const double angle = queries.uniform(-std::numbers::pi, std::numbers::pi);
+        const Vec2 d{std::cos(angle), std::sin(angle)};
+        const b2Body* ignore = q % 3 == 0 ? occluders[(q * 7) % occluders.size()].body : nullptr;
+        answers.casts.push_back(rays.cast(a, d, length_m, ignore));
+        answers.blocked.push_back(rays.blocked(a, a + length_m * d, ignore));
+        answers.blocked.push_back(rays.blocked(a, queries.uniform(0.0, 2.0), a + length_m * d,
+                                               queries.uniform(0.0, 2.5), ignore));
+        if (q % 50 == 0) {
+          std::vector<double> angles;
+          for (int i = 0; i < 181; ++i) angles.push_back(laser_beam_angle(i, 181, 4.0));
+          rays.fan_candidates(a, angle, angles, length_m, ignore, fan);
+          for (int i = 0; i < 181; ++i) {
+            const Vec2 beam{std::cos(angle + angles[i]), std::sin(angle + angles[i])};
+            answers.casts.push_back(rays.cast(a, beam, length_m, fan.of(i)));
+          }
+        }
+      }
+      return answers;
+    };
+    ASSERT_FALSE(rays.indexed());
+    const Answers every_body = ask(make_stream(3, "queries"));
+    Answers through_grid;
+    {
+      const SceneRays::Indexed indexed(rays);
+      ASSERT_TRUE(rays.indexed());
+      through_grid = ask(make_stream(3, "queries"));
+    }
+    EXPECT_FALSE(rays.indexed());  // nothing may use positions the bodies have left
+    ASSERT_EQ(every_body.casts.size(), through_grid.casts.size());
+    std::size_t on_bodies = 0;
+    for (std::size_t i = 0; i < every_body.casts.size(); ++i) {
+      ASSERT_EQ(every_body.casts[i], through_grid.casts[i]) << "query " << i;
+      on_bodies += every_body.casts[i] < kNoHit;
+    }
+    EXPECT_EQ(every_body.blocked, through_grid.blocked);
+    const auto blocked_count =
+        std::count(every_body.blocked.begin(), every_body.blocked.end(), true);
+    // Both answers occur often: the comparison means something.
+    EXPECT_GT(on_bodies, 2000u);
+    EXPECT_GT(blocked_count, 1000);
+    EXPECT_LT(blocked_count, static_cast<std::ptrdiff_t>(every_body.blocked.size()) - 1000);
+  }
 }
 
 // ----------------------------------------------------------------------------------- faults

@@ -88,11 +88,13 @@ RunRecorder::RunRecorder(const RunFolder& folder, const WorldDef& world,
   }
   readings_.resize(world.robots.size());
   reports_velocity_.assign(world.robots.size(), false);
+  // The world as JSON once, not once per robot (a 100-robot fleet spent most of its start there).
+  const json world_json = readings ? to_json(world) : json();
   for (std::size_t i = 0; readings && i < world.robots.size(); ++i) {
     const SensorsDef& sensors = world.robots[i].sensors;
     const auto enabled = [&](SensorKind kind) { return sensor_enabled(sensors, kind); };
     if (std::none_of(kSensorKinds.begin(), kSensorKinds.end(), enabled)) continue;
-    const json config = to_json(world)["robots"][i]["sensors"];
+    const json& config = world_json.at("robots").at(i).at("sensors");
     const fs::path dir = folder.robot_dirs[i] / "readings";
     fs::create_directories(dir);
     // By SensorKind. The odometry's velocity columns only when the encoders report it: the

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <iterator>
+#include <optional>
 
 #include "sim/common/errors.hpp"
 #include "sim/sensors/models.hpp"
@@ -131,6 +132,9 @@ void Simulation::run_sensors(bool physics_stepped) {
   // Most steps only integrate (encoders, IMU between samples): too little work to share.
   const bool samples = std::any_of(sample_strides_.begin(), sample_strides_.end(),
                                    [&](std::int64_t s) { return step_index_ % s == 0; });
+  // Sampling sensors cast rays; nothing moves until they are done (between physics steps).
+  std::optional<SceneRays::Indexed> indexed;
+  if (samples) indexed.emplace(*rays_);
   if (!parallel_ || !samples) {
     for (std::size_t i = 0; i < robots_.size(); ++i)
       run_robot_sensors(i, physics_stepped, readings_);

@@ -2,7 +2,10 @@
 // static ray caster against Box2D's general ray cast.
 #include <benchmark/benchmark.h>
 
+#include <array>
+#include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "sim/producers/simulation.hpp"
 #include "sim/scenario/scenario_loader.hpp"
@@ -102,6 +105,51 @@ BENCHMARK_CAPTURE(BM_RaySweep, demo_grid, "worlds/demo/demo.yaml", false);
 BENCHMARK_CAPTURE(BM_RaySweep, demo_box2d, "worlds/demo/demo.yaml", true);
 BENCHMARK_CAPTURE(BM_RaySweep, office_map_grid, "worlds/maps/office_world.yaml", false);
 BENCHMARK_CAPTURE(BM_RaySweep, office_map_box2d, "worlds/maps/office_world.yaml", true);
+
+/// Lines of sight through a crowd: `bodies` robot-sized boxes scattered over a 30 m room, each
+/// query a 3D line from a random point to one of four beacons at the room's corners (what the
+/// ultrasonic sensor asks per receiver and beacon), testing every body or through the moving
+/// bodies' grid (SceneRays::Indexed, rebuilt once per 100 queries, as the sensors of a 100-robot
+/// fleet sample about as many between physics steps). Same answers either way (a test checks).
+void BM_CrowdLineOfSight(benchmark::State& state) {
+  const auto bodies = static_cast<int>(state.range(0));
+  const bool indexed = state.range(1) != 0;
+  b2World world(b2Vec2(0.0f, 0.0f));
+  RandomStream rng = make_stream(1, "crowd");
+  std::vector<DynamicOccluder> occluders;
+  for (int i = 0; i < bodies; ++i) {
+    b2BodyDef def;
+    def.type = b2_dynamicBody;
+    def.position.Set(static_cast<float>(rng.uniform(0.5, 29.5)),
+                     static_cast<float>(rng.uniform(0.5, 29.5)));
+    b2Body* body = world.CreateBody(&def);
+    b2PolygonShape box;
+    box.SetAsBox(0.2f, 0.15f);
+    body->CreateFixture(&box, 1.0f);
+    occluders.push_back({body, 0.5, std::hypot(0.2, 0.15)});
+  }
+  const StaticRaycaster statics(
+      {{{0, 0}, {30, 0}}, {{30, 0}, {30, 30}}, {{30, 30}, {0, 30}}, {{0, 30}, {0, 0}}}, {});
+  SceneRays rays(statics, occluders);
+  const std::array<Vec2, 4> beacons{Vec2{0.1, 0.1}, Vec2{29.9, 0.1}, Vec2{0.1, 29.9},
+                                    Vec2{29.9, 29.9}};
+  std::int64_t queries = 0, blocked = 0;
+  for (auto _ : state) {
+    std::optional<SceneRays::Indexed> index;
+    if (indexed) index.emplace(rays);
+    for (int q = 0; q < 100; ++q) {
+      const Vec2 at{rng.uniform(0.5, 29.5), rng.uniform(0.5, 29.5)};
+      blocked += rays.blocked(at, 0.3, beacons[q % 4], 2.5, nullptr);
+    }
+    queries += 100;
+  }
+  benchmark::DoNotOptimize(blocked);
+  state.counters["queries_per_s"] =
+      benchmark::Counter(static_cast<double>(queries), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CrowdLineOfSight)
+    ->ArgNames({"bodies", "indexed"})
+    ->ArgsProduct({{10, 100, 1000}, {0, 1}});
 
 }  // namespace
 
