@@ -11,6 +11,7 @@
 #include <limits>
 #include <locsim/laser.hpp>
 #include <locsim/particles.hpp>
+#include <locsim/place_search.hpp>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
@@ -163,6 +164,73 @@ TEST(LikelihoodField, AScanTriedAtManyPositionsSumsAsPointByPoint) {
   EXPECT_THROW(
       field.sum_log_p_shifted(std::vector<double>{0.0}, std::vector<double>{0.0}, dx, dy, 0, one),
       std::invalid_argument);
+}
+
+TEST(LikelihoodField, AScanAtOnePoseHasLogPPointByPoint) {
+  // A search's objective: both paths give log_p's bits at each end point turned and moved to the
+  // pose; end points on and off the map, on cell edges, NaN, counts not a multiple of four.
+  std::vector<std::uint8_t> cells(120 * 90, 0);
+  std::mt19937_64 engine(5);
+  for (std::uint8_t& cell : cells) cell = engine() % 11 == 0 ? 100 : 0;
+  const locsim_occupancy_grid grid{-1.0, 0.5, 0.05, 120, 90, cells.data()};
+  const sdk::LikelihoodField field(grid, {});
+  std::uniform_real_distribution<double> reach(-5.0, 5.0), turn(-4.0, 4.0), at_x(-2.0, 6.0),
+      at_y(-0.5, 5.5);
+  for (const std::size_t n : {0u, 1u, 3u, 4u, 7u, 61u, 64u}) {
+    std::vector<double> ex, ey;
+    for (std::size_t b = 0; b < n; ++b) {
+      ex.push_back(b % 13 == 6 ? std::numeric_limits<double>::quiet_NaN() : reach(engine));
+      ey.push_back(b % 5 == 2 ? 0.05 * static_cast<double>(b) : reach(engine));
+    }
+    for (int pose = 0; pose < 20; ++pose) {
+      const double x = pose == 0 ? -1.0 : at_x(engine), y = pose == 0 ? 0.5 : at_y(engine);
+      const double theta = pose == 0 ? 0.0 : turn(engine);
+      const double c = std::cos(theta), s = std::sin(theta);
+      std::vector<float> scalar(n), simd(n);
+      field.log_p_at(x, y, c, s, ex, ey, scalar, false);
+      field.log_p_at(x, y, c, s, ex, ey, simd, sdk::LikelihoodField::simd_available());
+      for (std::size_t b = 0; b < n; ++b) {
+        const float expected = field.log_p(x + c * ex[b] - s * ey[b], y + s * ex[b] + c * ey[b]);
+        ASSERT_EQ(std::bit_cast<std::uint32_t>(scalar[b]), std::bit_cast<std::uint32_t>(expected))
+            << b << " of " << n << ", pose " << pose;
+        ASSERT_EQ(std::bit_cast<std::uint32_t>(simd[b]), std::bit_cast<std::uint32_t>(expected))
+            << b << " of " << n << ", pose " << pose;
+      }
+    }
+  }
+  std::vector<float> two(2);
+  EXPECT_THROW(
+      field.log_p_at(0.0, 0.0, 1.0, 0.0, std::vector<double>{0.0}, std::vector<double>{0.0}, two),
+      std::invalid_argument);
+}
+
+TEST(PlaceSearch, DistinctPlacesAreHypotsAnswerAtTheBoundaryToo) {
+  // distinct() decides most pairs from the squared length; it must agree with hypot everywhere,
+  // on pairs a hair either side of the distance too.
+  std::vector<std::uint8_t> cells(40 * 40, 0);
+  const locsim_occupancy_grid grid{0.0, 0.0, 0.05, 40, 40, cells.data()};
+  std::mt19937_64 engine(9);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const double d : {1.0, 0.3, 7.5, 0.0, -1.0, 1e-160, 1e160}) {
+    sdk::PlaceSearchDef def;
+    def.distinct_m = d;
+    def.distinct_deg = 360.0;  // headings never tell two places apart here
+    const sdk::PlaceSearch search(grid, def);
+    for (int i = 0; i < 20000; ++i) {
+      const double ax = 10.0 * unit(engine) - 5.0, ay = 10.0 * unit(engine) - 5.0;
+      const double phi = 2.0 * std::numbers::pi * unit(engine);
+      double length = std::abs(d) * (i % 2 == 0 ? 2.0 * unit(engine) : 1.0);
+      for (int ulps = i % 7 - 3; ulps > 0; --ulps) length = std::nextafter(length, 1e300);
+      for (int ulps = i % 7 - 3; ulps < 0; ++ulps) length = std::nextafter(length, 0.0);
+      const double bx = ax + length * std::cos(phi), by = ay + length * std::sin(phi);
+      const bool expected = std::hypot(ax - bx, ay - by) >= d;
+      ASSERT_EQ(search.distinct({ax, ay, 0.0}, {bx, by, 0.0}), expected)
+          << "d " << d << ", pair " << i;
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_EQ(search.distinct({nan, 0.0, 0.0}, {0.0, 0.0, 0.0}), std::hypot(nan, 0.0) >= d);
+    EXPECT_EQ(search.distinct({1e300, 0.0, 0.0}, {-1e300, 0.0, 0.0}), true);
+  }
 }
 
 TEST(Kld, NormalQuantileAndSampleCountMatchTheTables) {

@@ -327,11 +327,11 @@ class AmclFilter {
 
   /// log p(latest scan's chosen beams | pose).
   float scan_log_p(const sdk::Pose& pose) const {
-    const double c = std::cos(pose(2)), s = std::sin(pose(2));
+    scan_log_p_.resize(beam_x_.size());
+    field_.log_p_at(pose(0), pose(1), std::cos(pose(2)), std::sin(pose(2)), beam_x_, beam_y_,
+                    scan_log_p_);
     float sum = 0.0f;
-    for (std::size_t b = 0; b < beam_x_.size(); ++b)
-      sum += field_.log_p(pose(0) + c * beam_x_[b] - s * beam_y_[b],
-                          pose(1) + s * beam_x_[b] + c * beam_y_[b]);
+    for (const float v : scan_log_p_) sum += v;
     return sum;
   }
 
@@ -524,6 +524,7 @@ class AmclFilter {
   sdk::Pose odometry_at_search_ = sdk::Pose::Zero(), moved_since_search_ = sdk::Pose::Zero();
   sdk::Pose estimate_at_mark_ = sdk::Pose::Zero();  // the estimate moved to the latest update
   std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
+  mutable std::vector<float> scan_log_p_;  // scan_log_p's per-beam terms, storage reused
   sdk::PoseBins bins_;  // KLD sampling's in resample(), the clusters' in compute_estimate()
   static constexpr std::size_t kNoBin = sdk::PoseBins::kNone;
   sdk::OpenEndedDraws draws_;

@@ -33,12 +33,22 @@ Pose pose_of(const Pose2& p) {
   return {p.x, p.y, p.theta};
 }
 
-/// Sum of the log likelihoods of every end point seen from `pose`.
-double score(const sdk::LikelihoodField& f, const Pose& pose, const std::vector<Vec2>& points) {
-  const double c = std::cos(pose(2)), s = std::sin(pose(2));
+/// A scan's end points in the robot frame, one array per coordinate (the field's batch form).
+struct Scan {
+  std::vector<double> x, y;
+  explicit Scan(const std::vector<Vec2>& points) {
+    for (const Vec2& p : points) x.push_back(p.x()), y.push_back(p.y());
+  }
+};
+
+/// Sum of the log likelihoods of every end point seen from `pose`, in point order (`log_p`:
+/// storage reused between calls).
+double score(const sdk::LikelihoodField& f, const Pose& pose, const Scan& scan,
+             std::vector<float>& log_p) {
+  log_p.resize(scan.x.size());
+  f.log_p_at(pose(0), pose(1), std::cos(pose(2)), std::sin(pose(2)), scan.x, scan.y, log_p);
   double sum = 0.0;
-  for (const Vec2& p : points)
-    sum += f.log_p(pose(0) + c * p.x() - s * p.y(), pose(1) + s * p.x() + c * p.y());
+  for (const float v : log_p) sum += v;
   return sum;
 }
 
@@ -56,17 +66,17 @@ LaserPlaceVerdict LaserPlaceJudge::judge(const std::vector<LaserProbe>& probes) 
   // the later ones too, moved along the robot's true motion (the filter has its odometry).
   std::vector<Pose> relative;
   for (const LaserProbe& p : probes) relative.push_back(sdk::between(first, pose_of(p.truth)));
-  const auto first_scan = [&](const Pose& at) {
-    return score(sharp_, at, probes.front().end_points);
-  };
+  std::vector<Scan> scans;
+  for (const LaserProbe& p : probes) scans.emplace_back(p.end_points);
+  std::vector<float> log_p;
+  const auto first_scan = [&](const Pose& at) { return score(sharp_, at, scans.front(), log_p); };
   // Every end point of every scan, as independent as amcl's own model takes them: what the laser
   // tells apart is judged by the sensor model the filters on it use.
   const auto all_scans = [&](const Pose& at) {
     double sum = 0.0;
     for (std::size_t k = 0; k < probes.size(); ++k) {
-      const std::vector<Vec2>& points = probes[k].end_points;
-      if (points.empty()) continue;
-      sum += score(sharp_, sdk::compose(at, relative[k]), points);
+      if (scans[k].x.empty()) continue;
+      sum += score(sharp_, sdk::compose(at, relative[k]), scans[k], log_p);
     }
     return sum;
   };
@@ -78,10 +88,9 @@ LaserPlaceVerdict LaserPlaceJudge::judge(const std::vector<LaserProbe>& probes) 
   // seconds). The refinement ends at a 64th of its first step: a twin a few millimetres off its
   // best loses a few nats over 600 end points (an empty room's half turn refined to an eighth,
   // 3 mm: 7 nats, "told apart" by the refinement alone).
-  std::vector<double> x, y;
-  for (const Vec2& p : probes.front().end_points) x.push_back(p.x()), y.push_back(p.y());
   const std::vector<sdk::ScoredPose> picked =
-      search_.best(x, y, kCandidates, [&](const Pose& pose) { return !other_place(pose, first); });
+      search_.best(scans.front().x, scans.front().y, kCandidates,
+                   [&](const Pose& pose) { return !other_place(pose, first); });
   const double kFineM = 0.025, kFineRad = deg_to_rad(0.6);
   const double truth = sdk::ascend(first, all_scans, kFineM, kFineRad).second;
   double best_other = -std::numeric_limits<double>::infinity();

@@ -68,8 +68,11 @@ class Plugin final : public Probe {
 #elif defined(LOCSIM_TEST_NAN)
 /// From two seconds on, an estimate that is not one: by `mode`, a NaN position (the default,
 /// "fast"), a covariance that is not symmetric ("asymmetric") or one with a negative variance
-/// ("negative"); or one that is: a particle cloud collapsed onto one pose ("collapsed": zero
-/// variances, an off-diagonal pair of 0 and the smallest subnormal, as rounding leaves it).
+/// ("negative"), or whose x and y are correlated a little more than perfectly, an eigenvalue of
+/// -3e-6 ("beyond_tolerance": negative beyond the host's tolerance of 1e-6 of the largest
+/// variance); or one that is: a particle cloud collapsed onto one pose ("collapsed": zero
+/// variances, an off-diagonal pair of 0 and the smallest subnormal, as rounding leaves it), an
+/// eigenvalue of -8e-7 ("within_tolerance": rounding, as the host takes it).
 class Plugin final : public Probe {
  public:
   explicit Plugin(const locsim_init& init)
@@ -82,6 +85,9 @@ class Plugin final : public Probe {
       e.covariance(0, 1) = 0.5;
     } else if (mode_ == "negative") {
       e.covariance(2, 2) = -0.01;
+    } else if (mode_ == "beyond_tolerance" || mode_ == "within_tolerance") {
+      e.covariance(0, 1) = e.covariance(1, 0) =
+          mode_ == "beyond_tolerance" ? 1.0 + 3e-6 : 1.0 + 8e-7;
     } else if (mode_ == "collapsed") {
       e.covariance.setZero();
       e.covariance(0, 2) = -std::numeric_limits<double>::denorm_min();

@@ -223,6 +223,34 @@ class LikelihoodField {
       out[k] = sum;
     }
   }
+  /// log p of each end point (ex[b], ey[b]) of one scan in the robot frame, seen from one pose
+  /// (x, y in the world, heading cos_theta, sin_theta): out[b] = log_p(x + cos ex - sin ey,
+  /// y + sin ex + cos ey), those operations in that order, so the bits of log_p point by point.
+  /// A search's objective (a pose's fit to a scan, tried at pose after pose), four end points at
+  /// a time on AVX2; the caller sums them in its own order and precision.
+  void log_p_at(double x, double y, double cos_theta, double sin_theta, std::span<const double> ex,
+                std::span<const double> ey, std::span<float> out) const {
+    log_p_at(x, y, cos_theta, sin_theta, ex, ey, out, simd_available());
+  }
+  /// The same, with the four-point path allowed or not (tests compare the two).
+  void log_p_at(double x, double y, double cos_theta, double sin_theta, std::span<const double> ex,
+                std::span<const double> ey, std::span<float> out, bool simd) const {
+    const std::size_t n = ex.size();
+    if (ey.size() != n || out.size() != n)
+      throw std::invalid_argument("log_p_at: one ey and one out per ex");
+    std::size_t b = 0;
+#ifdef LOCSIM_SDK_X86_DISPATCH
+    if (simd && index_fits_int32()) {
+      b = n - n % 4;
+      log_p_four_points_avx2(x, y, cos_theta, sin_theta, ex.data(), ey.data(), b, out.data());
+    }
+#else
+    (void)simd;
+#endif
+    for (; b < n; ++b)
+      out[b] = log_p(x + cos_theta * ex[b] - sin_theta * ey[b],
+                     y + sin_theta * ex[b] + cos_theta * ey[b]);
+  }
   /// Whether this processor runs sum_log_p's four-pose path.
   static bool simd_available() {
 #ifdef LOCSIM_SDK_X86_DISPATCH
@@ -352,6 +380,30 @@ class LikelihoodField {
         sum = _mm256_add_pd(sum, _mm256_cvtps_pd(gather_log_p_avx2(gx, gy)));
       }
       _mm256_storeu_pd(out + k, sum);
+    }
+  }
+#endif
+
+#ifdef LOCSIM_SDK_X86_DISPATCH
+  /// End points 0..count-1 (count a multiple of four), four at a time: each lane is one end point
+  /// going through log_p_at's operations, then log_p's.
+  __attribute__((target("avx2"))) void log_p_four_points_avx2(double x, double y, double c,
+                                                              double s, const double* ex,
+                                                              const double* ey, std::size_t count,
+                                                              float* out) const {
+    const __m256d px = _mm256_set1_pd(x), py = _mm256_set1_pd(y);
+    const __m256d cx = _mm256_set1_pd(c), sx = _mm256_set1_pd(s);
+    const __m256d origin_x = _mm256_set1_pd(origin_x_), origin_y = _mm256_set1_pd(origin_y_);
+    const __m256d inv_resolution = _mm256_set1_pd(inv_resolution_);
+    for (std::size_t b = 0; b < count; b += 4) {
+      const __m256d bx = _mm256_loadu_pd(ex + b), by = _mm256_loadu_pd(ey + b);
+      const __m256d wx =
+          _mm256_sub_pd(_mm256_add_pd(px, _mm256_mul_pd(cx, bx)), _mm256_mul_pd(sx, by));
+      const __m256d wy =
+          _mm256_add_pd(_mm256_add_pd(py, _mm256_mul_pd(sx, bx)), _mm256_mul_pd(cx, by));
+      const __m256d gx = _mm256_mul_pd(_mm256_sub_pd(wx, origin_x), inv_resolution);
+      const __m256d gy = _mm256_mul_pd(_mm256_sub_pd(wy, origin_y), inv_resolution);
+      _mm_storeu_ps(out + b, gather_log_p_avx2(gx, gy));
     }
   }
 #endif

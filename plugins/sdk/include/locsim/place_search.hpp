@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <numbers>
 #include <span>
 #include <utility>
@@ -115,7 +116,7 @@ class PlaceSearch {
 
   /// Whether two poses are different places (distinct_m apart, or distinct_deg turned).
   bool distinct(const Pose& a, const Pose& b) const {
-    return std::hypot(a(0) - b(0), a(1) - b(1)) >= def_.distinct_m ||
+    return apart(a(0) - b(0), a(1) - b(1), def_.distinct_m) ||
            std::abs(wrap(a(2) - b(2))) >= def_.distinct_deg * std::numbers::pi / 180.0;
   }
 
@@ -246,6 +247,18 @@ class PlaceSearch {
   }
 
   PlaceSearchDef def_;
+  /// hypot(dx, dy) >= d, hypot's own answer, from the squared length where that is far from
+  /// d^2 (hypot is within an ulp of the exact length; a search asks this of every lattice pose).
+  static bool apart(double dx, double dy, double d) {
+    const double squared = dx * dx + dy * dy, d2 = d * d;
+    if (d > 0.0 && d2 >= std::numeric_limits<double>::min() &&
+        d2 <= std::numeric_limits<double>::max()) {
+      if (squared > d2 * (1.0 + 1e-9)) return true;
+      if (squared < d2 * (1.0 - 1e-9)) return false;
+    }
+    return std::hypot(dx, dy) >= d;  // near d; NaN; d 0, negative or beyond squaring
+  }
+
   LikelihoodField smooth_;
   std::vector<double> positions_x_, positions_y_;
 };
