@@ -6,7 +6,10 @@
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <stdexcept>
 
+#include "sim/common/files.hpp"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -27,6 +30,42 @@ void expect_failed_for_a_full_disk(const testing::Outcome& o, const fs::path& ru
   const json run = json::parse(testing::read_file(run_json));
   EXPECT_EQ(run["status"], "failed");
   EXPECT_NE(run["error"].get<std::string>().find(path), std::string::npos);
+}
+
+TEST(WritesAreChecked, AnOutputFileHoldsEveryWriteInOrderWhateverItsSize) {
+  // Rows of a few bytes to several buffers' worth (a laser row is 1-2 KiB, past which
+  // std::ofstream no longer buffers): after each flush the file is everything written so far.
+  const fs::path file = testing::temp_dir("output_file") / "rows.csv";
+  std::mt19937 engine(5);
+  std::string expected;
+  OutputFile out(file);
+  for (int row = 0; row < 400; ++row) {
+    const std::size_t length = row % 50 == 7
+                                   ? 3 * OutputFile::kBufferBytes / 2
+                                   : std::uniform_int_distribution<std::size_t>(0, 3000)(engine);
+    std::string text(length, static_cast<char>('a' + row % 26));
+    text += '\n';
+    out.write(text);
+    expected += text;
+    if (row % 97 == 0) {
+      out.flush();
+      EXPECT_EQ(testing::read_file(file), expected) << "row " << row;
+    }
+  }
+  out.close();
+  EXPECT_EQ(testing::read_file(file), expected);
+}
+
+TEST(WritesAreChecked, AnOutputFileThatFillsUpThrowsWithItsPathOnceItsBufferIsFull) {
+  OutputFile out("/dev/full", "the log ");
+  const std::string row(1000, 'x');
+  try {
+    for (std::size_t written = 0; written <= OutputFile::kBufferBytes; written += row.size())
+      out.write(row);
+    FAIL() << "a full buffer went to a full disk without an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), "cannot write the log /dev/full: No space left on device");
+  }
 }
 
 TEST(WritesAreChecked, ALogOntoAFullDiskFailsTheRun) {

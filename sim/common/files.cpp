@@ -66,4 +66,41 @@ void write_json_atomically(const fs::path& file, const nlohmann::ordered_json& c
   fs::rename(temporary, file);
 }
 
+OutputFile::OutputFile(fs::path path, std::string what)
+    : path_(std::move(path)),
+      what_(std::move(what)),
+      out_(path_, std::ios::binary | std::ios::trunc) {
+  check();
+  pending_.reserve(kBufferBytes);
+}
+
+OutputFile::~OutputFile() {
+  if (!pending_.empty() && out_.is_open())
+    out_.write(pending_.data(), static_cast<std::streamsize>(pending_.size()));
+}
+
+void OutputFile::check() {
+  if (!out_)
+    throw std::runtime_error("cannot write " + what_ + path_.string() + ": " +
+                             std::strerror(errno));
+}
+
+void OutputFile::write_pending() {
+  out_.write(pending_.data(), static_cast<std::streamsize>(pending_.size()));
+  pending_.clear();
+  check();
+}
+
+void OutputFile::flush() {
+  write_pending();
+  out_.flush();
+  check();
+}
+
+void OutputFile::close() {
+  write_pending();
+  out_.close();
+  check();
+}
+
 }  // namespace locsim

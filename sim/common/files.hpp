@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -25,5 +26,38 @@ void write_file(const std::filesystem::path& file, std::string_view content);
 /// Writes through a temporary file and a rename: a reader never sees half a file.
 void write_json_atomically(const std::filesystem::path& file,
                            const nlohmann::ordered_json& content);
+
+/// A file written as it goes (a run's CSV and TUM files, its log). Writes gather in a buffer of
+/// the file's own and go to the system kBufferBytes at a time, or at flush() and close(): a
+/// std::ofstream hands every write of 1 KiB or more to the system at once (a laser scan's row was
+/// a system call). What goes to the system is checked: a write that fails throws
+/// std::runtime_error naming the path (after `what`, e.g. "the log ") and the system's reason.
+class OutputFile {
+ public:
+  static constexpr std::size_t kBufferBytes = 64 << 10;
+
+  /// Creates (or empties) the file. Throws as above when it cannot.
+  explicit OutputFile(std::filesystem::path path, std::string what = "");
+  /// Hands on what is pending even when not closed (a run that unwinds from an error), as
+  /// std::ofstream does; unchecked, as a destructor cannot throw.
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+  void write(std::string_view text) {
+    pending_ += text;
+    if (pending_.size() >= kBufferBytes) write_pending();
+  }
+  /// Hands everything written so far to the system.
+  void flush();
+  void close();
+
+ private:
+  void write_pending();
+  void check();
+  std::filesystem::path path_;
+  std::string what_;
+  std::ofstream out_;
+  std::string pending_;
+};
 
 }  // namespace locsim

@@ -59,25 +59,6 @@ RunFolder RunFolder::create(const fs::path& root, const WorldDef& world, bool ov
   return folder;
 }
 
-OutputFile::OutputFile(fs::path path) : path_(std::move(path)), out_(path_, std::ios::binary) {
-  check();
-}
-
-void OutputFile::check() {
-  if (!out_)
-    throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(errno));
-}
-
-void OutputFile::flush() {
-  out_.flush();
-  check();
-}
-
-void OutputFile::close() {
-  out_.close();
-  check();
-}
-
 RunRecorder::RunRecorder(const RunFolder& folder, const WorldDef& world,
                          const std::vector<LocalizerInfo>& localizers, bool readings) {
   for (std::size_t i = 0; i < world.robots.size(); ++i) {

@@ -1,15 +1,16 @@
 // The run folder's recorder: a consumer of the record stream and of the localizers' estimates
 // that writes groundtruth.tum and readings/ (per robot), events.csv, and each localizer's
-// LABEL.tum, flushing often so that a crash or Ctrl-C keeps all but the last moments.
+// LABEL.tum, flushed as the session says (Session::flush_now_and_then: every 0.2 s of wall-clock
+// time), so that a run killed hard keeps all but its last moments.
 #pragma once
 
 #include <array>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "sim/common/files.hpp"
 #include "sim/stream/estimates.hpp"
 #include "sim/stream/record.hpp"
 #include "sim/world/world_def.hpp"
@@ -32,23 +33,6 @@ struct RunFolder {
   static RunFolder create(const std::filesystem::path& root, const WorldDef& world,
                           bool overwrite = false,
                           const std::vector<std::filesystem::path>& keep = {});
-};
-
-/// A file written as it goes; every write is checked (on flush and close): one that fails throws
-/// std::runtime_error naming the path and the system's reason.
-class OutputFile {
- public:
-  explicit OutputFile(std::filesystem::path path);
-  void write(std::string_view text) {
-    out_.write(text.data(), static_cast<std::streamsize>(text.size()));
-  }
-  void flush();
-  void close();
-
- private:
-  void check();
-  std::filesystem::path path_;
-  std::ofstream out_;
 };
 
 class RunRecorder final : public RecordConsumer, public EstimateConsumer {

@@ -118,14 +118,14 @@ Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
     track.all = ErrorAccumulator(criterion);
     track.segment = ErrorAccumulator(criterion);
   }
-  // The judge costs a distance transform of the map here and a search per kidnap: only when a
-  // filter's verdict needs it.
+  // The judge costs distance transforms of the map and a search per kidnap: only when a filter's
+  // verdict may need it (and built when one does, laser_verdict).
   if (grid != nullptr && grid->width > 0 && grid->height > 0 && any_laser && reads_laser)
-    laser_judge_.emplace(*grid);
+    judged_map_ = *grid;
 }
 
 void Scorer::consume(const Record& record) {
-  if (record.type == Record::Type::kGroundTruth && laser_judge_) {
+  if (record.type == Record::Type::kGroundTruth && judged_map_) {
     // A probe scan's true pose: the ground truth of the step it was taken in (readings come
     // before the step's ground truth in the stream).
     const auto r = static_cast<std::size_t>(record.robot);
@@ -180,7 +180,7 @@ void Scorer::consume(const Record& record) {
     }
   } else if (const auto* scan = std::get_if<LaserScan>(&record.reading.data)) {
     ++sensed->laser_scans;
-    if (laser_judge_ && lasers_[r] && sensed->laser_probes.size() < kLaserProbes &&
+    if (judged_map_ && lasers_[r] && sensed->laser_probes.size() < kLaserProbes &&
         !sensed->pending_probe && record.reading.t_s >= sensed->next_probe_s) {
       // The hits' end points in the robot frame, at most kLaserProbeBeams of them.
       const LaserDef& laser = *lasers_[r];
@@ -201,13 +201,15 @@ void Scorer::consume(const Record& record) {
 }
 
 const LaserPlaceVerdict* Scorer::laser_verdict(const Track& track) const {
-  if (!laser_judge_ || track.kidnaps_passed == 0) return nullptr;
+  if (!judged_map_ || track.kidnaps_passed == 0) return nullptr;
   const Sensed& sensed = sensed_since_kidnap(track);
   if (sensed.laser_probes.empty()) return nullptr;
   const auto key = std::pair{track.info.robot, track.kidnaps_passed};
   auto it = laser_verdicts_.find(key);
-  if (it == laser_verdicts_.end())
+  if (it == laser_verdicts_.end()) {
+    if (!laser_judge_) laser_judge_.emplace(*judged_map_);
     it = laser_verdicts_.emplace(key, laser_judge_->judge(sensed.laser_probes)).first;
+  }
   return &it->second;
 }
 
@@ -224,7 +226,7 @@ std::optional<bool> Scorer::recoverable(const Track& track) const {
   const auto used = [&](int kind) { return (uses & LOCSIM_READING_BIT(kind)) != 0; };
   const auto laser_tells = [&] {
     if (sensed.laser_scans < kLaserScansToRecover) return false;
-    if (!laser_judge_) return true;  // no map to judge by: any scan
+    if (!judged_map_) return true;  // no map to judge by: any scan
     const LaserPlaceVerdict* verdict = laser_verdict(track);
     return verdict != nullptr && verdict->told_apart;
   };

@@ -82,11 +82,15 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
   ConvergenceCriterion criterion_;
   std::vector<LandmarkPoint> true_landmarks_;
   std::vector<std::string> robot_names_;
-  std::vector<std::vector<double>> kidnaps_;     // by robot: kidnap times [s]
-  std::vector<std::vector<double>> put_downs_;   // by robot: when each kidnap landed [s]
-  std::vector<std::set<int>> observed_;          // by robot: true landmarks its cameras detected
-  std::vector<std::vector<Sensed>> sensed_;      // by robot, by kidnap: after its put-down
-  std::optional<LaserPlaceJudge> laser_judge_;   // with a grid, a laser and a filter reading it
+  std::vector<std::vector<double>> kidnaps_;    // by robot: kidnap times [s]
+  std::vector<std::vector<double>> put_downs_;  // by robot: when each kidnap landed [s]
+  std::vector<std::set<int>> observed_;         // by robot: true landmarks its cameras detected
+  std::vector<std::vector<Sensed>> sensed_;     // by robot, by kidnap: after its put-down
+  // The map the laser's verdicts are judged on: with a grid, a laser and a filter reading it.
+  std::optional<OccupancyGrid> judged_map_;
+  // Built from it at the first verdict asked for: its distance transforms cost a run without a
+  // kidnap (most of a sweep's) several milliseconds for nothing.
+  mutable std::optional<LaserPlaceJudge> laser_judge_;
   std::vector<std::optional<LaserDef>> lasers_;  // by robot
   // Judged once per robot and kidnap, whichever localizer's segment asks first.
   mutable std::map<std::pair<std::size_t, std::size_t>, LaserPlaceVerdict> laser_verdicts_;

@@ -120,11 +120,12 @@ void write_all(int fd, std::string_view data) {
   }
 }
 
-/// The child's answers. Each sample or failure is written the moment it exists: if the plugin
-/// crashes in its next call, the parent has everything computed before, whatever the timing.
+/// The child's answers, staged in the shared ReplyStage and sent by flush(): the child flushes
+/// before it waits for records, so the parent has every answer to what it sent once the child
+/// has read all of it; one the child had when it died the parent takes from the stage.
 class ReplyWriter final : public EstimateConsumer {
  public:
-  explicit ReplyWriter(int fd) : fd_(fd) {}
+  ReplyWriter(int fd, ReplyStage& stage) : fd_(fd), stage_(stage) {}
   void estimate(const EstimateSample& sample) override {
     send(kWorkerSample, encode_sample(sample));
   }
@@ -134,17 +135,34 @@ class ReplyWriter final : public EstimateConsumer {
   void send(std::uint8_t type, std::string_view payload) {
     frame_.clear();
     put_frame(frame_, type, payload);
-    write_all(fd_, frame_);
+    std::uint64_t used = stage_.used.load(std::memory_order_relaxed);
+    if (used + frame_.size() > ReplyStage::kCapacity) flush(), used = 0;
+    if (frame_.size() > ReplyStage::kCapacity) {  // a large snapshot: straight to the socket
+      write_all(fd_, frame_);
+      stage_.base.fetch_add(frame_.size(), std::memory_order_release);
+      return;
+    }
+    std::memcpy(stage_.data + used, frame_.data(), frame_.size());
+    stage_.used.store(used + frame_.size(), std::memory_order_release);  // whole frames only
+  }
+  void flush() {
+    const std::uint64_t used = stage_.used.load(std::memory_order_relaxed);
+    if (used == 0) return;
+    write_all(fd_, std::string_view(stage_.data, used));
+    // Emptied before the base moves: a death between the two loses nothing and repeats nothing.
+    stage_.used.store(0, std::memory_order_release);
+    stage_.base.fetch_add(used, std::memory_order_release);
   }
 
  private:
   int fd_;
+  ReplyStage& stage_;
   std::string frame_;
 };
 
-[[noreturn]] void child_main(int fd, const std::vector<const LocalizerDef*>& defs,
-                             CallState* calls) {
-  ReplyWriter reply(fd);
+[[noreturn]] void child_main(int fd, const std::vector<const LocalizerDef*>& defs, CallState* calls,
+                             ReplyStage& stage) {
+  ReplyWriter reply(fd, stage);
   std::unique_ptr<InstanceRunner> runner;
   try {
     runner = std::make_unique<InstanceRunner>(defs, calls);
@@ -152,6 +170,7 @@ class ReplyWriter final : public EstimateConsumer {
     std::string payload;
     put_string(payload, e.what());
     reply.send(kWorkerCreateFailed, payload);
+    reply.flush();
     std::fflush(nullptr);
     _exit(0);
   }
@@ -161,6 +180,7 @@ class ReplyWriter final : public EstimateConsumer {
   Record record;
   bool done = false;
   while (!done) {
+    reply.flush();  // every answer to what was read, before waiting for more
     const ssize_t n = ::read(fd, chunk.data(), chunk.size());
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;  // the parent is gone: nothing more to do
@@ -182,6 +202,7 @@ class ReplyWriter final : public EstimateConsumer {
       runner->consume(record, reply);
     });
   }
+  reply.flush();
   // No destructors, no atexit handlers: they belong to the parent's copy of this process.
   std::fflush(nullptr);
   _exit(0);
@@ -261,6 +282,12 @@ std::vector<LocalizerFinal> decode_finals(std::string_view payload) {
 }
 
 // ---------------------------------------------------------------------------------------------
+/// The memory parent and child share: which call the child is in, its unsent answers.
+struct WorkerProcess::Shared {
+  CallState calls;
+  ReplyStage stage;
+};
+
 WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::string label)
     : label_(std::move(label)) {
   for (const LocalizerDef* def : defs) {
@@ -272,7 +299,7 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::
   if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sockets) != 0)
     throw std::runtime_error(std::string("socketpair: ") + std::strerror(errno));
   void* page =
-      ::mmap(nullptr, sizeof(CallState), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+      ::mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (page == MAP_FAILED) {
     ::close(sockets[0]), ::close(sockets[1]);
     throw std::runtime_error(std::string("mmap: ") + std::strerror(errno));
@@ -281,12 +308,14 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::
   if (::pipe2(output, O_CLOEXEC) != 0) {
     const int error = errno;
     ::close(sockets[0]), ::close(sockets[1]);
-    ::munmap(page, sizeof(CallState));
+    ::munmap(page, sizeof(Shared));
     throw std::runtime_error(std::string("pipe: ") + std::strerror(error));
   }
   // A larger pipe: a plugin that prints a lot between two of the parent's reads rarely waits.
   ::fcntl(output[1], F_SETPIPE_SZ, 1 << 20);
-  calls_ = new (page) CallState();
+  shared_ = new (page) Shared();
+  calls_ = &shared_->calls;
+  stage_ = &shared_->stage;
   // Larger socket buffers let the simulation run further ahead of a slow filter before it waits.
   const int bytes = 1 << 20;
   ::setsockopt(sockets[0], SOL_SOCKET, SO_SNDBUF, &bytes, sizeof(bytes));
@@ -298,7 +327,7 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::
     const int error = errno;
     ::close(sockets[0]), ::close(sockets[1]);
     ::close(output[0]), ::close(output[1]);
-    ::munmap(page, sizeof(CallState));
+    ::munmap(page, sizeof(Shared));
     throw std::runtime_error(std::string("fork: ") + std::strerror(error));
   }
   if (pid_ == 0) {
@@ -315,7 +344,7 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::
     const int fd = sockets[1];
     if (fd > 3) ::close_range(3, static_cast<unsigned>(fd - 1), 0);
     ::close_range(static_cast<unsigned>(fd + 1), ~0U, 0);
-    child_main(fd, defs, calls_);
+    child_main(fd, defs, calls_, *stage_);
   }
   ::close(sockets[1]);
   ::close(output[1]);
@@ -355,7 +384,7 @@ WorkerProcess::~WorkerProcess() {
     reap();
   }
   if (output_fd_ >= 0) ::close(output_fd_);
-  if (calls_ != nullptr) ::munmap(calls_, sizeof(CallState));
+  if (shared_ != nullptr) ::munmap(shared_, sizeof(Shared));
 }
 
 void WorkerProcess::queue(std::uint8_t type, std::string_view payload) {

@@ -1,10 +1,16 @@
 // A localizer worker: a child process (fork, no exec) that runs an InstanceRunner on the records
 // its parent sends, so that a plugin that crashes, aborts, calls exit() or hangs takes down only
 // its own process. The parent sends framed records over a Unix socket, in batches; the child
-// answers each true pose with an estimate sample as soon as it has it (a crash then loses nothing
-// it had computed: what arrived is deterministic), snapshots on request (video frames) and its
+// answers each true pose with an estimate sample, snapshots on request (video frames) and its
 // final state at the end. Which call it is in, and since when, it keeps in a page of memory shared
 // with the parent, whose watchdog kills a call that outlasts --plugin-timeout.
+//
+// The child's answers gather in memory shared with the parent (ReplyStage) and go out in one
+// write before the child waits for more records: one system call per batch, where one per sample
+// (a sample per true pose, 50 a simulated second per localizer) was most of what isolating a
+// filter cost. A child that dies (a crash, exit(), the watchdog) leaves its unsent answers there,
+// and the parent takes them after the last byte of the socket: what arrives is what the filter
+// computed before it died, whatever the timing.
 //
 // The child's stdout and stderr go to a pipe that the parent reads whenever it waits for its
 // workers, and forwards to its own stderr, each line prefixed with "[LABEL] ": a plugin's prints
@@ -18,6 +24,7 @@
 #include <sys/socket.h>
 #include <sys/types.h>
 
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -32,6 +39,17 @@ namespace locsim {
 
 /// How much of what a localizer's process prints is forwarded: the first and the last bytes.
 inline constexpr std::size_t kOutputHeadBytes = 1 << 20, kOutputTailBytes = 64 << 10;
+
+/// The child's answers not yet sent, in memory shared with the parent (see above). Both counters
+/// are bytes of the child-to-parent stream: what was sent before data[0], and how much of data
+/// holds whole frames (a frame is counted only once it is all there).
+struct ReplyStage {
+  static constexpr std::size_t kCapacity = 64 << 10;  // a larger answer is sent at once [bytes]
+  std::atomic<std::uint64_t> base{0};
+  std::atomic<std::uint64_t> used{0};
+  char data[kCapacity];
+};
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free, "shared between processes");
 
 class WorkerProcess {
  public:
@@ -62,7 +80,7 @@ class WorkerProcess {
   /// Reads what arrived (at most a few hundred KiB, so that the parent's memory stays small
   /// whatever the backlog), without blocking, and hands each complete message to
   /// `handle(type, payload)`. Returns false once the child has closed its end (it ended or died;
-  /// see `reap`).
+  /// see `reap`), after handing over the answers it staged and never sent.
   template <class Handle>
   bool receive_some(Handle&& handle);
 
@@ -98,7 +116,11 @@ class WorkerProcess {
   std::string label_;
   CappedText output_{kOutputHeadBytes, kOutputTailBytes};
   bool at_line_start_ = true;
-  CallState* calls_ = nullptr;  // shared page
+  struct Shared;
+  Shared* shared_ = nullptr;     // mapped shared with the child
+  CallState* calls_ = nullptr;   // in shared_
+  ReplyStage* stage_ = nullptr;  // in shared_
+  std::uint64_t received_ = 0;   // bytes read from the socket
   std::vector<std::size_t> indices_;
   std::vector<bool> robots_;
   std::string out_;
@@ -142,7 +164,18 @@ bool WorkerProcess::receive_some(Handle&& handle) {
     const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
-    if (n <= 0) return false;  // 0: closed; ECONNRESET and the like: gone
+    if (n <= 0) {  // 0: closed; ECONNRESET and the like: gone
+      // The child has ended: what it staged is final. Its part not already received continues
+      // the stream (a child killed while it sent them has sent some of them).
+      const std::uint64_t used = stage_->used.load(std::memory_order_acquire);
+      const std::uint64_t base = stage_->base.load(std::memory_order_acquire);
+      if (received_ >= base && received_ < base + used) {
+        in_.append(stage_->data + (received_ - base), base + used - received_);
+        take_frames(in_, handle);
+      }
+      return false;
+    }
+    received_ += static_cast<std::uint64_t>(n);
     in_.append(chunk, static_cast<std::size_t>(n));
     take_frames(in_, handle);
   }

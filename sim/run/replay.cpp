@@ -51,7 +51,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
       result.replayed_s = t_s;
       if (++since_flush == 4096) {
         since_flush = 0;
-        input.flush();
+        session.flush_now_and_then();
         if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
           end.status = "interrupted";
           break;

@@ -120,7 +120,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   session.open(result.out_dir, keep);
   SimulationSource source(sim);
   RecordConsumer& input = session.input();
-  const auto flush_every = std::max<std::int64_t>(1, std::llround(sim.world_def().physics.step_hz));
+  const auto steps_per_s = std::max<std::int64_t>(1, std::llround(sim.world_def().physics.step_hz));
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto next_progress = wall_start + std::chrono::seconds(1);
@@ -139,7 +139,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
       sim.step();
       source.emit(input);
       if (capture) capture->after_step(sim);
-      if (sim.step_index() % flush_every == 0) input.flush();
+      if (sim.step_index() % steps_per_s == 0) session.flush_now_and_then();
       if (options.realtime) {
         std::this_thread::sleep_until(wall_start + std::chrono::duration<double>(sim.time_s()));
       }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <exception>
 #include <filesystem>
 #include <memory>
@@ -59,6 +60,18 @@ class Session {
             const std::vector<std::filesystem::path>& keep = {});
   /// Where the producer's records go: host, scorer, recorder, then what the driver adds.
   RecordFanout& input() { return fanout_; }
+  /// Flushes input() (the files' buffers to the system, the records gathered for the localizers'
+  /// processes to them) when kFlushEvery of wall-clock time has passed since the last flush: a
+  /// run that dies hard (killed, out of memory) keeps all but its last moments, without the
+  /// system calls of flushing every simulated second (a 60 s run at 1000x real time flushed 60
+  /// times in 0.1 s). The drivers call it between records, at least every simulated second.
+  void flush_now_and_then() {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - flushed_ < kFlushEvery) return;
+    fanout_.flush();
+    flushed_ = now;
+  }
+  static constexpr std::chrono::milliseconds kFlushEvery{200};
   LocalizerHost& host() { return *host_; }
   const RunFolder& folder() const { return folder_; }
   bool has_localizers() const { return !host_->localizers().empty(); }
@@ -79,6 +92,7 @@ class Session {
   std::unique_ptr<RunRecorder> recorder_;
   RunFolder folder_;
   RecordFanout fanout_;
+  std::chrono::steady_clock::time_point flushed_ = std::chrono::steady_clock::now();
 };
 
 /// Peak resident memory [MB] of this process ("locsim") and of the largest localizer process it

@@ -25,29 +25,20 @@ std::uint32_t crc(std::uint8_t type, const std::string& payload) {
 }  // namespace
 
 LogWriter::LogWriter(const std::filesystem::path& file, const nlohmann::ordered_json& header)
-    : file_(file), out_(file, std::ios::binary | std::ios::trunc) {
-  check();
+    : out_(file, "the log ") {
   const std::string text = header.dump();
-  out_.write(kMagic, sizeof(kMagic));
+  out_.write(std::string_view(kMagic, sizeof(kMagic)));
   std::string head;
   put<std::uint32_t>(head, kLogFormatVersion);
   put<std::uint32_t>(head, static_cast<std::uint32_t>(text.size()));
   head += text;
   put<std::uint32_t>(head, crc(0, text));
-  out_ << head;
+  out_.write(head);
   flush();
-}
-
-void LogWriter::check() {
-  if (!out_) {
-    throw std::runtime_error("cannot write the log " + file_.string() + ": " +
-                             std::strerror(errno));
-  }
 }
 
 void LogWriter::flush() {
   out_.flush();
-  check();
 }
 
 void LogWriter::write_frame(Record::Type type) {
@@ -56,7 +47,7 @@ void LogWriter::write_frame(Record::Type type) {
   put<std::uint32_t>(frame_, static_cast<std::uint32_t>(payload_.size()));
   frame_ += payload_;
   put<std::uint32_t>(frame_, crc(static_cast<std::uint8_t>(type), payload_));
-  out_ << frame_;
+  out_.write(frame_);
   ++records_;
 }
 
@@ -71,7 +62,6 @@ void LogWriter::finish() {
   put<std::uint64_t>(payload_, records_);
   write_frame(Record::Type::kEnd);
   out_.close();
-  check();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "sim/common/files.hpp"
 #include "sim/stream/record.hpp"
 #include "sim/stream/record_codec.hpp"
 
@@ -27,9 +28,9 @@ inline constexpr std::uint32_t kOldestLogFormatVersion = 1;
 
 class LogWriter final : public RecordConsumer {
  public:
-  /// Every write is checked (when flushed, and at the end): a log that cannot be written whole
-  /// throws std::runtime_error naming the file and the system's reason, so that no run that lost
-  /// part of its log says it completed.
+  /// Every write is checked (as it goes to the system: a full buffer, a flush, the end): a log
+  /// that cannot be written whole throws std::runtime_error naming the file and the system's
+  /// reason, so that no run that lost part of its log says it completed.
   LogWriter(const std::filesystem::path& file, const nlohmann::ordered_json& header);
   void consume(const Record& record) override;
   void flush() override;
@@ -38,9 +39,7 @@ class LogWriter final : public RecordConsumer {
 
  private:
   void write_frame(Record::Type type);
-  void check();
-  std::filesystem::path file_;
-  std::ofstream out_;
+  OutputFile out_;
   std::string payload_, frame_;
   std::uint64_t records_ = 0;
 };

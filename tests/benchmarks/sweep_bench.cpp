@@ -56,6 +56,7 @@ void BM_DemoEkf(benchmark::State& state) {
   const bool isolate = state.range(1) == 1;
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_replay";
   fs::remove_all(dir);
+  fs::create_directories(dir);  // the log is opened before the run makes its folder
   locsim::RunOptions run;
   run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
   run.out_dir = dir / "run";
