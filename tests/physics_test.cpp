@@ -3,8 +3,16 @@
 #include <box2d/box2d.h>
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <locsim/models.hpp>
+#include <numbers>
+#include <random>
+#include <vector>
 
+#include "sim/common/math.hpp"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -26,6 +34,46 @@ robots:
 double rim_travel(const DiffDriveRobot& robot) {
   return 0.5 * (robot.left().angle_rad * robot.left().radius_m +
                 robot.right().angle_rad * robot.right().radius_m);
+}
+
+// Angles are wrapped everywhere (headings, bearings, noise); the quick return of an angle already
+// in range must give what std::remainder gives, bit for bit, or the pinned hashes would move.
+TEST(Angles, WrapIsRemaindersAnswerBitForBit) {
+  const auto by_remainder = [](double a) {
+    double w = std::remainder(a, 2.0 * std::numbers::pi);
+    if (w <= -std::numbers::pi) w += 2.0 * std::numbers::pi;
+    return w;
+  };
+  constexpr double pi = std::numbers::pi, inf = std::numeric_limits<double>::infinity();
+  std::vector<double> angles = {0.0,
+                                -0.0,
+                                pi,
+                                -pi,
+                                3 * pi,
+                                -3 * pi,
+                                2 * pi,
+                                -2 * pi,
+                                1e300,
+                                -1e-300,
+                                inf,
+                                -inf,
+                                std::numeric_limits<double>::quiet_NaN()};
+  for (const double edge : {pi, -pi, 3 * pi, -3 * pi}) {
+    angles.push_back(std::nextafter(edge, inf));
+    angles.push_back(std::nextafter(edge, -inf));
+  }
+  std::mt19937_64 engine(3);
+  for (int i = 0; i < 100000; ++i)
+    angles.push_back(std::uniform_real_distribution<double>(-20.0, 20.0)(engine));
+  for (const double a : angles) {
+    const auto expected = std::bit_cast<std::uint64_t>(by_remainder(a));
+    if (std::isnan(a)) {
+      EXPECT_TRUE(std::isnan(wrap_angle(a)) && std::isnan(sdk::wrap(a)));
+      continue;
+    }
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(wrap_angle(a)), expected) << a;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(sdk::wrap(a)), expected) << a;
+  }
 }
 
 // Box2D's profiling timer is replaced by free definitions (sim/world/physics_world.cpp): libbox2d's

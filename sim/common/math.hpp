@@ -9,8 +9,11 @@ namespace locsim {
 
 using Vec2 = Eigen::Vector2d;  // [m] unless the name says otherwise
 
-/// Wraps an angle to (-pi, pi]. [rad]
+/// Wraps an angle to (-pi, pi]. [rad] An angle already there is returned as it is, which is what
+/// std::remainder would give (no multiple of 2 pi is nearer), without its call: most angles
+/// wrapped are in range, and the call was 1.5 % of a demo run. sdk::wrap does the same.
 inline double wrap_angle(double angle_rad) {
+  if (angle_rad > -std::numbers::pi && angle_rad <= std::numbers::pi) return angle_rad;
   double wrapped = std::remainder(angle_rad, 2.0 * std::numbers::pi);
   if (wrapped <= -std::numbers::pi) wrapped += 2.0 * std::numbers::pi;
   return wrapped;
