@@ -316,7 +316,12 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"BarcodeNotWhole", "Robot1_Measurement.dat", 1,
                  "1248444000.250 \t 6.5 \t 1.0 \t 0.1", "'subject': '6.5' is not a whole number"},
         BadInput{"NegativeRange", "Robot1_Measurement.dat", 1,
-                 "1248444000.250 \t 63 \t -1.0 \t 0.1", "negative range"},
+                 "1248444000.250 \t 63 \t -1.0 \t 0.1", "'range': -1 m is outside [0, 100000] m"},
+        // Finite but beyond a world file's ranges: named at its own line, not downstream.
+        BadInput{"HugeViconX", "Robot2_Groundtruth.dat", 1, "1248444000.100 \t 1e30 \t 1.0 \t 0.0",
+                 "'x': 1e+30 m is outside [-10000, 10000] m"},
+        BadInput{"HugeVelocity", "Robot1_Odometry.dat", 3, "1248444000.060 \t 1e308 \t 0.1",
+                 "'forward_velocity': 1e+308 m/s is outside [-1000, 1000] m/s"},
         BadInput{"LandmarkWithoutBarcode", "Landmark_Groundtruth.dat", 2, "  8 \t 1.0 \t 1.0",
                  "subject 8 has no barcode"},
         BadInput{"BarcodeTwice", "Barcodes.dat", 2, "  2 \t   5 ", "barcode listed twice"},
@@ -360,6 +365,36 @@ TEST(MrclamImport, CommandLineImportsPrintsASummaryAndRefusesBadInputWithExit2) 
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("Robot2_Odometry.dat:5:"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(out / "bad.locsimlog"));
+}
+
+TEST(MrclamImport, MemoryStaysWithinItsBytesPerInputLine) {
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  GTEST_SKIP() << "AddressSanitizer's quarantine keeps freed tables: the peak is not the import's";
+#endif
+#endif
+  // docs/real_data.md states about 150 bytes per input line at the peak; 300 is the bound.
+  const fs::path dir = write_dataset(testing::temp_dir("data"));
+  const fs::path out = testing::temp_dir("out");
+  const auto peak_kb = [&](const std::string& name) {
+    const testing::Measured m =
+        testing::run_measured(std::string(LOCSIM_BINARY) + " import mrclam " + dir.string() +
+                              " --robots 1,2 --out " + (out / name).string());
+    EXPECT_EQ(m.exit_code, 0);
+    return m.peak_kb;
+  };
+  const long small_kb = peak_kb("small.locsimlog");
+  // 400 000 more lines of ground truth (66 minutes at 100 Hz), as a Vicon writes them.
+  constexpr int kLines = 400000;
+  std::string truth = kHeader;
+  for (int i = 0; i < kLines; ++i) {
+    truth += line("%.3f \t %.8f \t %.8f \t %.8f \n", kT0 + 0.01 * i, 1.0 + 1e-6 * i, 2.0, 0.5);
+  }
+  std::ofstream(dir / "Robot1_Groundtruth.dat") << truth;
+  const long large_kb = peak_kb("large.locsimlog");
+  const double bytes_per_line = static_cast<double>(large_kb - small_kb) * 1024.0 / kLines;
+  EXPECT_LT(bytes_per_line, 300.0);
+  std::printf("import: %.0f bytes per input line at the peak\n", bytes_per_line);
 }
 
 // Every landmark localizer runs on an imported dataset and follows the robot: the dataset's

@@ -165,12 +165,6 @@ std::string odometry_replay_error(const fs::path& log, const fs::path& out) {
   return replay_error(options);
 }
 
-long peak_rss_mb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_maxrss / 1024;
-}
-
 TEST(Replay, LengthsBeyondTheFileAreRefusedWithoutAllocatingThem) {
   const fs::path dir = testing::temp_dir("lengths");
   const std::string bytes = testing::read_file(write_log(dir / "ok.locsimlog", small_header()));
@@ -183,7 +177,7 @@ TEST(Replay, LengthsBeyondTheFileAreRefusedWithoutAllocatingThem) {
   // each file is a few hundred bytes.
   const std::uint32_t header_length = static_cast<std::uint32_t>(small_header().dump().size());
   const std::size_t record_length_at = 8 + 4 + 4 + header_length + 4 + 1;
-  const long before_mb = peak_rss_mb();
+  const long before_mb = testing::peak_rss_mb();
   for (const auto& [name, b, problem] :
        {std::tuple{"header", with_u32_at(12, 1u << 30), "truncated in the header"},
         // Replay checks the end record first (the last bytes), which this length now covers:
@@ -194,7 +188,7 @@ TEST(Replay, LengthsBeyondTheFileAreRefusedWithoutAllocatingThem) {
     const std::string error = odometry_replay_error(file, dir / name);
     EXPECT_NE(error.find(problem), std::string::npos) << error;
   }
-  EXPECT_LT(peak_rss_mb() - before_mb, 64)
+  EXPECT_LT(testing::peak_rss_mb() - before_mb, 64)
       << "MB more at the peak for files of a few hundred bytes";
 }
 

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -106,6 +108,36 @@ inline std::filesystem::path temp_dir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+/// This process's peak resident memory so far [MB].
+inline long peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024;
+}
+
+/// A shell command's exit code and its own peak resident memory [KiB] (output discarded): wait4
+/// reports that process's, not the largest of every child this test has had.
+struct Measured {
+  int exit_code = -1;
+  long peak_kb = 0;
+};
+inline Measured run_measured(const std::string& command_line) {
+  const std::string command = "exec " + command_line + " >/dev/null 2>&1 </dev/null";
+  Measured measured;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int status = 0;
+  rusage usage{};
+  if (pid > 0 && wait4(pid, &status, 0, &usage) == pid) {
+    measured.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    measured.peak_kb = usage.ru_maxrss;
+  }
+  return measured;
 }
 
 /// What the `locsim` command did.

@@ -1,8 +1,10 @@
 // Error types and the exit codes the CLI maps them to (documented in `locsim --help`).
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace locsim {
 
@@ -15,6 +17,21 @@ enum ExitCode : int {
   kExitLocalizerFailed = 5,  // the run completed, but a localizer failed (metrics.json says how)
   kExitInterrupted = 130,    // SIGINT; the run folder holds everything written so far
 };
+
+/// The longest message an error carries [bytes]: a 50 MB line of someone's dataset must not
+/// become a 50 MB message.
+inline constexpr std::size_t kMaxMessageBytes = 8 << 10;
+
+/// Untrusted text (a field of a dataset, a name in a log's header, a value from a YAML file)
+/// fit to stand in a message: in single quotes, with control characters, C1 controls and bytes
+/// that are not UTF-8 written as \xNN (an escape sequence must not reach the terminal), cut
+/// after `max_bytes` with how many bytes were left out.
+std::string quote_input(std::string_view text, std::size_t max_bytes = 120);
+
+/// A whole message fit for a terminal or a log line: escaped as quote_input() does, but newlines
+/// and tabs kept, and no longer than `max_bytes`: past that its middle is cut, keeping its start
+/// (the file and line) and its end. Every error type below passes its message through it.
+std::string printable(std::string_view message, std::size_t max_bytes = kMaxMessageBytes);
 
 /// Where in a file something was found. Line and column are 1-based; 0 means unknown.
 struct SourceLocation {
@@ -36,7 +53,7 @@ struct InputPlace {
 /// The user's input cannot be used. The message names the file, line, column and key.
 class InputError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit InputError(const std::string& message) : std::runtime_error(printable(message)) {}
   InputError(const SourceLocation& where, const std::string& key, const std::string& problem);
   InputError(const InputPlace& place, const std::string& problem)
       : InputError(place.where, place.key, problem) {}
@@ -46,14 +63,14 @@ class InputError : public std::runtime_error {
 /// or its create call failed. The message names the plugin and the file.
 class PluginError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit PluginError(const std::string& message) : std::runtime_error(printable(message)) {}
 };
 
 /// The renderer (render/, loaded at run time for --video and --frames) cannot be loaded, its GL
 /// context cannot be made, or a video or frame file cannot be opened or written.
 class RenderError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit RenderError(const std::string& message) : std::runtime_error(printable(message)) {}
 };
 
 /// What locsim is doing, for the message of an error that cannot say what it was building

@@ -20,12 +20,63 @@ std::string read_text(const fs::path& file) {
   return content.str();
 }
 
+namespace {
+thread_local const InputSandbox* t_sandbox = nullptr;
+}  // namespace
+
+InputSandbox::InputSandbox(std::map<std::string, std::string> files, std::string owner)
+    : files_(std::move(files)), owner_(std::move(owner)), outer_(t_sandbox) {
+  t_sandbox = this;
+}
+
+InputSandbox::~InputSandbox() {
+  t_sandbox = outer_;
+}
+
+std::string InputSandbox::key(const fs::path& file) {
+  return file.lexically_normal().generic_string();
+}
+
+bool input_file_exists(const fs::path& file, std::error_code& error) {
+  error.clear();
+  if (t_sandbox != nullptr) return t_sandbox->files_.contains(InputSandbox::key(file));
+  return fs::exists(file, error);
+}
+
+std::string InputSandbox::not_carried(const InputSandbox& sandbox) {
+  return "not carried by " + sandbox.owner_ +
+         " (a replay reads nothing but its log; record the log again with this locsim to carry "
+         "the files its world names)";
+}
+
+std::string missing_input_file(const fs::path& file, const std::string& what) {
+  if (t_sandbox != nullptr)
+    return "the " + what + " '" + file.string() + "' is " + InputSandbox::not_carried(*t_sandbox);
+  return "no such " + what + " '" + file.string() + "'";
+}
+
 std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
   const SourceLocation where{file.string()};
+  if (t_sandbox != nullptr) {
+    const auto found = t_sandbox->files_.find(InputSandbox::key(file));
+    if (found == t_sandbox->files_.end())
+      throw InputError(where, "", InputSandbox::not_carried(*t_sandbox));
+    if (found->second.size() > max_bytes) {
+      throw InputError(where, "",
+                       "carried with " + std::to_string(found->second.size()) + " bytes; at most " +
+                           std::to_string(max_bytes) + " are read");
+    }
+    return found->second;
+  }
   std::error_code error;
   const fs::file_status status = fs::status(file, error);
   if (!fs::exists(status)) throw InputError(where, "", "no such file");
   if (fs::is_directory(status)) throw InputError(where, "", "is a directory, not a file");
+  if (!fs::is_regular_file(status)) {
+    throw InputError(where, "",
+                     "is not a regular file (a FIFO, a socket or a device), which locsim does not "
+                     "read");
+  }
   std::ifstream in(file, std::ios::binary);
   if (!in)
     throw InputError(where, "", std::string("cannot read the file: ") + std::strerror(errno));
@@ -35,7 +86,7 @@ std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
                      "the file has " + std::to_string(size) + " bytes; at most " +
                          std::to_string(max_bytes) + " are read (docs/worlds.md, Limits)");
   }
-  // Read at most one byte past the limit: a file that grows (or has no size, a pipe) stops there.
+  // Read at most one byte past the limit: a file that grows stops there.
   std::string content;
   char buffer[65536];
   while (in && content.size() <= max_bytes) {
@@ -54,16 +105,26 @@ std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
 }
 
 void write_file(const fs::path& file, std::string_view content) {
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  // Through a temporary file beside it and a rename: a full disk, a file-size limit or a kill
+  // leaves the old file or the new one, never a cut one (a world cut at 4 KiB still loaded), and
+  // no temporary file.
+  const fs::path temporary = file.string() + ".tmp";
+  std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
   if (out) out.write(content.data(), static_cast<std::streamsize>(content.size()));
   if (out) out.close();
-  if (!out) throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(errno));
+  const int error = errno;
+  std::error_code renamed;
+  if (out) fs::rename(temporary, file, renamed);
+  if (!out || renamed) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw std::runtime_error("cannot write " + file.string() + ": " +
+                             (renamed ? renamed.message() : std::strerror(error)));
+  }
 }
 
 void write_json_atomically(const fs::path& file, const nlohmann::ordered_json& content) {
-  const fs::path temporary = file.string() + ".tmp";
-  write_file(temporary, content.dump(2) + '\n');
-  fs::rename(temporary, file);
+  write_file(file, content.dump(2) + '\n');
 }
 
 OutputFile::OutputFile(fs::path path, std::string what)

@@ -5,9 +5,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 namespace locsim {
 
@@ -15,15 +17,48 @@ namespace locsim {
 std::string read_text(const std::filesystem::path& file);
 
 /// An input file's bytes (a world, scenario, experiment or map). Throws InputError naming the
-/// file when it does not exist, is a directory, cannot be read (with the system's reason) or is
-/// larger than `max_bytes` (checked before anything is read).
+/// file when it does not exist, is not a regular file (a folder, a FIFO, a device: reading one
+/// could block or never end), cannot be read (with the system's reason) or is larger than
+/// `max_bytes` (checked before anything is read). Inside an InputSandbox, the sandbox's file.
 std::string read_input_file(const std::filesystem::path& file, std::uintmax_t max_bytes);
 
-/// Writes `content` to `file` (replacing it). Throws std::runtime_error naming the path and the
-/// system's reason when it cannot be written whole.
+/// Whether an input file exists (false with `error` set when the system cannot look it up).
+/// Inside an InputSandbox: whether the sandbox holds it.
+bool input_file_exists(const std::filesystem::path& file, std::error_code& error);
+/// What to say of an input file that does not exist: "no such WHAT 'FILE'", or inside an
+/// InputSandbox that its owner does not carry it.
+std::string missing_input_file(const std::filesystem::path& file, const std::string& what);
+
+/// The files a recorded log carries (a map's YAML and image, a scenario's TUM poses), by the
+/// path the loaders ask for them (lexically normal). While a sandbox lives, read_input_file and
+/// input_file_exists on its thread see its files and nothing else: a log from someone else is
+/// rebuilt from its own bytes, whatever paths it names (absolute, `..`, /proc, /dev). A file it
+/// does not hold reads as missing, with a message naming `owner` (the log).
+class InputSandbox {
+ public:
+  InputSandbox(std::map<std::string, std::string> files, std::string owner);
+  ~InputSandbox();
+  InputSandbox(const InputSandbox&) = delete;
+  InputSandbox& operator=(const InputSandbox&) = delete;
+  /// The key a file is held under: its path, lexically normal, in generic form.
+  static std::string key(const std::filesystem::path& file);
+
+ private:
+  friend std::string read_input_file(const std::filesystem::path&, std::uintmax_t);
+  friend bool input_file_exists(const std::filesystem::path&, std::error_code&);
+  friend std::string missing_input_file(const std::filesystem::path&, const std::string&);
+  static std::string not_carried(const InputSandbox& sandbox);
+  std::map<std::string, std::string> files_;
+  std::string owner_;
+  const InputSandbox* outer_;
+};
+
+/// Writes `content` to `file` (replacing it), through `file`.tmp and a rename: a reader never sees
+/// half a file, and a write that fails (a full disk) leaves the old file, or none, and no
+/// temporary. Throws std::runtime_error naming the path and the system's reason.
 void write_file(const std::filesystem::path& file, std::string_view content);
 
-/// Writes through a temporary file and a rename: a reader never sees half a file.
+/// write_file of the JSON text, indented.
 void write_json_atomically(const std::filesystem::path& file,
                            const nlohmann::ordered_json& content);
 

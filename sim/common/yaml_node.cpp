@@ -21,7 +21,7 @@ std::string describe(const YAML::Node& node) {
   if (!node || node.IsNull()) return "nothing";
   if (node.IsMap()) return "a map";
   if (node.IsSequence()) return "a list";
-  return "'" + node.Scalar() + "'";
+  return quote_input(node.Scalar());
 }
 }  // namespace
 

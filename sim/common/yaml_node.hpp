@@ -76,6 +76,9 @@ class YamlNode {
   // ---- sequences
   /// The items of a sequence; fails unless this is a sequence.
   std::vector<YamlNode> items() const;
+  /// How many items a list has (0 for anything else), without reading them: what a loader counts
+  /// against the memory budget before it builds them.
+  std::size_t size() const { return node_.IsSequence() ? node_.size() : 0; }
 
   // ---- scalars (each fails with the expected type when the node is something else). Every
   // number is read with its range: a finite value outside it fails with the value, the range and

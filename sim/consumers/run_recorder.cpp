@@ -17,7 +17,43 @@ namespace locsim {
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
-void RunFolder::check(const fs::path& root, bool overwrite) {
+namespace {
+
+/// The same file: by identity where both exist (hard links, symbolic links), else by the
+/// resolved path.
+bool same_file(const fs::path& a, const fs::path& b) {
+  std::error_code error_a, error_b;
+  if (fs::equivalent(a, b, error_a)) return true;
+  const fs::path resolved_a = fs::weakly_canonical(a, error_a);
+  const fs::path resolved_b = fs::weakly_canonical(b, error_b);
+  return !error_a && !error_b && resolved_a == resolved_b;
+}
+
+/// `path` resolved, relative to the resolved `root`; empty when it lies outside it.
+fs::path inside(const fs::path& root, const fs::path& path) {
+  std::error_code error;
+  const fs::path r = fs::weakly_canonical(root, error);
+  const fs::path p = fs::weakly_canonical(path, error);
+  if (error) return {};
+  const auto [end, _] = std::mismatch(r.begin(), r.end(), p.begin(), p.end());
+  if (end != r.end()) return {};
+  return p.lexically_relative(r);
+}
+
+/// Whether a run writes a file of its own at `relative` (to its folder), whatever its robots and
+/// localizers are called: the recorder's, the scorer's and the driver's files.
+bool run_writes(const fs::path& relative) {
+  const std::string name = relative.filename().string();
+  for (const fs::path& part : relative) {
+    if (part == "readings") return true;
+  }
+  return name == "run.json" || name == "metrics.json" || name == "events.csv" ||
+         relative.extension() == ".tum" || name.ends_with("_map.csv");
+}
+
+}  // namespace
+
+void RunFolder::check(const fs::path& root, bool overwrite, const std::vector<fs::path>& inputs) {
   if (fs::exists(root) && !fs::is_directory(root)) {
     throw InputError("--out: '" + root.string() + "' exists and is not a folder");
   }
@@ -30,6 +66,27 @@ void RunFolder::check(const fs::path& root, bool overwrite) {
     throw InputError("--out: folder '" + root.string() +
                      "' is not empty and holds no run.json: --overwrite empties only a run "
                      "folder; choose another folder");
+  }
+  for (const fs::path& input : inputs) {
+    const fs::path relative = inside(root, input);
+    if (!relative.empty() && relative != "." && run_writes(relative)) {
+      throw InputError("--out: '" + input.string() + "', which this command reads, lies in '" +
+                       root.string() +
+                       "' where the run writes a file of that name: move it "
+                       "out of the folder or choose another --out");
+    }
+  }
+}
+
+void RunFolder::check_outputs(const std::vector<std::pair<std::string, fs::path>>& outputs,
+                              const std::vector<fs::path>& inputs) {
+  for (const auto& [option, output] : outputs) {
+    for (const fs::path& input : inputs) {
+      if (same_file(output, input)) {
+        throw InputError(option + ": '" + output.string() + "' is '" + input.string() +
+                         "', which this command reads: writing it would destroy it");
+      }
+    }
   }
 }
 

@@ -25,11 +25,22 @@ struct RunFolder {
 
   /// Refuses (InputError) a path that is not a folder, and a non-empty folder without
   /// `overwrite`, or with it one that holds no run.json: --overwrite empties a run folder, and a
-  /// folder of the user's that only looks like one is never emptied. Writes nothing.
-  static void check(const std::filesystem::path& root, bool overwrite);
+  /// folder of the user's that only looks like one is never emptied. `inputs` are the files the
+  /// command reads (the world, the log it replays, --params, a plugin's source): --overwrite
+  /// keeps one that lies in the folder, and refuses one where the run writes a file of its own
+  /// (run.json, metrics.json, events.csv, a .tum or _map.csv, readings/), which the run would
+  /// overwrite. Writes nothing.
+  static void check(const std::filesystem::path& root, bool overwrite,
+                    const std::vector<std::filesystem::path>& inputs = {});
+  /// Refuses (InputError) an output named on the command line (`outputs`: option and path, e.g.
+  /// {"--log", "x.locsimlog"}) that is one of `inputs` (the same file by any name or link):
+  /// opening it would destroy what the command is about to read.
+  static void check_outputs(
+      const std::vector<std::pair<std::string, std::filesystem::path>>& outputs,
+      const std::vector<std::filesystem::path>& inputs);
   /// With `overwrite`, first empties the folder (a previous run's LABEL.tum or readings/ must not
   /// stand beside the new ones), except `keep`: files this same command writes into it (--log,
-  /// --video, --frames). Then makes the folders.
+  /// --video, --frames) or reads (its inputs, as for check()). Then makes the folders.
   static RunFolder create(const std::filesystem::path& root, const WorldDef& world,
                           bool overwrite = false,
                           const std::vector<std::filesystem::path>& keep = {});

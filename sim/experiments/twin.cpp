@@ -85,12 +85,6 @@ double setting(const SensorSettings& settings, const std::string& sensor, const 
   return fallback;
 }
 
-void write_through_rename(const fs::path& file, const std::string& text) {
-  const fs::path partial = file.string() + ".partial";
-  write_file(partial, text);
-  fs::rename(partial, file);
-}
-
 }  // namespace
 
 Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
@@ -329,26 +323,35 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
         throw InputError("--out: " + f.string() + " exists (pass --overwrite to replace it)");
     }
   }
-  if (!dir.empty()) fs::create_directories(dir);
-  // The paths first, then the world that names them: a world file is never left naming paths
-  // that were not written.
+  std::map<std::string, std::string> texts;  // by file, as the loaders will ask for them
+  const fs::path world_path = fs::absolute(world_file);
+  texts[InputSandbox::key(world_path)] = twin.world_yaml;
   for (const TwinRobot& r : twin.robots) {
     std::string tum = "# " + r.name + "'s true path from " + options.log.string() +
                       " (locsim twin): t x y z qx qy qz qw\n";
     for (const StampedPose& p : r.path) {
       append_tum(tum, p.t_s, p.pose.x, p.pose.y, p.pose.theta);
     }
-    write_through_rename(dir / r.poses_file, tum);
+    texts[InputSandbox::key(world_path.parent_path() / r.poses_file)] = std::move(tum);
   }
-  write_through_rename(world_file, twin.world_yaml);
+  // Loaded as it will be, from memory, before anything is written: a twin refused leaves no file.
   try {
-    load_run_inputs(world_file, std::nullopt, std::nullopt);
+    const InputSandbox sandbox(texts, "the twin");
+    load_run_inputs(world_path, std::nullopt, std::nullopt);
   } catch (const InputError& e) {
-    throw InputError(std::string("the twin written to ") + world_file.string() +
-                     " does not load (a bug, or a log whose world names files relative to its "
-                     "own folder): " +
+    throw InputError(std::string("the twin of ") + options.log.string() +
+                     " does not load (a bug, or a log whose world names files the twin does not "
+                     "write), so nothing was written: " +
                      e.what());
   }
+  if (!dir.empty()) fs::create_directories(dir);
+  // The paths first, then the world that names them: a world file is never left naming paths
+  // that were not written. Each file is written whole or not at all (write_file).
+  for (const TwinRobot& r : twin.robots) {
+    write_file(dir / r.poses_file,
+               texts.at(InputSandbox::key(world_path.parent_path() / r.poses_file)));
+  }
+  write_file(world_file, twin.world_yaml);
   return twin;
 }
 

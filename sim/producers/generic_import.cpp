@@ -10,6 +10,7 @@
 #include "sim/common/yaml_node.hpp"
 #include "sim/producers/text_table.hpp"
 #include "sim/robot/robot_def.hpp"
+#include "sim/stream/record_checks.hpp"
 #include "sim/world/world_def.hpp"
 #include "sim/world/world_loader.hpp"
 
@@ -70,13 +71,14 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     o.reading.fields = 0;
     if (velocity) {
       o.reading.fields |= kOdometryVelocity;
-      o.reading.v_mps = odometry.number(row, v);
-      o.reading.omega_radps = odometry.number(row, omega);
+      o.reading.v_mps = odometry.number(row, v, kReadingSpeedRange);
+      o.reading.omega_radps = odometry.number(row, omega, kReadingTurnRateRange);
     }
     if (pose) {
       o.reading.fields |= kOdometryPose;
-      o.reading.odometry = {odometry.number(row, x), odometry.number(row, y),
-                            wrap_angle(odometry.number(row, theta))};
+      o.reading.odometry = {odometry.number(row, x, kWorldCoordinateRange),
+                            odometry.number(row, y, kWorldCoordinateRange),
+                            wrap_angle(odometry.number(row, theta, kHeadingRange))};
     }
     robot.odometry.push_back(o);
   }
@@ -96,7 +98,7 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     for (const auto& row : detections.rows()) {
       const double t_s = detections.number(row, dt);
       Detection d;
-      d.range_m = detections.number(row, range);
+      d.range_m = detections.number(row, range, kReadingRangeRange);
       d.bearing_rad = detections.number(row, bearing);
       if (d.range_m < 0.0) detections.fail(row, range, "a negative range");
       if (std::abs(d.bearing_rad) > 2.0 * std::numbers::pi)
@@ -152,8 +154,11 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     for (const auto& row : imu.rows()) {
       ImportedRobot::Imu sample;
       sample.t_s = imu.number(row, it);
-      sample.reading.yaw_rate_radps = imu.number(row, yaw);
-      if (ax >= 0) sample.reading.accel_mps2 = {imu.number(row, ax), imu.number(row, ay)};
+      sample.reading.yaw_rate_radps = imu.number(row, yaw, kReadingTurnRateRange);
+      if (ax >= 0) {
+        sample.reading.accel_mps2 = {imu.number(row, ax, kReadingAccelRange),
+                                     imu.number(row, ay, kReadingAccelRange)};
+      }
       robot.imu.push_back(sample);
     }
   }
@@ -186,7 +191,10 @@ ImportedDataset read_generic(const fs::path& dir) {
         map.fail(row, color, "unknown colour '" + c + "' (known: " + known + ")");
       }
       if (!landmarks.emplace(id, c).second) map.fail(row, id_column, "landmark id listed twice");
-      dataset.landmarks.push_back({id, {map.number(row, x), map.number(row, y)}, c});
+      dataset.landmarks.push_back(
+          {id,
+           {map.number(row, x, kWorldCoordinateRange), map.number(row, y, kWorldCoordinateRange)},
+           c});
     }
   }
   std::vector<std::pair<std::string, fs::path>> robots;

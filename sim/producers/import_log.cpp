@@ -13,6 +13,7 @@
 #include "sim/run/runner.hpp"
 #include "sim/sensors/sensor_defs.hpp"
 #include "sim/stream/log_file.hpp"
+#include "sim/stream/record_checks.hpp"
 #include "sim/world/world_loader.hpp"
 
 namespace locsim {
@@ -217,6 +218,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
   const fs::path partial = out.string() + ".partial";
   try {
     LogWriter writer(partial, header);
+    StreamOrderCheck stream_order;
     Record record;
     for (const Entry& e : order) {
       const ImportedRobot& robot = dataset.robots[e.robot];
@@ -248,6 +250,16 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
           summary.detections += reading.detections.size();
           record.reading.data = std::move(reading);
           ++summary.detection_readings;
+        }
+      }
+      // What a replay will refuse is refused here, before the log exists: the dataset's own
+      // numbers out of a world file's ranges (a Vicon x of 1e30), two true poses at one instant.
+      for (const std::string& problem :
+           {record_value_problem(record), stream_order.problem(record)}) {
+        if (!problem.empty()) {
+          throw InputError(SourceLocation{dataset.name}, "",
+                           "robot " + quote_input(robot.name) +
+                               ", t = " + short_number(record_time_s(record)) + " s: " + problem);
         }
       }
       writer.consume(record);

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <type_traits>
 #include <variant>
 
+#include "sim/common/base64.hpp"
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/world/variation.hpp"
@@ -24,13 +27,29 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
     throw InputError(SourceLocation{file.string()}, "", "header: " + problem);
   };
   try {
+    // The world is rebuilt from the log alone: the files its text names are the ones the header
+    // carries, whatever their paths say; the folders are only the names they are filed under.
+    std::map<std::string, std::string> carried;
+    if (const auto files = header.find("files"); files != header.end()) {
+      if (!files->is_object()) fail("files is not a map of file names to their contents");
+      for (const auto& [name, content] : files->items()) {
+        if (!content.is_string()) fail("files: " + quote_input(name) + " is not a base64 string");
+        std::optional<std::string> bytes = base64_decode(content.get_ref<const std::string&>());
+        if (!bytes) fail("files: " + quote_input(name) + " is not valid base64");
+        carried.emplace(InputSandbox::key(name), std::move(*bytes));
+      }
+    }
+    const InputSandbox sandbox(std::move(carried), "the log '" + file.string() + "'");
     const fs::path world_dir = header.at("world_dir").get<std::string>();
     world_ = parse_world(YamlNode::load_string(header.at("world_yaml"), header.at("world_file")),
                          world_dir);
     world_.source = header.at("world_file").get<std::string>();
     if (!header.at("scenario_yaml").is_null()) {
+      // Logs before scenario_dir filed a scenario's files under the world's folder.
+      const json scenario_dir = header.value("scenario_dir", json(nullptr));
       scenario_ = parse_scenario(
-          YamlNode::load_string(header.at("scenario_yaml"), header.at("scenario_file")), world_dir);
+          YamlNode::load_string(header.at("scenario_yaml"), header.at("scenario_file")),
+          scenario_dir.is_null() ? world_dir : fs::path(scenario_dir.get<std::string>()));
       scenario_.source = header.at("scenario_file").get<std::string>();
     } else if (world_.scenario) {
       scenario_ = *world_.scenario;
@@ -97,6 +116,9 @@ bool LogSource::next(Record& record) {
   do {
     if (!reader_.next(record)) return false;
     check(record);
+    for (const std::string& problem : {record_value_problem(record), order_.problem(record)}) {
+      if (!problem.empty()) reader_.reject(problem);
+    }
   } while (view_ && !to_view(record));
   return true;
 }

@@ -11,6 +11,7 @@
 
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/stream/log_file.hpp"
+#include "sim/stream/record_checks.hpp"
 #include "sim/world/world_def.hpp"
 
 namespace locsim {
@@ -30,7 +31,9 @@ class LogSource {
   /// The next record; false after the last. Throws InputError on a corrupt or truncated log, and
   /// on a record its world cannot have produced (another robot's, a sensor the robot lacks, a
   /// laser scan of another beam count, odometry fields its encoders do not report, a detection
-  /// of a robot that is not another robot of the world), which the consumers could not take.
+  /// of a robot that is not another robot of the world, a value out of a world file's ranges, a
+  /// time that goes back, two true poses of a robot at one instant), which the consumers could
+  /// not take.
   bool next(Record& record);
 
  private:
@@ -41,6 +44,7 @@ class LogSource {
   /// Renumbers a checked record for the view; false when it is not in it.
   bool to_view(Record& record) const;
   LogReader reader_;
+  StreamOrderCheck order_;
   WorldDef world_;                // as recorded: the records are checked against it
   std::optional<WorldDef> view_;  // with the robots asked for only
   std::vector<int> view_index_;   // recorded robot index -> the view's, or -1

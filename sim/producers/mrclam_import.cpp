@@ -7,6 +7,7 @@
 
 #include "sim/common/errors.hpp"
 #include "sim/producers/text_table.hpp"
+#include "sim/stream/record_checks.hpp"
 
 namespace locsim {
 
@@ -75,7 +76,9 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
                          (dir / "Barcodes.dat").string());
     }
     if (!landmark_ids.insert(subject).second) landmarks.fail(row, 0, "landmark listed twice");
-    dataset.landmarks.push_back({subject, {landmarks.number(row, 1), landmarks.number(row, 2)}});
+    dataset.landmarks.push_back({subject,
+                                 {landmarks.number(row, 1, kWorldCoordinateRange),
+                                  landmarks.number(row, 2, kWorldCoordinateRange)}});
   }
 
   for (std::size_t index = 0; index < subjects.size(); ++index) {
@@ -95,8 +98,8 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
       ImportedRobot::Odometry o;
       o.t_s = odometry.number(row, 0);
       o.reading.fields = kOdometryVelocity;  // MRCLAM logs the commanded velocity only
-      o.reading.v_mps = odometry.number(row, 1);
-      o.reading.omega_radps = odometry.number(row, 2);
+      o.reading.v_mps = odometry.number(row, 1, kReadingSpeedRange);
+      o.reading.omega_radps = odometry.number(row, 2, kReadingTurnRateRange);
       robot.odometry.push_back(o);
     }
 
@@ -105,9 +108,10 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
     truth.check_non_decreasing(0);
     robot.truth.reserve(truth.rows().size());
     for (const auto& row : truth.rows()) {
-      robot.truth.push_back(
-          {truth.number(row, 0),
-           {truth.number(row, 1), truth.number(row, 2), wrap_angle(truth.number(row, 3))}});
+      robot.truth.push_back({truth.number(row, 0),
+                             {truth.number(row, 1, kWorldCoordinateRange),
+                              truth.number(row, 2, kWorldCoordinateRange),
+                              wrap_angle(truth.number(row, 3, kHeadingRange))}});
     }
 
     const TextTable measurements(dir / (prefix + "Measurement.dat"), Layout::kWhitespace,
@@ -116,7 +120,7 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
     for (const auto& row : measurements.rows()) {
       const double t_s = measurements.number(row, 0);
       const long long barcode = measurements.whole(row, 1, 0, 1000000);
-      const double range_m = measurements.number(row, 2);
+      const double range_m = measurements.number(row, 2, kReadingRangeRange);
       const double bearing_rad = measurements.number(row, 3);
       if (range_m < 0.0) measurements.fail(row, 2, "a negative range");
       if (std::abs(bearing_rad) > std::numbers::pi)

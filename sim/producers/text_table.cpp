@@ -43,13 +43,13 @@ TextTable::TextTable(const std::filesystem::path& file, Layout layout,
     if (content.empty() || content.front() == '#') continue;
     Row row;
     row.line = line;
+    row.line_start = static_cast<std::uint32_t>(line_start);
+    row.first = static_cast<std::uint32_t>(fields_.size());
     const auto add = [&](std::size_t from, std::size_t to) {
-      std::string_view field = text.substr(from, to - from);
-      std::size_t lead = 0;
-      while (lead < field.size() && blank(field[lead])) ++lead;
-      field = trim(field);
-      row.fields.push_back(field);
-      row.columns.push_back(static_cast<int>(from + lead - line_start) + 1);
+      const std::string_view field = trim(text.substr(from, to - from));
+      fields_.push_back({static_cast<std::uint32_t>(field.data() - text.data()),
+                         static_cast<std::uint32_t>(field.size())});
+      ++row.count;
     };
     const std::size_t line_end = line_start + whole_line.size();
     if (layout == Layout::kWhitespace) {
@@ -72,7 +72,9 @@ TextTable::TextTable(const std::filesystem::path& file, Layout layout,
     }
     if (!header_seen) {
       header_seen = true;
-      std::vector<std::string> header(row.fields.begin(), row.fields.end());
+      std::vector<std::string> header;
+      for (std::size_t i = 0; i < row.count; ++i) header.emplace_back(field_text(row, i));
+      fields_.resize(row.first);  // the header's fields are not data
       std::vector<std::string> ordered;
       for (const std::string& name : names_) {
         if (std::find(header.begin(), header.end(), name) == header.end()) {
@@ -80,7 +82,7 @@ TextTable::TextTable(const std::filesystem::path& file, Layout layout,
           for (const std::string& n : names_) columns += (columns.empty() ? "" : ",") + n;
           throw InputError(SourceLocation{file_.string(), line, 1}, name,
                            "the header row lacks column '" + name + "' (expected " + columns +
-                               ", got '" + std::string(content) + "')");
+                               ", got " + quote_input(content) + ")");
         }
       }
       // Columns are addressed by name: the header's own order is kept, and names_ becomes it.
@@ -89,11 +91,11 @@ TextTable::TextTable(const std::filesystem::path& file, Layout layout,
                            std::find(optional.begin(), optional.end(), name) != optional.end();
         if (!known) {
           throw InputError(SourceLocation{file_.string(), line, 1}, name,
-                           "unknown column '" + name + "'");
+                           "unknown column " + quote_input(name));
         }
         if (std::find(ordered.begin(), ordered.end(), name) != ordered.end()) {
           throw InputError(SourceLocation{file_.string(), line, 1}, name,
-                           "column '" + name + "' named twice");
+                           "column " + quote_input(name) + " named twice");
         }
         ordered.push_back(name);
       }
@@ -118,41 +120,52 @@ int TextTable::column(std::string_view name) const {
 
 void TextTable::fail(const Row& row, int column, const std::string& problem) const {
   const bool named = column >= 0 && static_cast<std::size_t>(column) < names_.size();
-  const int col = column >= 0 && static_cast<std::size_t>(column) < row.columns.size()
-                      ? row.columns[static_cast<std::size_t>(column)]
-                      : 0;
+  // The field's 1-based character column in its line.
+  const int col =
+      column >= 0 && static_cast<std::size_t>(column) < row.count
+          ? static_cast<int>(fields_[row.first + static_cast<std::size_t>(column)].offset -
+                             row.line_start) +
+                1
+          : 0;
   throw InputError(SourceLocation{file_.string(), row.line, col},
                    named ? names_[static_cast<std::size_t>(column)] : "", problem);
 }
 
 void TextTable::need(const Row& row, int column) const {
-  if (column < 0 || static_cast<std::size_t>(column) >= row.fields.size()) {
+  if (column < 0 || static_cast<std::size_t>(column) >= row.count) {
     fail(row, column,
-         "the line has " + std::to_string(row.fields.size()) + " columns, expected at least " +
+         "the line has " + std::to_string(row.count) + " columns, expected at least " +
              std::to_string(column + 1) + " (a truncated line?)");
   }
-  if (row.fields[static_cast<std::size_t>(column)].empty()) fail(row, column, "empty value");
+  if (field_text(row, static_cast<std::size_t>(column)).empty()) fail(row, column, "empty value");
 }
 
 std::string_view TextTable::text(const Row& row, int column) const {
-  if (column < 0 || static_cast<std::size_t>(column) >= row.fields.size()) return {};
-  return row.fields[static_cast<std::size_t>(column)];
+  if (column < 0 || static_cast<std::size_t>(column) >= row.count) return {};
+  return field_text(row, static_cast<std::size_t>(column));
 }
 
 double TextTable::number(const Row& row, int column) const {
   need(row, column);
-  const std::string_view field = row.fields[static_cast<std::size_t>(column)];
+  const std::string_view field = field_text(row, static_cast<std::size_t>(column));
   double value = 0.0;
   const char* begin = field.data();
   if (field.size() > 1 && field.front() == '+') ++begin;  // from_chars refuses a leading '+'
   const auto [end, error] = std::from_chars(begin, field.data() + field.size(), value);
   if (error == std::errc::result_out_of_range || (error == std::errc() && !std::isfinite(value)) ||
       field == "nan" || field == "NaN") {
-    fail(row, column, "'" + std::string(field) + "' is not a finite number");
+    fail(row, column, quote_input(field) + " is not a finite number");
   }
   if (error != std::errc() || end != field.data() + field.size()) {
-    fail(row, column, "'" + std::string(field) + "' is not a number");
+    fail(row, column, quote_input(field) + " is not a number");
   }
+  return value;
+}
+
+double TextTable::number(const Row& row, int column, const Range& range) const {
+  const double value = number(row, column);
+  if (const std::string problem = out_of_range(value, range); !problem.empty())
+    fail(row, column, problem);
   return value;
 }
 
@@ -161,8 +174,8 @@ long long TextTable::whole(const Row& row, int column, long long lo, long long h
   if (value != std::floor(value) || value < static_cast<double>(lo) ||
       value > static_cast<double>(hi)) {
     fail(row, column,
-         "'" + std::string(row.fields[static_cast<std::size_t>(column)]) +
-             "' is not a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+         quote_input(field_text(row, static_cast<std::size_t>(column))) +
+             " is not a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
   return static_cast<long long>(value);
 }
@@ -198,7 +211,9 @@ std::vector<StampedPose> read_tum(const std::filesystem::path& file, bool strict
       table.fail(row, 0, "the time repeats the previous line's (times must increase)");
     // The yaw of the rotation (z up): its heading in the plane.
     const double yaw = std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
-    poses.push_back({t_s, {table.number(row, 1), table.number(row, 2), yaw}});
+    poses.push_back({t_s,
+                     {table.number(row, 1, kWorldCoordinateRange),
+                      table.number(row, 2, kWorldCoordinateRange), yaw}});
   }
   return poses;
 }

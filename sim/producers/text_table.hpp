@@ -3,6 +3,7 @@
 // keeps its line and column, so that a bad one is reported where the user can fix it.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -10,6 +11,7 @@
 
 #include "sim/common/errors.hpp"
 #include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
 
 namespace locsim {
 
@@ -20,10 +22,14 @@ class TextTable {
     kCsv,         // columns separated by commas (spaces around them ignored); a header row first;
                   // lines starting with '#' are comments
   };
+  /// A data line: where its fields are in the table's list of fields. 16 bytes, and 8 a field:
+  /// a table of millions of lines costs little beside its text (the fields were vectors of their
+  /// own, about 170 bytes a line).
   struct Row {
-    int line = 0;  // 1-based
-    std::vector<std::string_view> fields;
-    std::vector<int> columns;  // 1-based character column of each field
+    int line = 0;                  // 1-based
+    std::uint32_t line_start = 0;  // byte offset of the line in the text
+    std::uint32_t first = 0;       // index of its first field
+    std::uint32_t count = 0;       // how many fields it has
   };
 
   /// Reads the file. `names` are the columns' names for messages (kWhitespace), or the columns a
@@ -39,6 +45,9 @@ class TextTable {
   /// The row's value in column `column` as a finite number; InputError (file:line:col and the
   /// column's name) when the row is too short, or the field is not a finite number.
   double number(const Row& row, int column) const;
+  /// The same, also within `range` (a world file's range for the quantity: a Vicon x of 1e30 is
+  /// refused here, at its line, not downstream).
+  double number(const Row& row, int column, const Range& range) const;
   /// A whole number in [lo, hi].
   long long whole(const Row& row, int column, long long lo, long long hi) const;
   /// The field's text ("" when the row is too short and the column optional).
@@ -50,10 +59,19 @@ class TextTable {
 
  private:
   void need(const Row& row, int column) const;
+  /// Field `i` of `row` (which has it).
+  std::string_view field_text(const Row& row, std::size_t i) const {
+    const Field& f = fields_[row.first + i];
+    return std::string_view(text_).substr(f.offset, f.length);
+  }
+  struct Field {
+    std::uint32_t offset = 0, length = 0;  // in text_ [bytes]
+  };
   std::filesystem::path file_;
   std::string text_;
   std::vector<std::string> names_;
   std::vector<Row> rows_;
+  std::vector<Field> fields_;
 };
 
 /// A TUM trajectory file (`t x y z qx qy qz qw` per line, '#' comments; z ignored): planar poses,

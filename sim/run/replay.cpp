@@ -16,7 +16,13 @@ using json = nlohmann::ordered_json;
 
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt) {
   LogSource source(options.log_file, options.robots);
-  RunFolder::check(options.out_dir, options.overwrite);
+  // The log (and the localizers' files) must survive what the replay writes: --overwrite keeps
+  // them, an output never replaces them.
+  std::vector<fs::path> read = session_input_files(options);
+  read.push_back(options.log_file);
+  if (options.video != nullptr && options.video_options.video_file)
+    RunFolder::check_outputs({{"--video", *options.video_options.video_file}}, read);
+  RunFolder::check(options.out_dir, options.overwrite, read);
   const std::uint64_t seed = options.seed.value_or(source.seed());
   Session session(options, source.world(), source.scenario(), seed, interrupt);
   // The video is opened before the folder is made, as a run's: one that cannot be written (exit
@@ -25,7 +31,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   if (options.video != nullptr) {
     capture.emplace(*options.video, options.video_options, source.world(), &session.host());
   }
-  std::vector<fs::path> keep;  // --overwrite empties the folder, but not of these
+  std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
   for (const auto& file : {options.video_options.video_file, options.video_options.frames_dir}) {
     if (file && options.video != nullptr) keep.push_back(*file);
   }

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "sim/common/base64.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/consumers/config_json.hpp"
@@ -69,7 +70,9 @@ fs::path default_out_dir(const RunInputs& inputs, std::uint64_t seed) {
   return dir;
 }
 
-/// Everything replay needs to rebuild the world and its localizer inputs: the files' text.
+/// Everything replay needs to rebuild the world and its localizer inputs: the world's and the
+/// scenario's text, and every other file they name (a map's YAML and image, a trajectory's TUM
+/// file), so that a replay reads nothing but the log (producers/log_source).
 json log_header(const RunOptions& options, const RunInputs& inputs) {
   json header = {{"format", "locsim-log"},
                  {"locsim_version", locsim_version()},
@@ -79,9 +82,19 @@ json log_header(const RunOptions& options, const RunInputs& inputs) {
                  {"world_yaml", read_text(options.world_file)},
                  {"scenario_file",
                   options.scenario_file ? json(options.scenario_file->string()) : json(nullptr)},
+                 {"scenario_dir", options.scenario_file
+                                      ? json(fs::absolute(*options.scenario_file).parent_path())
+                                      : json(nullptr)},
                  {"scenario_yaml",
                   options.scenario_file ? json(read_text(*options.scenario_file)) : json(nullptr)},
                  {"duration_s", inputs.scenario.duration_s}};
+  json files = json::object();
+  for (const fs::path& file : inputs.files) {
+    if (file == options.world_file || (options.scenario_file && file == *options.scenario_file))
+      continue;
+    files[InputSandbox::key(fs::absolute(file))] = base64_encode(read_text(file));
+  }
+  header["files"] = files;
   if (inputs.world.drawn.applied) header["variation"] = to_json(inputs.world.drawn);
   return header;
 }
@@ -97,7 +110,19 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   RunResult result;
   result.out_dir =
       options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;
-  RunFolder::check(result.out_dir, options.overwrite);
+  // What the run reads must survive what it writes: --overwrite keeps it, an output never
+  // replaces it.
+  std::vector<fs::path> read = inputs.files;
+  for (const fs::path& file : session_input_files(options)) read.push_back(file);
+  std::vector<std::pair<std::string, fs::path>> named_outputs;
+  if (options.log_file) named_outputs.emplace_back("--log", *options.log_file);
+  if (options.video != nullptr && options.video_options.video_file)
+    named_outputs.emplace_back("--video", *options.video_options.video_file);
+  RunFolder::check_outputs(named_outputs, read);
+  RunFolder::check(result.out_dir, options.overwrite, read);
+  check_run_output(estimate_run_output(inputs.world, inputs.scenario, options.readings,
+                                       options.log_file.has_value(), options.localizers.size()),
+                   options.max_output_bytes, result.out_dir);
   // The localizers' processes start before the simulation (and any renderer) has threads.
   Session session(options, inputs.world, inputs.scenario, options.seed, interrupt);
   Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
@@ -112,7 +137,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   if (options.video != nullptr) {
     capture.emplace(*options.video, options.video_options, sim, &session.host());
   }
-  std::vector<fs::path> keep;  // --overwrite empties the folder, but not of these
+  std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
   for (const auto& file :
        {options.log_file, options.video_options.video_file, options.video_options.frames_dir}) {
     if (file) keep.push_back(*file);

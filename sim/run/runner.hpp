@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "sim/consumers/frame_state.hpp"
+#include "sim/run/output_budget.hpp"
 #include "sim/run/session.hpp"
 #include "sim/scenario/scenario_def.hpp"
 #include "sim/sensors/camera_image.hpp"
@@ -29,6 +30,8 @@ struct RunOptions : SessionOptions {
   bool progress = false;          // progress line on stderr
   int threads = 0;  // for the sensors of different robots; 0: every core (default_thread_count)
   std::optional<std::filesystem::path> log_file;  // also record the run into one replayable log
+  /// The most the run may write (its estimate, output_budget.hpp), --max-output-gib. [bytes]
+  std::uint64_t max_output_bytes = kDefaultMaxOutputBytes;
   FrameSink* video = nullptr;  // frames of the run (render/), at video_options' frame times
   VideoOptions video_options;
   LandmarkImagerFactory make_landmark_imager;  // for PTZ cameras in mode: rendered (render/)

@@ -33,6 +33,20 @@ Session::Session(const SessionOptions& options, const WorldDef& world, const Sce
   scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence, &grid);
 }
 
+std::vector<std::filesystem::path> session_input_files(const SessionOptions& options) {
+  std::vector<std::filesystem::path> files;
+  if (options.params_file) files.push_back(*options.params_file);
+  for (const std::string& text : options.localizers) {
+    const LocalizerSpec spec = parse_localizer_spec(text);
+    // A plugin and a loader's source given as files (one found by name is installed elsewhere).
+    for (const std::string& file : {spec.plugin, spec.source}) {
+      std::error_code error;
+      if (!file.empty() && std::filesystem::is_regular_file(file, error)) files.push_back(file);
+    }
+  }
+  return files;
+}
+
 void Session::open(const std::filesystem::path& out_dir,
                    const std::vector<std::filesystem::path>& keep) {
   folder_ = RunFolder::create(out_dir, world_, options_.overwrite, keep);

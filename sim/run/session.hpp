@@ -95,6 +95,11 @@ class Session {
   std::chrono::steady_clock::time_point flushed_ = std::chrono::steady_clock::now();
 };
 
+/// The files a session's localizers read: --params, plugins given by path, their sources (a
+/// Python filter's file). The drivers keep them from --overwrite and from being written over.
+/// Throws InputError for a malformed --localizer.
+std::vector<std::filesystem::path> session_input_files(const SessionOptions& options);
+
 /// Peak resident memory [MB] of this process ("locsim") and of the largest localizer process it
 /// has ended ("largest_localizer"), for run.json's wall-clock block.
 nlohmann::ordered_json peak_memory_json();

@@ -27,6 +27,13 @@ inline constexpr std::uint64_t kMapPixelBytes = 4;
 /// A rendered camera's pixel: the GL colour and depth buffers, the read-back image and the
 /// segmentation's colour planes and labels. [bytes]
 inline constexpr std::uint64_t kRenderedPixelBytes = 32;
+/// A point of a mover's path: the definition's, the walker's segment table, the resolved
+/// configuration's JSON, and the YAML list it was read from (a path shared by YAML aliases is
+/// counted for every mover that names it: each gets its own copy). [bytes]
+inline constexpr std::uint64_t kPathPointBytes = 64;
+/// A beam of a robot's laser: its angle and direction, the moving bodies it may reach, the scan's
+/// range, the readings' CSV text, the log's and the localizers' copies of a scan. [bytes]
+inline constexpr std::uint64_t kLaserBeamBytes = 256;
 /// A cell of the occupancy grid given to localizers: the host's grid, and what a localizer builds
 /// from it (its copy, the free cells it samples from, a likelihood field of floats and the
 /// distance transform's doubles). [bytes]
@@ -38,6 +45,8 @@ std::string format_bytes(double bytes);
 /// The parts of a world's memory, each with the place in the files that decides it.
 class WorldMemory {
  public:
+  /// Adds a part. Call check() before allocating what grows with the input: a world is refused
+  /// before it is built, not after.
   void add(InputPlace place, std::string what, std::uint64_t bytes);
   std::uint64_t total_bytes() const;
   /// Throws InputError at the largest part when `other_bytes` plus the parts exceed the budget.

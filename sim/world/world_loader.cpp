@@ -5,6 +5,7 @@
 #include <map>
 #include <set>
 
+#include "sim/common/files.hpp"
 #include "sim/common/format.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/sensors/sensor_loader.hpp"
@@ -30,10 +31,10 @@ namespace {
 void require_file(const YamlNode& node, const std::filesystem::path& file,
                   const std::string& what) {
   std::error_code error;
-  const bool found = std::filesystem::exists(file, error);
+  const bool found = input_file_exists(file, error);
   if (error)
     node.fail("cannot look up the " + what + " '" + file.string() + "': " + error.message());
-  if (!found) node.fail("no such " + what + " '" + file.string() + "'");
+  if (!found) node.fail(missing_input_file(file, what));
 }
 
 bool is_convex_ccw(const std::vector<Vec2>& points) {
@@ -405,6 +406,15 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
   }
   std::set<std::string> body_names;
   if (const auto movers = root.find("movers")) {
+    // Every path's points counted before any is read: paths shared through YAML aliases are
+    // copied for each mover, so a small file can name gigabytes of them.
+    std::uint64_t points = 0;
+    for (const YamlNode& item : movers->items()) {
+      if (const auto path = item.find("path")) points += path->size();
+    }
+    memory.add(movers->place(), "the movers' paths (" + std::to_string(points) + " points)",
+               points * kPathPointBytes);
+    memory.check();
     for (const YamlNode& item : movers->items()) {
       item.allow_keys(
           {"name", "kind", "footprint", "path", "speed_mps", "loop", "moving", "height_m"});
@@ -474,6 +484,14 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     robot.start = item["start"].as_pose(kWorldCoordinateRange);
     if (const auto sensors = item.find("sensors")) {
       robot.sensors = parse_sensors(*sensors, world.physics.step_hz);
+      if (const auto& laser = robot.sensors.laser) {
+        // What a robot's laser allocates is built with the simulation: counted (and refused)
+        // here, before it is.
+        memory.add((*sensors)["laser"].place(),
+                   "robot '" + robot.name + "''s " + std::to_string(laser->beams) + "-beam laser",
+                   static_cast<std::uint64_t>(laser->beams) * kLaserBeamBytes);
+        memory.check();
+      }
       if (const auto& ptz = robot.sensors.ptz_camera;
           ptz && ptz->mode == PtzCameraDef::Mode::kRendered) {
         memory.add(

@@ -10,7 +10,11 @@
 // decoders behind them are reached (and leaves some wrong, so the checks are fuzzed too).
 //
 // Expected outcome: InputError (the log is corrupt or truncated, with the byte and record).
-// Anything else is a finding. Run: docs/testing.md.
+// Anything else is a finding, and so is a replay that opens a file outside the log: a valid map
+// is planted in kPlanted, watched with inotify, and any open of it (a header whose world names it,
+// by an absolute path or through `..`; tests/fuzz/regressions/log/planted-*) aborts. Run:
+// docs/testing.md.
+#include <sys/inotify.h>
 #include <sys/mman.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -20,6 +24,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "sim/common/errors.hpp"
@@ -74,6 +79,36 @@ std::string g_path;
 // The replay's run folder, in memory where there is a tmpfs.
 fs::path g_out;
 
+// A map a log from someone else might name, and the watch on it.
+constexpr const char* kPlanted = "/tmp/locsim-fuzz-planted";
+int g_watch_fd = -1;
+
+void plant() {
+  // Written only where missing: another fuzz_log process may be watching them already.
+  fs::create_directories(kPlanted);
+  if (!fs::exists(fs::path(kPlanted) / "map.yaml")) {
+    std::ofstream(fs::path(kPlanted) / "map.yaml")
+        << "image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n";
+  }
+  if (!fs::exists(fs::path(kPlanted) / "map.pgm")) {
+    std::ofstream(fs::path(kPlanted) / "map.pgm", std::ios::binary) << "P5 4 4 255\n"
+                                                                    << std::string(16, '\xff');
+  }
+  g_watch_fd = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+  if (g_watch_fd < 0 || inotify_add_watch(g_watch_fd, kPlanted, IN_OPEN | IN_ACCESS) < 0) {
+    std::perror("fuzz_log: inotify");
+    std::abort();
+  }
+}
+
+void abort_if_planted_file_opened() {
+  char events[4096];
+  if (read(g_watch_fd, events, sizeof(events)) > 0) {
+    std::fprintf(stderr, "fuzz_log: the replay opened a file in %s, outside its log\n", kPlanted);
+    std::abort();
+  }
+}
+
 void remove_out() {
   std::error_code ignored;
   fs::remove_all(g_out, ignored);
@@ -97,6 +132,7 @@ extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
   }
   g_out = fs::path(dir_template) / "replay";
   std::atexit(remove_out);
+  plant();
   return 0;
 }
 
@@ -133,5 +169,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     } catch (const locsim::InputError&) {
     }
   }
+  abort_if_planted_file_opened();
   return 0;
 }

@@ -430,6 +430,12 @@ int main(int argc, char** argv) {
   run->add_option("--log", log_file,
                   "Also record the sensor stream, ground truth and events into one log file, for "
                   "`locsim replay`");
+  double max_output_gib = static_cast<double>(locsim::kDefaultMaxOutputBytes) / (1 << 30);
+  run->add_option("--max-output-gib", max_output_gib,
+                  "Refuse a run whose files (readings, log, estimates) are estimated to exceed "
+                  "this many GiB, or the disk's free space; it is refused before it starts")
+      ->check(CLI::Range(0.001, 1e6))
+      ->capture_default_str();
   VideoCli run_video;
   add_video_options(run, run_video, options.video_options);
   run->footer(
@@ -914,6 +920,7 @@ int main(int argc, char** argv) {
     options.isolate = isolation == "process";
     options.world_file = world_file;
     if (!log_file.empty()) options.log_file = log_file;
+    options.max_output_bytes = static_cast<std::uint64_t>(max_output_gib * (1 << 30));
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
     options.progress = !quiet && isatty(STDERR_FILENO);
@@ -947,7 +954,8 @@ int main(int argc, char** argv) {
                  stage.empty() ? "" : (" while " + stage).c_str());
     return locsim::kExitFailure;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "locsim: failure: %s\n", e.what());
+    // Not one of ours (their messages are made printable already): it may quote anything.
+    std::fprintf(stderr, "locsim: failure: %s\n", locsim::printable(e.what()).c_str());
     return locsim::kExitFailure;
   }
 }
