@@ -19,6 +19,11 @@ std::string read_text(const std::filesystem::path& file);
 /// larger than `max_bytes` (checked before anything is read).
 std::string read_input_file(const std::filesystem::path& file, std::uintmax_t max_bytes);
 
+/// Refuses an output folder that cannot be made or written into before anything is written:
+/// throws InputError, after `option` (e.g. "--out"), when `dir` exists and is not a folder, or the
+/// nearest of its parents that exists is not one (a file given where a folder is meant).
+void check_output_folder(const std::filesystem::path& dir, std::string_view option);
+
 /// Writes `content` to `file` (replacing it). Throws std::runtime_error naming the path and the
 /// system's reason when it cannot be written whole.
 void write_file(const std::filesystem::path& file, std::string_view content);
