@@ -280,5 +280,55 @@ TEST(Cli, RunAndValidateLoadTheRendererForARenderedCamera) {
   EXPECT_NE(missing.output.find("missing.so"), std::string::npos) << missing.output;
 }
 
+// Issue 49: a file given where an output folder is meant is bad input (exit 2, before anything
+// runs or is written), not an I/O failure at the end (exit 1).
+TEST(Cli, AFileGivenAsAnOutputFolderExitsWithTwoAndIsLeftAsItIs) {
+  const fs::path dir = testing::temp_dir("cli");
+  const Outcome recorded =
+      locsim("run " + kDemo + " --duration 3 -q --no-readings --out " + (dir / "run").string() +
+             " --log " + (dir / "run.locsimlog").string());
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.output;
+  const fs::path file = dir / "file.txt";
+  std::ofstream(file) << "keep\n";
+  const std::string log = (dir / "run.locsimlog").string();
+  struct Case {
+    std::string command, message;
+  };
+  const std::string not_a_folder = "--out: '" + file.string() + "' exists and is not a folder";
+  const std::string inside = "--out: '" + (file / "sub").string() + "' cannot be made: '" +
+                             file.string() + "' is not a folder";
+  for (const Case& c : std::vector<Case>{
+           {"calibrate " + log + " -q --out " + file.string(), not_a_folder},
+           {"calibrate " + log + " -q --out " + (file / "sub").string(), inside},
+           {"generate room --seeds 1-2 -q --out " + file.string(), not_a_folder},
+           {"generate room --seeds 1 -q --out " + (file / "sub").string(), inside},
+           {"run " + kDemo + " --duration 1 -q --out " + (dir / "new").string() + " --log " +
+                (file / "x.locsimlog").string(),
+            "--log: '" + file.string() + "' exists and is not a folder"},
+       }) {
+    SCOPED_TRACE(c.command);
+    const Outcome o = locsim(c.command);
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    testing::expect_contains(o.output, c.message);
+    EXPECT_EQ(testing::read_file(file), "keep\n");
+  }
+  EXPECT_FALSE(fs::exists(dir / "new"));
+}
+
+TEST(Cli, ALogInsideARunFolderNotYetMadeIsWritten) {
+  // Before: exit 1, "cannot write the log": its folder was not made.
+  const fs::path dir = testing::temp_dir("cli");
+  const fs::path out = dir / "new";
+  const Outcome o = locsim("run " + kDemo + " --duration 2 -q --localizer odometry --out " +
+                           out.string() + " --log " + (out / "logs/run.locsimlog").string());
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_TRUE(fs::exists(out / "run.json"));
+  const Outcome replayed = locsim("replay " + (out / "logs/run.locsimlog").string() +
+                                  " -q --localizer odometry --out " + (dir / "replay").string());
+  EXPECT_EQ(replayed.exit_code, 0) << replayed.output;
+  EXPECT_EQ(testing::read_file(dir / "replay/odometry.tum"),
+            testing::read_file(out / "odometry.tum"));
+}
+
 }  // namespace
 }  // namespace locsim

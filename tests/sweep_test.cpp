@@ -2,6 +2,7 @@
 // their run only; bad experiment files are reported where they are wrong.
 #include "sim/experiments/sweep.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -13,6 +14,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
@@ -562,6 +564,243 @@ TEST(Sweep, ARunInErrorMakesTheSweepExitWith1AndSayWhere) {
   EXPECT_NE(testing::read_file(out / "results.csv").find("needs a map with at least 100 landmarks"),
             std::string::npos);
   EXPECT_EQ(result_of_run(out, "odometry/seed-1")["status"], "ok");
+}
+
+// Issue 49: one locsim at a time writes a sweep folder (DIR/sweep.lock, flock(2)); merge refuses
+// corrupt, repeated or live shards. Each through the command line, as a user meets it.
+
+/// `locsim ARGUMENTS` started in the background, its stdout and stderr into `output`.
+pid_t start_locsim(const std::vector<std::string>& arguments, const fs::path& output) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(output.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, STDOUT_FILENO);
+    dup2(fd, STDERR_FILENO);
+    std::vector<char*> argv{const_cast<char*>(LOCSIM_BINARY)};
+    for (const std::string& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(LOCSIM_BINARY, argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int exit_code_of(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// Every file under `dir` with its size, to tell whether anything was written.
+std::string file_listing(const fs::path& dir) {
+  std::set<std::string> entries;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    entries.insert(fs::relative(entry.path(), dir).string() + " " +
+                   (entry.is_regular_file() ? std::to_string(entry.file_size()) : "dir"));
+  }
+  std::string out;
+  for (const std::string& e : entries) out += e + "\n";
+  return out;
+}
+
+TEST(SweepLock, OfTwoSweepsOrTwoResumesStartedIntoOneFolderAtOnceOneRunsTheOtherExitsWith2) {
+  // Before: both ran, and both failed (exit 1) with `error` rows, each run's folder emptied by
+  // the other's run of it.
+  const fs::path dir = testing::temp_dir("sweep-lock");
+  const fs::path experiment = write_short_experiment(dir, "  - plugin: odometry\n", "[1, 2]");
+  const fs::path out = dir / "out";
+  const auto race = [&](std::vector<std::string> arguments) {
+    arguments.insert(arguments.begin(), {"sweep", experiment.string(), "--out", out.string()});
+    const pid_t a = start_locsim(arguments, dir / "a.txt");
+    const pid_t b = start_locsim(arguments, dir / "b.txt");
+    const int code_a = exit_code_of(a), code_b = exit_code_of(b);
+    const std::string output_a = testing::read_file(dir / "a.txt");
+    const std::string output_b = testing::read_file(dir / "b.txt");
+    SCOPED_TRACE(output_a + "\n---\n" + output_b);
+    // One ran them; the other was refused at once, naming the one that holds the folder (or,
+    // had the first ended before it began, found the sweep done or nothing to run).
+    EXPECT_TRUE(code_a == 0 || code_b == 0);
+    for (const auto& [code, output, other] :
+         {std::tuple{code_a, output_a, b}, std::tuple{code_b, output_b, a}}) {
+      EXPECT_TRUE(code == 0 || code == 2) << code;
+      if (code == 2 && output.find("already holds a sweep") == std::string::npos) {
+        testing::expect_contains(output, "--out: '" + out.string() +
+                                             "' is in use by locsim sweep (pid " +
+                                             std::to_string(other) + ")");
+      }
+    }
+    const std::vector<nlohmann::json> results = jsonl(out / "results.jsonl");
+    EXPECT_EQ(results.size(), 2u);
+    for (const nlohmann::json& r : results) EXPECT_EQ(r["status"], "ok") << r.dump();
+    EXPECT_FALSE(fs::exists(out / "sweep.lock"));
+  };
+  race({});
+  // Every result gone, as if the sweep had been killed at once: two resumes at once.
+  std::ofstream(out / "results.jsonl", std::ios::trunc).flush();
+  race({"--resume"});
+}
+
+TEST(SweepLock, ALiveSweepsFolderIsRefusedAtOnceNamingItsPidAndAKilledOnesIsResumed) {
+  const fs::path dir = testing::temp_dir("sweep-lock");
+  const fs::path experiment = write_short_experiment(dir, "  - plugin: odometry\n", "[1, 2]");
+  const fs::path out = dir / "out";
+  // The holder: a sweep whose every run hangs, until it is killed.
+  const fs::path hangs = write_stand_in(dir, "  *) exec sleep 300 ;;\n");
+  const pid_t holder = fork();
+  ASSERT_GE(holder, 0);
+  if (holder == 0) {
+    try {
+      sweep(experiment, out, 1, false, std::nullopt, hangs);
+    } catch (...) {
+    }
+    _exit(0);
+  }
+  // Killed at the end of the test, however it ends (its hanging runs die with it).
+  struct Holder {
+    pid_t pid;
+    void kill_now() {
+      if (pid <= 0) return;
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+      pid = -1;
+    }
+    ~Holder() { kill_now(); }
+  } guard{holder};
+  // It holds the folder, and its first run (a seed's recording) has started: nothing more is
+  // written until that ends (it hangs).
+  const std::string holder_line = std::to_string(holder) + " sweep\n";
+  const auto started = [&] {
+    return testing::read_file(out / "sweep.lock") == holder_line &&
+           fs::is_directory(out / "logs") && !fs::is_empty(out / "logs");
+  };
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline && !started()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(started());
+  const std::string before = file_listing(out);
+  const std::string held =
+      "'" + out.string() + "' is in use by locsim sweep (pid " + std::to_string(holder) + ")";
+  for (const std::string& command :
+       {"sweep " + experiment.string() + " --out " + out.string(),
+        "sweep " + experiment.string() + " --out " + out.string() + " --resume",
+        "sweep " + experiment.string() + " --out " + out.string() + " --resume --jobs 2",
+        "merge " + (dir / "merged").string() + " " + out.string()}) {
+    SCOPED_TRACE(command);
+    const TimedOutcome o = locsim(command, dir);
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    testing::expect_contains(o.output, held);
+    EXPECT_LT(o.seconds, 20.0) << "not at once";
+  }
+  EXPECT_EQ(file_listing(out), before);
+  EXPECT_FALSE(fs::exists(dir / "merged"));
+  // Killed hard, it leaves its lock file behind, held by no one: a resume takes it.
+  guard.kill_now();
+  EXPECT_TRUE(fs::exists(out / "sweep.lock"));
+  const SweepSummary resumed = sweep(experiment, out, 1, true);
+  EXPECT_EQ(resumed.ran, 2u);
+  EXPECT_EQ(resumed.not_ok, 0u);
+  EXPECT_FALSE(fs::exists(out / "sweep.lock"));
+}
+
+/// Odometry on seeds 1-4 swept as two shards, DIR/a (runs 0 and 2: seeds 1 and 3) and DIR/b.
+fs::path write_two_shards(const fs::path& dir) {
+  const fs::path experiment =
+      write_short_experiment(dir, "  - plugin: odometry\n", "{from: 1, to: 4}");
+  EXPECT_EQ(sweep(experiment, dir / "a", 2, false, std::pair{1, 2}).not_ok, 0u);
+  EXPECT_EQ(sweep(experiment, dir / "b", 2, false, std::pair{2, 2}).not_ok, 0u);
+  return experiment;
+}
+
+TEST(Merge, ABrokenResultLineExitsWith2NamingFileAndLineAndOnlyACutShortLastLineIsDropped) {
+  const fs::path dir = testing::temp_dir("merge");
+  const fs::path experiment = write_two_shards(dir);
+  const fs::path results = dir / "a/results.jsonl";
+  const std::string whole = testing::read_file(results);
+  const std::size_t first_end = whole.find('\n');
+  ASSERT_NE(first_end, std::string::npos);
+  // The first of two lines cut in half, its line break kept: no kill does that. Before: merge
+  // dropped it and every result after it, with a warning only.
+  const std::string first = whole.substr(0, first_end), second = whole.substr(first_end + 1);
+  std::ofstream(results, std::ios::binary | std::ios::trunc)
+      << first.substr(0, first.size() / 2) << '\n'
+      << second;
+  const std::string merge =
+      "merge " + (dir / "m").string() + " " + (dir / "a").string() + " " + (dir / "b").string();
+  TimedOutcome o = locsim(merge, dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  testing::expect_contains(o.output, results.string() + ":1: not a run's result");
+  EXPECT_LT(o.output.size(), 600u) << "the line is quoted cut";
+  EXPECT_FALSE(fs::exists(dir / "m"));
+  // --resume reads it as merge does, and leaves it as it is.
+  const std::string corrupt = testing::read_file(results);
+  o = locsim("sweep " + experiment.string() + " --shard 1/2 --resume --out " + (dir / "a").string(),
+             dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  testing::expect_contains(o.output, results.string() + ":1: not a run's result");
+  EXPECT_EQ(testing::read_file(results), corrupt);
+
+  // The last line cut short, without its line break (a kill while writing it): that run has no
+  // result. merge joins the others and says runs are missing; a resume runs it again.
+  std::ofstream(results, std::ios::binary | std::ios::trunc) << first << '\n'
+                                                             << second.substr(0, second.size() / 2);
+  o = locsim(merge, dir);
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  testing::expect_contains(o.output, "3 of 4 runs present");
+  EXPECT_EQ(jsonl(dir / "m/results.jsonl").size(), 3u);
+  EXPECT_EQ(sweep(experiment, dir / "a", 1, true, std::pair{1, 2}).ran, 1u);
+  EXPECT_EQ(jsonl(results).size(), 2u);
+  o = locsim(
+      "merge " + (dir / "m2").string() + " " + (dir / "a").string() + " " + (dir / "b").string(),
+      dir);
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_EQ(o.output.find("warning"), std::string::npos) << o.output;
+  EXPECT_EQ(jsonl(dir / "m2/results.jsonl").size(), 4u);
+}
+
+TEST(Merge, TheSameShardTwiceOrARunInTwoShardsExitsWith2NamingBoth) {
+  // Before: merged, exit 0, with the runs of the first.
+  const fs::path dir = testing::temp_dir("merge");
+  write_two_shards(dir);
+  fs::copy(dir / "a", dir / "a_copy", fs::copy_options::recursive);
+  const std::string a = (dir / "a").string(), b = (dir / "b").string();
+  TimedOutcome o = locsim("merge " + (dir / "m").string() + " " + a + " " + b + " " + a, dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  testing::expect_contains(o.output, "'" + a + "' and '" + a + "' are the same folder");
+  o = locsim("merge " + (dir / "m").string() + " " + a + " " + b + " " + (dir / "a_copy").string(),
+             dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  // The first of a's runs in its results.jsonl: seed 1 or 3, whichever ended first.
+  testing::expect_contains(o.output, "merge: run 'odometry/seed-");
+  testing::expect_contains(o.output,
+                           "' is in both '" + a + "' and '" + (dir / "a_copy").string() + "'");
+  EXPECT_FALSE(fs::exists(dir / "m"));
+}
+
+TEST(Merge, ACorruptSweepJsonExitsWith2NamingTheFileLineAndKey) {
+  // Before: exit 1 with nlohmann's parse error, naming no file.
+  const fs::path dir = testing::temp_dir("merge");
+  write_two_shards(dir);
+  const fs::path file = dir / "b/sweep.json";
+  const std::string header = testing::read_file(file);
+  const std::string merge =
+      "merge " + (dir / "m").string() + " " + (dir / "a").string() + " " + (dir / "b").string();
+  // Cut short on its third line.
+  const std::size_t third = header.find('\n', header.find('\n') + 1) + 1;
+  std::ofstream(file, std::ios::trunc) << header.substr(0, third + 5);
+  TimedOutcome o = locsim(merge, dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  testing::expect_contains(o.output, file.string() + ":3:");
+  testing::expect_contains(o.output, "not valid JSON");
+  EXPECT_EQ(o.output.find("json.exception"), std::string::npos) << o.output;
+  // Valid JSON, a key of the wrong kind.
+  nlohmann::ordered_json parsed = nlohmann::ordered_json::parse(header);
+  parsed["runs"] = "four";
+  std::ofstream(file, std::ios::trunc) << parsed.dump(2);
+  o = locsim(merge, dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  testing::expect_contains(o.output, file.string() + ": 'runs': missing, or not a whole number");
+  EXPECT_FALSE(fs::exists(dir / "m"));
 }
 
 TEST(Experiment, MalformedFilesAreReportedWhereTheyAreWrong) {

@@ -295,5 +295,39 @@ TEST(Twin, CommandLineIsDeterministicAndRefusesBadInput) {
   EXPECT_FALSE(fs::exists(dir / "d.yaml"));
 }
 
+// Issue 49: a calibration's sensor or key the world does not know is refused at its line, before
+// anything is written (before: a misspelt sensor was left out, a misspelt key made a twin that
+// did not load, after its files were written).
+TEST(Twin, ACalibrationsUnknownSensorOrKeyIsRefusedAtItsLineBeforeAnythingIsWritten) {
+  const fs::path dir = testing::temp_dir("twin_cli");
+  std::ofstream(dir / "world.yaml") << testing::noisy_world(0.0);
+  const auto run = testing::locsim("run " + (dir / "world.yaml").string() + " --duration 5 --out " +
+                                   (dir / "run").string() + " --no-readings -q --log " +
+                                   (dir / "rec.locsimlog").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  struct Case {
+    std::string yaml, message;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"sensors:\n  encoders: {k_left: 0.01}\n  rangebearing:\n    sigma_range_m: 0.1\n",
+            "calibration.yaml:3:3: 'sensors.rangebearing': unknown key; did you mean "
+            "'range_bearing'?"},
+           {"sensors:\n  range_bearing:\n    sigma_range_m: 0.1\n    sigma_rang_per_m: 0.01\n",
+            "calibration.yaml:4:5: 'sensors.range_bearing.sigma_rang_per_m': unknown key; did "
+            "you mean 'sigma_range_per_m'?"},
+           {"sensors:\n  encoders:\n    k_left: -1\n",
+            "calibration.yaml:3:13: 'sensors.encoders.k_left': -1"},
+       }) {
+    SCOPED_TRACE(c.yaml);
+    std::ofstream(dir / "calibration.yaml", std::ios::trunc) << c.yaml;
+    const auto o = testing::locsim("twin " + (dir / "rec.locsimlog").string() + " -q --out " +
+                                   (dir / "twin/twin.yaml").string() + " --calibration " +
+                                   (dir / "calibration.yaml").string());
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    testing::expect_contains(o.output, c.message);
+    EXPECT_FALSE(fs::exists(dir / "twin")) << o.output;
+  }
+}
+
 }  // namespace
 }  // namespace locsim

@@ -36,6 +36,22 @@ import locsim  # noqa: E402
 COLORS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
 
+class CannotWrite(Exception):
+    """A report's file cannot be written (a read-only folder, a full disk): the message names it
+    and the system's reason."""
+
+
+def save_figure(fig, path):
+    """Writes `fig` as a PNG to `path` through a temporary file (a failed write leaves no half
+    image), and closes it."""
+    try:
+        replace_with(path, lambda temporary: fig.savefig(temporary, format="png", dpi=100))
+    except OSError as error:
+        raise CannotWrite(f"{path}: {error.strerror or error}") from None
+    finally:
+        plt.close(fig)
+
+
 def kidnap_times(run_dir):
     return [e["t_s"] for e in locsim.read_events(os.path.join(run_dir, "events.csv")) if e["kind"] == "kidnap"]
 
@@ -180,8 +196,7 @@ def sweep_report(root, out_dir):
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(os.path.join(out_dir, "error_vs_time.png"), dpi=100)
-    plt.close(fig)
+    save_figure(fig, os.path.join(out_dir, "error_vs_time.png"))
     lines += ["## Error over time", "", "![position error over time](report/error_vs_time.png)", ""]
 
     # Each grid parameter's effect: position RMS (mean +- CI) against its value.
@@ -211,8 +226,7 @@ def sweep_report(root, out_dir):
         ax.grid(alpha=0.3)
         fig.tight_layout()
         name = f"param_{base}_{key}.png".replace("/", "_")
-        fig.savefig(os.path.join(out_dir, name), dpi=100)
-        plt.close(fig)
+        save_figure(fig, os.path.join(out_dir, name))
         lines += [f"## {base}: {key}", "", f"![{key}](report/{name})", ""]
 
     # CDFs of convergence and recovery, in steps (perception updates, the papers' unit).
@@ -240,8 +254,7 @@ def sweep_report(root, out_dir):
         else:
             ax.text(0.5, 0.5, "no run got there", ha="center", va="center", transform=ax.transAxes)
     fig.tight_layout()
-    fig.savefig(os.path.join(out_dir, "cdf.png"), dpi=100)
-    plt.close(fig)
+    save_figure(fig, os.path.join(out_dir, "cdf.png"))
     lines += ["## Convergence and recovery", "", "![CDFs](report/cdf.png)", ""]
     return lines
 
@@ -326,8 +339,7 @@ def run_report(root, out_dir):
         mark_kidnaps(ax, kidnap_times(root))
         ax.set_xlabel("time [s]")
         fig.tight_layout()
-        fig.savefig(os.path.join(out_dir, "error_vs_time.png"), dpi=100)
-        plt.close(fig)
+        save_figure(fig, os.path.join(out_dir, "error_vs_time.png"))
         return lines + ["", "![position error over time](report/error_vs_time.png)", ""]
 
     robots = []
@@ -368,8 +380,7 @@ def run_report(root, out_dir):
         ax.set_title(name, fontsize=9)
     axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()
-    fig.savefig(os.path.join(out_dir, "error_vs_time.png"), dpi=100)
-    plt.close(fig)
+    save_figure(fig, os.path.join(out_dir, "error_vs_time.png"))
     return lines + ["", "![position error over time, per robot](report/error_vs_time.png)", ""]
 
 
@@ -437,8 +448,7 @@ def calibration_report(root, out_dir):
         ax2.set_ylabel("measured − true bearing [deg]")
         fig.suptitle(f"{name}: detection errors per range bin (inliers) and the fits", fontsize=9)
         fig.tight_layout()
-        fig.savefig(os.path.join(out_dir, f"{name}_errors.png"), dpi=100)
-        plt.close(fig)
+        save_figure(fig, os.path.join(out_dir, f"{name}_errors.png"))
         lines += ["", f"![{name} errors against range](report/{name}_errors.png)"]
     return lines + [""]
 
@@ -690,8 +700,15 @@ def replace_with(path, write):
     """Writes `path` through a temporary file renamed over it: an interrupted write leaves the old
     file whole."""
     temporary = path + ".tmp"
-    write(temporary)
-    os.replace(temporary, path)
+    try:
+        write(temporary)
+        os.replace(temporary, path)
+    except BaseException:
+        try:
+            os.remove(temporary)
+        except OSError:
+            pass
+        raise
 
 
 def plot_compare(path, configs, a, b, labels):
@@ -906,23 +923,39 @@ def main():
         parser.error("--out and --labels go with --compare")
     root = args.dir
     out_dir = os.path.join(root, "report")
-    os.makedirs(out_dir, exist_ok=True)
-    try:
-        if os.path.exists(os.path.join(root, "sweep.json")):
-            lines = sweep_report(root, out_dir)
-        elif os.path.exists(os.path.join(root, "run.json")):
-            lines = run_report(root, out_dir)
-        elif os.path.exists(os.path.join(root, "calibration.json")):
-            lines = calibration_report(root, out_dir)
-        else:
-            print(f"report: {root} is neither a sweep, a run nor a calibration folder", file=sys.stderr)
-            return 2
-    except (OSError, ValueError, KeyError) as error:
-        print(f"report: cannot read {root}: {error}", file=sys.stderr)
+    if os.path.exists(os.path.join(root, "sweep.json")):
+        make_lines = sweep_report
+    elif os.path.exists(os.path.join(root, "run.json")):
+        make_lines = run_report
+    elif os.path.exists(os.path.join(root, "calibration.json")):
+        make_lines = calibration_report
+    else:
+        print(f"report: {root} is neither a sweep, a run nor a calibration folder", file=sys.stderr)
         return 2
-    with open(os.path.join(root, "report.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    print(f"report: wrote {os.path.join(root, 'report.md')}")
+    report_md = os.path.join(root, "report.md")
+    try:
+        try:
+            os.makedirs(out_dir, exist_ok=True)
+        except OSError as error:
+            raise CannotWrite(f"{out_dir}: {error.strerror or error}") from None
+        try:
+            lines = make_lines(root, out_dir)
+        except (OSError, ValueError, KeyError) as error:
+            print(f"report: cannot read {root}: {error}", file=sys.stderr)
+            return 2
+
+        def write_markdown(path):
+            with open(path, "w", encoding="utf-8") as f:
+                f.write("\n".join(lines) + "\n")
+
+        try:
+            replace_with(report_md, write_markdown)
+        except OSError as error:
+            raise CannotWrite(f"{report_md}: {error.strerror or error}") from None
+    except CannotWrite as error:
+        print(f"report: cannot write {error}", file=sys.stderr)
+        return 1
+    print(f"report: wrote {report_md}")
     return 0
 
 

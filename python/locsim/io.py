@@ -76,14 +76,29 @@ def read_json(path):
 
 
 def read_jsonl(path):
-    """The objects of a JSON-lines file, skipping a torn last line (a sweep killed mid-write)."""
-    out = []
+    """The objects of a JSON-lines file (a sweep's results.jsonl). A sweep writes each line whole
+    in one write, so one killed while writing leaves at most its last line cut short, without its
+    line break: that line is skipped. Any other line that is not a JSON object is corruption:
+    ValueError naming the file and line (skipping it would lose it silently)."""
     with open(path, encoding="utf-8", errors="replace") as f:
-        for line in f:
-            try:
-                out.append(json.loads(line))
-            except ValueError:
-                continue
+        text = f.read()
+    lines = text.split("\n")
+    out = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except ValueError:
+            record = None
+        if isinstance(record, dict):
+            out.append(record)
+            continue
+        if number == len(lines) and record is None:  # the last line, cut short
+            break
+        excerpt = line if len(line) <= 60 else f"{line[:60]}... ({len(line)} characters)"
+        raise ValueError(f"{path}:{number}: not a JSON object (a line cut short or edited; only the "
+                         f"last line may be, by a sweep killed while writing it): {excerpt!r}")
     return out
 
 

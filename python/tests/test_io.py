@@ -51,3 +51,19 @@ def test_wrap_angle_and_events(tmp_path):
     assert event["t_s"] == 20.0 and event["kind"] == "kidnap"
     assert event["details"]["to"] == (1.2, 5.0, -1.5708) and event["details"]["carry_s"] == "2.000"
     assert locsim.read_events(tmp_path / "none.csv") == []
+
+
+def test_read_jsonl_drops_only_a_last_line_cut_short(tmp_path):
+    """Issue 49: a sweep killed while writing leaves its last line cut short, without its line
+    break; any other line that is not a JSON object is corruption, named by its file and line
+    (before: skipped, and the results it held lost silently)."""
+    path = tmp_path / "results.jsonl"
+    path.write_text('{"index": 0}\n{"index": 1}\n{"ind')
+    assert io.read_jsonl(path) == [{"index": 0}, {"index": 1}]
+    path.write_text('{"index": 0}\n{"ind\n{"index": 2}\n')
+    with pytest.raises(ValueError, match=r"results.jsonl:2: not a JSON object"):
+        io.read_jsonl(path)
+    path.write_text('{"index": 0}\n' + '{"index": 1, "reason": "' + "x" * 100000 + '\n')
+    with pytest.raises(ValueError) as error:
+        io.read_jsonl(path)
+    assert "results.jsonl:2:" in str(error.value) and len(str(error.value)) < 600

@@ -1,4 +1,8 @@
 """locsim.load_sweep against the sweep the binary wrote."""
+import os
+import shutil
+import subprocess
+
 import pytest
 
 import locsim
@@ -39,3 +43,47 @@ def test_report_uses_the_package(small_sweep):
     path = locsim.report(small_sweep.path)
     text = open(path, encoding="utf-8").read()
     assert "## Summary" in text and "ekf" in text
+
+
+def without_write_rights(command):
+    """`command` run so that a read-only folder cannot be written: as root (who may write into any
+    folder), without CAP_DAC_OVERRIDE."""
+    if os.geteuid() == 0:
+        return ["setpriv", "--bounding-set=-dac_override", "--inh-caps=-dac_override", "--", *command]
+    return command
+
+
+def test_report_into_a_read_only_folder_says_so_and_exits_with_1(small_sweep, tmp_path):
+    """Issue 49: before, a Python traceback (exit 1 by accident); now the file and the reason, exit 1
+    as documented, nothing half-written, an earlier report.md left whole."""
+    folder = tmp_path / "sweep"
+    shutil.copytree(small_sweep.path, folder)
+    shutil.rmtree(folder / "report", ignore_errors=True)
+    (folder / "report.md").write_text("an earlier report\n")
+    before = sorted(os.listdir(folder))
+    report = [locsim.binary(), "report", str(folder)]
+    os.chmod(folder, 0o555)
+    try:
+        result = subprocess.run(without_write_rights(report), capture_output=True, text=True)
+    finally:
+        os.chmod(folder, 0o755)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "Traceback" not in result.stderr
+    assert f"report: cannot write {folder / 'report'}: Permission denied" in result.stderr
+    assert sorted(os.listdir(folder)) == before
+    # Its report/ folder read-only: the first plot cannot be written.
+    (folder / "report").mkdir()
+    os.chmod(folder / "report", 0o555)
+    try:
+        result = subprocess.run(without_write_rights(report), capture_output=True, text=True)
+    finally:
+        os.chmod(folder / "report", 0o755)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "Traceback" not in result.stderr
+    assert f"report: cannot write {folder / 'report'}{os.sep}" in result.stderr
+    assert "Permission denied" in result.stderr
+    assert (folder / "report.md").read_text() == "an earlier report\n"
+    assert os.listdir(folder / "report") == []
+    # Writable: written, exit 0.
+    assert subprocess.run(report, capture_output=True).returncode == 0
+    assert "## Summary" in (folder / "report.md").read_text()

@@ -104,6 +104,20 @@ std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
   return content;
 }
 
+void check_output_folder(const fs::path& dir, std::string_view option) {
+  for (fs::path at = dir; !at.empty(); at = at.parent_path()) {
+    std::error_code error;
+    const fs::file_status status = fs::status(at, error);
+    if (fs::exists(status)) {
+      if (fs::is_directory(status)) return;
+      throw InputError(std::string(option) + ": '" + dir.string() + "' " +
+                       (at == dir ? std::string("exists and is not a folder")
+                                  : "cannot be made: '" + at.string() + "' is not a folder"));
+    }
+    if (at == at.parent_path()) return;  // the root
+  }
+}
+
 void write_file(const fs::path& file, std::string_view content) {
   // Through a temporary file beside it and a rename: a full disk, a file-size limit or a kill
   // leaves the old file or the new one, never a cut one (a world cut at 4 KiB still loaded), and

@@ -53,6 +53,11 @@ class InputSandbox {
   const InputSandbox* outer_;
 };
 
+/// Refuses an output folder that cannot be made or written into before anything is written:
+/// throws InputError, after `option` (e.g. "--out"), when `dir` exists and is not a folder, or the
+/// nearest of its parents that exists is not one (a file given where a folder is meant).
+void check_output_folder(const std::filesystem::path& dir, std::string_view option);
+
 /// Writes `content` to `file` (replacing it), through `file`.tmp and a rename: a reader never sees
 /// half a file, and a write that fails (a full disk) leaves the old file, or none, and no
 /// temporary. Throws std::runtime_error naming the path and the system's reason.

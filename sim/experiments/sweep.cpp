@@ -3,7 +3,9 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -110,19 +112,118 @@ std::string fingerprint_change(const json& before, const json& now) {
   return out;
 }
 
+/// `text` from an input file for a message: quoted, control characters shown as '?', and cut
+/// after `max_bytes` (at a UTF-8 boundary) saying how long it was: a line of megabytes is not
+/// a message of megabytes.
+std::string quoted_excerpt(std::string_view text, std::size_t max_bytes = 60) {
+  std::size_t cut = std::min(text.size(), max_bytes);
+  while (cut > 0 && cut < text.size() && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80)
+    --cut;
+  std::string out = "'";
+  for (const char c : text.substr(0, cut))
+    out += static_cast<unsigned char>(c) < 0x20 || c == 0x7f ? '?' : c;
+  out += "'";
+  if (cut < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
+  return out;
+}
+
+/// What nlohmann's parse error says, without its prefix and with the text it last read quoted and
+/// cut ("syntax error while parsing value - invalid literal; last read: 'x'").
+std::string json_problem(const json::parse_error& error) {
+  std::string message = error.what();
+  if (const std::size_t column = message.find("column "); column != std::string::npos) {
+    if (const std::size_t colon = message.find(": ", column); colon != std::string::npos)
+      message.erase(0, colon + 2);
+  }
+  const std::string last_read = "; last read: '";
+  if (const std::size_t at = message.find(last_read); at != std::string::npos) {
+    std::string read = message.substr(at + last_read.size());
+    if (!read.empty() && read.back() == '\'') read.pop_back();
+    message = message.substr(0, at) + "; last read: " + quoted_excerpt(read, 40);
+  }
+  return message;
+}
+
+/// A JSON file of a sweep folder, parsed. Throws InputError naming the file, and the line and
+/// column where it is not JSON.
+json read_json_file(const fs::path& file) {
+  const std::string text = read_text(file);
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& error) {
+    // error.byte: 1-based, of the character it failed at.
+    const std::size_t at = std::min<std::size_t>(error.byte > 0 ? error.byte - 1 : 0, text.size());
+    const std::size_t line_start = text.rfind('\n', at == 0 ? 0 : at - 1);
+    SourceLocation where{file.string()};
+    where.line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+    where.column =
+        static_cast<int>(line_start == std::string::npos || at == 0 ? at + 1 : at - line_start);
+    throw InputError(where, "", "not valid JSON: " + json_problem(error));
+  }
+}
+
+/// A sweep folder's sweep.json, with the keys resume and merge rely on checked. Throws
+/// InputError naming the file (its line, or the key) when it is not a sweep's.
+json read_sweep_header(const fs::path& dir) {
+  const fs::path file = dir / "sweep.json";
+  const json header = read_json_file(file);
+  const SourceLocation where{file.string()};
+  if (!header.is_object())
+    throw InputError(where, "", "not a JSON object: not a sweep's sweep.json");
+  if (!header.contains("fingerprint")) throw InputError(where, "fingerprint", "missing");
+  if (!header.contains("runs") || !header["runs"].is_number_unsigned())
+    throw InputError(where, "runs", "missing, or not a whole number");
+  const json shard = header.value("shard", json());
+  if (!shard.is_null() && !(shard.is_array() && shard.size() == 2 &&
+                            shard[0].is_number_unsigned() && shard[1].is_number_unsigned()))
+    throw InputError(where, "shard", "expected null or [K, N]");
+  return header;
+}
+
 /// Every run's newest result in results.jsonl, in file order: a resume appends a retried run's
-/// new result after its old one. A torn last line (a kill mid-write) is dropped.
+/// new result after its old one. Each result goes in one write of its whole line, so a sweep
+/// killed while writing leaves at most its last line cut short, without its line break: that
+/// line is dropped (its run has no result; --resume runs it again). Any other line that is not a
+/// result is corruption: InputError naming the file and line (every later result would be lost).
 std::vector<json> read_results(const fs::path& file) {
   std::vector<json> lines;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line)) {
+  if (!fs::exists(file)) return lines;
+  const std::string text = read_text(file);
+  int number = 0;
+  for (std::size_t start = 0; start < text.size();) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    const std::string_view line = std::string_view(text).substr(start, end - start);
+    const bool cut_short = end == text.size();  // the last line, without its line break
+    start = end + 1;
+    ++number;
     if (line.empty()) continue;
+    const SourceLocation where{file.string(), number};
+    json result;
     try {
-      lines.push_back(json::parse(line));
+      result = json::parse(line);
     } catch (const json::parse_error&) {
-      break;  // only the last line can be torn
+      if (cut_short) break;  // a write cut short by a kill
+      throw InputError(where, "",
+                       "not a run's result (not JSON: a line cut short or edited; only the last "
+                       "line may be, by a sweep killed while writing it): " +
+                           quoted_excerpt(line));
     }
+    const auto problem = [&](const char* key, const char* expected) {
+      return InputError(where, key,
+                        "missing, or not " + std::string(expected) + ": " + quoted_excerpt(line) +
+                            " is not a run's result");
+    };
+    if (!result.is_object())
+      throw InputError(where, "",
+                       "not a run's result (not a JSON object): " + quoted_excerpt(line));
+    if (!result.contains("index") || !result["index"].is_number_unsigned())
+      throw problem("index", "a whole number");
+    if (!result.contains("seed") || !result["seed"].is_number_unsigned())
+      throw problem("seed", "a whole number");
+    for (const char* key : {"id", "config", "status"}) {
+      if (!result.contains(key) || !result[key].is_string()) throw problem(key, "a string");
+    }
+    lines.push_back(std::move(result));
   }
   std::map<std::size_t, std::size_t> newest;  // run index -> its last line
   for (std::size_t i = 0; i < lines.size(); ++i) newest[lines[i]["index"].get<std::size_t>()] = i;
@@ -132,6 +233,110 @@ std::vector<json> read_results(const fs::path& file) {
   }
   return out;
 }
+
+/// The file whose flock(2) says who writes a sweep folder (docs/experiments.md).
+constexpr const char* kLockFile = "sweep.lock";
+
+/// Who holds the lock file `file` as it says ("locsim sweep (pid 123)"). The holder writes it
+/// just after taking the lock: a reader that comes in between waits for it a little.
+std::string holder_of(const fs::path& file) {
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    std::ifstream in(file);
+    long pid = 0;
+    std::string command;
+    if (in >> pid >> command && pid > 0 && (command == "sweep" || command == "merge"))
+      return "locsim " + command + " (pid " + std::to_string(pid) + ")";
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return "another locsim (pid unknown)";
+}
+
+/// Who holds `dir`'s lock ("" when no one does), without taking it.
+std::string lock_holder(const fs::path& dir) {
+  const int fd = ::open((dir / kLockFile).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return {};  // a live holder always has the file
+  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // drops the shared lock, when taken
+  return held ? holder_of(dir / kLockFile) : std::string();
+}
+
+/// Whether `dir` holds anything but its lock file.
+bool holds_files(const fs::path& dir) {
+  if (!fs::is_directory(dir)) return false;
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
+    if (entry.path().filename() != kLockFile) return true;
+  }
+  return false;
+}
+
+/// One locsim at a time writes a sweep folder: a sweep (or --resume) holds an exclusive flock(2)
+/// on DIR/sweep.lock from before it reads DIR until it ends, and merge on the folder it makes.
+/// The kernel drops the lock when its holder dies, however it dies: a sweep killed with SIGKILL
+/// leaves its lock file, held by no one, and the next --resume takes it. (A pid file alone
+/// would have to guess whether its pid still is that sweep.) The file names its holder for the
+/// message of whoever finds it held.
+class FolderLock {
+ public:
+  /// Takes `dir`'s lock for `command` ("sweep" or "merge"), making the folder when missing.
+  /// Throws InputError, after `option`, naming the folder and the holder when another process
+  /// holds it; nothing is written then.
+  FolderLock(const fs::path& dir, const std::string& command, const std::string& option)
+      : dir_(dir), file_(dir / kLockFile) {
+    made_dir_ = !fs::exists(dir);
+    fs::create_directories(dir);
+    for (;;) {
+      fd_ = ::open(file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+      if (fd_ < 0)
+        throw std::runtime_error("cannot open " + file_.string() + ": " + std::strerror(errno));
+      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+        const int error = errno;
+        ::close(fd_);
+        fd_ = -1;
+        if (error != EWOULDBLOCK)
+          throw std::runtime_error("cannot lock " + file_.string() + ": " + std::strerror(error));
+        throw InputError(option + ": '" + dir.string() + "' is in use by " + holder_of(file_) +
+                         ": one locsim at a time writes a sweep folder; wait for it to end (a "
+                         "sweep that was killed holds nothing: --resume then finishes it)");
+      }
+      // Its holder may have removed the file (ending) between the open and the lock: this lock
+      // is then on a file nobody else finds. The one at the path is the lock.
+      struct stat held {
+      }, named{};
+      if (::fstat(fd_, &held) == 0 && ::stat(file_.c_str(), &named) == 0 &&
+          held.st_dev == named.st_dev && held.st_ino == named.st_ino) {
+        break;
+      }
+      ::close(fd_);
+      fd_ = -1;
+    }
+    const std::string holder = std::to_string(::getpid()) + " " + command + "\n";
+    if (::ftruncate(fd_, 0) != 0 ||
+        ::pwrite(fd_, holder.data(), holder.size(), 0) != static_cast<ssize_t>(holder.size())) {
+      const std::string reason = std::strerror(errno);
+      release();
+      throw std::runtime_error("cannot write " + file_.string() + ": " + reason);
+    }
+  }
+  ~FolderLock() { release(); }
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  /// Removes the file while still holding it (see the check above), then a folder the lock made
+  /// that nothing was written into (a refused sweep leaves nothing).
+  void release() {
+    if (fd_ < 0) return;
+    ::unlink(file_.c_str());
+    ::close(fd_);
+    fd_ = -1;
+    std::error_code ignored;
+    if (made_dir_) fs::remove(dir_, ignored);  // only when empty
+  }
+
+  fs::path dir_, file_;
+  int fd_ = -1;
+  bool made_dir_ = false;
+};
 
 /// A result as one line of results.jsonl. Invalid UTF-8 (a plugin's output in a reason) is
 /// replaced rather than thrown on.
@@ -684,13 +889,19 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       {"shard",
        options.shard ? json::array({options.shard->first, options.shard->second}) : json(nullptr)}};
   std::set<std::string> done, retry;  // runs whose result stands; runs to run again
+  check_output_folder(out, "--out");
+  // A folder of other files is refused before anything is written into it, the lock file too.
+  if (!fs::exists(out / "sweep.json") && holds_files(out))
+    throw InputError("--out: folder '" + out.string() + "' is not empty");
+  // Held until the sweep ends: a second sweep or --resume into the folder is refused at once.
+  const FolderLock lock(out, "sweep", "--out");
   if (fs::exists(out / "sweep.json")) {
     if (!options.resume) {
       throw InputError(
           "--out: '" + out.string() +
           "' already holds a sweep; pass --resume to finish it, or choose another folder");
     }
-    const json previous = json::parse(read_text(out / "sweep.json"));
+    const json previous = read_sweep_header(out);
     if (const std::string change =
             fingerprint_change(previous["fingerprint"], header["fingerprint"]);
         !change.empty()) {
@@ -699,7 +910,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                        "ones: " +
                        change);
     }
-    if (previous["shard"] != header["shard"]) {
+    if (previous.value("shard", json()) != header["shard"]) {
       throw InputError("--resume: '" + out.string() + "' holds another shard of this sweep");
     }
     const std::vector<json> results = read_results(out / "results.jsonl");
@@ -710,11 +921,9 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
       (result_stands(r, options.retry_failed) ? done : retry).insert(r["id"].get<std::string>());
     }
   } else {
-    if (fs::exists(out) && !fs::is_empty(out)) {
-      throw InputError("--out: folder '" + out.string() + "' is not empty");
-    }
-    fs::create_directories(out);
-    std::ofstream(out / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
+    // Again, under the lock: another sweep may have written into it since.
+    if (holds_files(out)) throw InputError("--out: folder '" + out.string() + "' is not empty");
+    write_json_atomically(out / "sweep.json", header);
   }
 
   SweepSummary summary;
@@ -1021,12 +1230,23 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
 
 void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   if (parts.empty()) throw InputError("merge: give the shard folders to join");
-  std::map<std::size_t, json> by_index;
+  std::map<std::size_t, std::pair<json, const fs::path*>> by_index;  // with the part it is from
   json header, first;
-  for (const fs::path& part : parts) {
+  for (std::size_t p = 0; p < parts.size(); ++p) {
+    const fs::path& part = parts[p];
     if (!fs::exists(part / "sweep.json"))
       throw InputError("merge: '" + part.string() + "' is not a sweep folder");
-    header = json::parse(read_text(part / "sweep.json"));
+    for (std::size_t q = 0; q < p; ++q) {
+      std::error_code error;
+      if (fs::equivalent(parts[q], part, error))
+        throw InputError("merge: '" + parts[q].string() + "' and '" + part.string() +
+                         "' are the same folder: each shard once");
+    }
+    // A sweep still writing it would leave its runs in flight out.
+    if (const std::string holder = lock_holder(part); !holder.empty())
+      throw InputError("merge: '" + part.string() + "' is in use by " + holder +
+                       ": merge it once that has ended");
+    header = read_sweep_header(part);
     if (first.is_null()) first = header;
     // Against itself first: a folder of an older locsim is refused even alone.
     for (const json* other : {&header, &first}) {
@@ -1037,16 +1257,26 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
                          parts.front().string() + "': " + change);
       }
     }
-    for (json& r : read_results(part / "results.jsonl"))
-      by_index.emplace(r["index"].get<std::size_t>(), std::move(r));
+    for (json& r : read_results(part / "results.jsonl")) {
+      const auto index = r["index"].get<std::size_t>();
+      if (const auto found = by_index.find(index); found != by_index.end()) {
+        throw InputError("merge: run " + quoted_excerpt(r["id"].get<std::string>(), 200) +
+                         " is in both '" + found->second.second->string() + "' and '" +
+                         part.string() + "': each run must come from one shard");
+      }
+      by_index.emplace(index, std::pair{std::move(r), &part});
+    }
   }
-  if (fs::exists(out_dir) && !fs::is_empty(out_dir))
+  check_output_folder(out_dir, "merge: out");
+  if (holds_files(out_dir))
     throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
-  fs::create_directories(out_dir);
+  const FolderLock lock(out_dir, "merge", "merge: out");
+  if (holds_files(out_dir))  // again, under the lock
+    throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
   header["shard"] = nullptr;
   header["merged_from"] = json::array();
   for (const fs::path& part : parts) header["merged_from"].push_back(part.string());
-  std::ofstream(out_dir / "sweep.json", std::ios::binary) << header.dump(2) << '\n';
+  write_json_atomically(out_dir / "sweep.json", header);
   // The runs' folders and the seeds' logs too, so that the joined folder is a sweep like any
   // (`locsim report` draws from the runs' files). A run is in one shard only; a seed's log may
   // be in several, the same file (a seed is simulated the same wherever).
@@ -1058,14 +1288,15 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
       }
     }
   }
-  {
-    std::ofstream results(out_dir / "results.jsonl", std::ios::binary);
-    for (const auto& [index, r] : by_index) results << jsonl_line(r);
-  }
+  std::string results;
+  for (const auto& [index, r] : by_index) results += jsonl_line(r.first);
+  write_file(out_dir / "results.jsonl", results);
   write_tables(out_dir);
   if (by_index.size() != header["runs"].get<std::size_t>()) {
-    std::fprintf(stderr, "locsim merge: warning: %zu of %zu runs present\n", by_index.size(),
-                 header["runs"].get<std::size_t>());
+    std::fprintf(stderr,
+                 "locsim merge: warning: %zu of %zu runs present (a shard not given, or not "
+                 "finished: `locsim sweep --resume` finishes it)\n",
+                 by_index.size(), header["runs"].get<std::size_t>());
   }
 }
 

@@ -35,12 +35,16 @@ struct SweepSummary {
   bool interrupted = false;
 };
 
-/// Throws InputError for a bad experiment, a parameter a plugin rejects or a resume of another
-/// experiment, and PluginError for a plugin that cannot be found or loaded: both before anything
-/// is simulated or written.
+/// Throws InputError for a bad experiment, a parameter a plugin rejects, a resume of another
+/// experiment, a corrupt sweep.json or results.jsonl (naming the file and line), or a folder
+/// another live sweep holds (DIR/sweep.lock, flock(2); naming its pid), and PluginError for a
+/// plugin that cannot be found or loaded: all before anything is simulated or written.
 SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
-/// Joins shard folders into `out_dir`: results.jsonl, results.csv and the summary.
+/// Joins shard folders into `out_dir`: results.jsonl, results.csv and the summary. Throws
+/// InputError, before `out_dir` is made, for a folder that is not a sweep's, a corrupt sweep.json
+/// or results.jsonl, shards of other inputs, a folder given twice or a run in two shards, and a
+/// shard a live sweep still writes.
 void merge_sweeps(const std::filesystem::path& out_dir,
                   const std::vector<std::filesystem::path>& parts);
 

@@ -16,6 +16,7 @@
 #include "sim/producers/log_source.hpp"
 #include "sim/run/runner.hpp"
 #include "sim/sensors/scene_rays.hpp"
+#include "sim/sensors/sensor_loader.hpp"
 #include "sim/world/physics_world.hpp"
 
 namespace locsim {
@@ -58,15 +59,21 @@ std::vector<double> sensor_rates(double step_hz) {
 /// A calibration.yaml's `sensors:` section: sensor name → (key, value text).
 using SensorSettings = std::map<std::string, std::vector<std::pair<std::string, std::string>>>;
 
-SensorSettings read_calibration_sensors(const fs::path& file) {
+/// The `sensors:` of the calibration file `file`, checked as a robot's `sensors:` in a world of
+/// physics rate `step_hz` is (sensor names, keys, ranges), so that a misspelt sensor or key is an
+/// error at this file's line rather than a setting the twin silently leaves out.
+SensorSettings read_calibration_sensors(const fs::path& file, double step_hz) {
   const YamlNode root = YamlNode::load_file(file);
   const YamlNode sensors = root["sensors"];
   SensorSettings out;
+  if (sensors.is_null()) return out;
+  parse_sensors(sensors, step_hz);
   for (const auto& [sensor, settings] : sensors.entries()) {
+    if (settings.is_null()) continue;  // `imu:`: the sensor on, no setting to merge
     for (const auto& [key, value] : settings.entries()) {
       if (!value.is_scalar()) value.fail("expected a number (a sensor setting of `calibrate`)");
-      // Any number here (the world's loader checks each against its key's range, at the twin's
-      // key); text that is not one fails now, at this file's line.
+      // Copied into the twin as text: numbers only (parse_sensors checked each one's range; a
+      // `true` would come out quoted, a string).
       constexpr double kLargest = std::numeric_limits<double>::max();
       value.as_double(Range{-kLargest, kLargest, ""});
       out[sensor].emplace_back(key, value.as_string());
@@ -143,7 +150,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   }
 
   const SensorSettings calibrated =
-      options.calibration ? read_calibration_sensors(*options.calibration) : SensorSettings{};
+      options.calibration ? read_calibration_sensors(*options.calibration, world.physics.step_hz)
+                          : SensorSettings{};
 
   // The paths, and what a range-bearing camera on them would have in view.
   const PhysicsWorld physics(world);

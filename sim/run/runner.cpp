@@ -131,7 +131,21 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   // (exit 1 for the log, 4 for the video, naming the path and the reason) leaves no folder.
   std::unique_ptr<LogWriter> log;
   if (options.log_file) {
-    log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
+    // Its folder is made when missing, as the run folder is (`--out NEW --log NEW/run.locsimlog`),
+    // and removed again when the log cannot be written.
+    fs::path made;
+    for (fs::path dir = options.log_file->parent_path(); !dir.empty() && !fs::exists(dir);
+         dir = dir.parent_path()) {
+      made = dir;
+    }
+    if (!made.empty()) fs::create_directories(options.log_file->parent_path());
+    try {
+      log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
+    } catch (...) {
+      std::error_code ignored;
+      if (!made.empty()) fs::remove_all(made, ignored);
+      throw;
+    }
   }
   std::optional<FrameCapture> capture;
   if (options.video != nullptr) {

@@ -429,7 +429,7 @@ int main(int argc, char** argv) {
   std::string log_file;
   run->add_option("--log", log_file,
                   "Also record the sensor stream, ground truth and events into one log file, for "
-                  "`locsim replay`");
+                  "`locsim replay` (its folder is made when missing, as --out's is)");
   double max_output_gib = static_cast<double>(locsim::kDefaultMaxOutputBytes) / (1 << 30);
   run->add_option("--max-output-gib", max_output_gib,
                   "Refuse a run whose files (readings, log, estimates) are estimated to exceed "
@@ -539,13 +539,16 @@ int main(int argc, char** argv) {
       "timeout (its process was killed by a signal or after timeout_s); error (locsim could not\n"
       "produce a result: the reason is the run's whole error output, its log.txt has the rest).\n"
       "--resume runs error, crashed and timeout runs again (and failed ones with --retry-failed);\n"
-      "their new result replaces the old one.\n\n"
+      "their new result replaces the old one. One sweep at a time writes a folder: it holds\n"
+      "DIR/sweep.lock (flock) while it runs; a sweep killed hard holds nothing.\n\n"
       "Exit codes:\n"
       "  0    every run has a result (ok, failed, crashed or timeout)\n"
       "  1    some run ended in error (the last line says how many; results.csv says why), or a\n"
       "       failure not caused by the input\n"
       "  2    bad input: experiment file, world, scenario, command line, or a parameter a plugin\n"
-      "       does not declare or accept (the message names the file:line:col and key)\n"
+      "       does not declare or accept (the message names the file:line:col and key); --out\n"
+      "       in use by another live sweep (the message names its pid); a corrupt sweep.json or\n"
+      "       results.jsonl on --resume (file:line)\n"
       "  3    a plugin not found or not loadable (the message names where the experiment gives "
       "it)\n"
       "  130  interrupted (Ctrl-C); --resume finishes it");
@@ -708,7 +711,13 @@ int main(int argc, char** argv) {
   std::string report_dir;
   CLI::App* report_cmd =
       app.add_subcommand("report", "Write DIR/report.md with plots for a sweep or run folder");
-  report_cmd->add_option("dir", report_dir, "Sweep or run folder")->required();
+  report_cmd->add_option("dir", report_dir, "Sweep, run or calibration folder")->required();
+  report_cmd->footer(
+      "Exit codes:\n"
+      "  0    DIR/report.md and DIR/report/*.png written\n"
+      "  1    they cannot be written (a read-only folder, a full disk): the message names the\n"
+      "       file and the reason; a report.md of before is left whole\n"
+      "  2    DIR is not a sweep, run or calibration folder, or a file in it cannot be read");
   std::string compare_a, compare_b, compare_out;
   std::optional<std::string> compare_labels;
   CLI::App* compare_cmd = app.add_subcommand(
@@ -731,6 +740,13 @@ int main(int argc, char** argv) {
   CLI::App* merge = app.add_subcommand("merge", "Join the folders of sharded sweeps");
   merge->add_option("out", merge_out, "New folder for the joined sweep")->required();
   merge->add_option("parts", merge_parts, "Shard folders")->required();
+  merge->footer(
+      "Exit codes:\n"
+      "  0    joined (a warning when runs are missing: a shard not given or not finished)\n"
+      "  1    a failure not caused by the input (an I/O error)\n"
+      "  2    nothing written: a folder not a sweep's, a corrupt sweep.json or results.jsonl\n"
+      "       (file:line), shards of other inputs, a folder given twice or a run in two shards,\n"
+      "       a shard a live sweep still writes, or OUT not empty");
 
   try {
     app.parse(argc, argv);
@@ -793,6 +809,7 @@ int main(int argc, char** argv) {
     if (*calibrate_cmd) {
       calibration.robots = robot_names(calibrate_robots);
       const std::filesystem::path out(calibrate_out);
+      locsim::check_output_folder(out, "--out");
       for (const char* name : {"calibration.yaml", "calibration.json"}) {
         if (std::filesystem::exists(out / name) && !calibrate_overwrite) {
           throw locsim::InputError("--out: " + (out / name).string() +
@@ -827,6 +844,7 @@ int main(int argc, char** argv) {
       generate_def.beacons = !generate_no_beacons;
       generate_def.landing = *locsim::landing_from_name(generate_landing);  // CLI checked it
       const std::filesystem::path out(generate_out);
+      locsim::check_output_folder(out, "--out");
       // Every world first, then the files: a knob that fails fails before anything is written.
       std::vector<std::pair<std::filesystem::path, locsim::GeneratedWorld>> worlds;
       for (std::uint64_t seed = first;; ++seed) {
@@ -919,7 +937,11 @@ int main(int argc, char** argv) {
     options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
     options.isolate = isolation == "process";
     options.world_file = world_file;
-    if (!log_file.empty()) options.log_file = log_file;
+    if (!log_file.empty()) {
+      // Made by the run when missing (as --out is), after the inputs are checked.
+      locsim::check_output_folder(std::filesystem::path(log_file).parent_path(), "--log");
+      options.log_file = log_file;
+    }
     options.max_output_bytes = static_cast<std::uint64_t>(max_output_gib * (1 << 30));
     if (scenario_file) options.scenario_file = *scenario_file;
     options.out_dir = out_dir;
