@@ -1,15 +1,21 @@
 // Plugin failures are contained in `run` and `replay`, and the bugs of the run/replay split stay
 // fixed: a plugin that segfaults, aborts, calls exit() or hangs fails alone (exit code 5, the
 // signal or reason and the simulated time in metrics.json), the other localizers' files are those
-// of a run without it, Ctrl-C ends a run with a hung plugin promptly, run and replay share every
-// option, and memory does not grow with the length of a run.
+// of a run without it, Ctrl-C ends a run with a hung plugin promptly, no process a plugin starts
+// outlives the run, whatever it does, a plugin that writes onto locsim's socket or runs out of
+// its memory fails saying so, run and replay share every option, and memory does not grow with
+// the length of a run.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <thread>
+#include <vector>
 
 #include "sim/consumers/frame_capture.hpp"
 #include "sim/run/runner.hpp"
@@ -100,6 +106,139 @@ TEST(Isolation, CtrlCEndsARunWithAHungPluginPromptly) {
   EXPECT_EQ(testing::localizer_entry(out / "metrics.json", "odometry")["status"], "ok");
   // Always in a call, but never for long: it finishes the one it was in and is not to blame.
   EXPECT_EQ(testing::localizer_entry(out / "metrics.json", "test_slow")["status"], "ok");
+}
+
+/// The pid a test plugin wrote to `file`; 0 when it wrote none.
+pid_t pid_in(const fs::path& file) {
+  std::ifstream in(file);
+  long pid = 0;
+  in >> pid;
+  return static_cast<pid_t>(pid);
+}
+
+/// Whether process `pid` has ended within `seconds` (its end may be under way as the run returns;
+/// the bound is far above what that takes on a loaded machine). One that has not is killed, so
+/// that a failing test leaves nothing behind.
+bool ended_within(pid_t pid, double seconds) {
+  if (pid <= 0) return false;  // kill() would signal a whole group
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (true) {
+    if (::kill(pid, 0) != 0 && errno == ESRCH) return true;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+/// The last `bytes` of a command's output (a flood's output is long).
+std::string tail_of(const std::string& output, std::size_t bytes = 3000) {
+  return output.size() <= bytes ? output : output.substr(output.size() - bytes);
+}
+
+/// `--localizer` for test_escapes doing `how` (its label), writing the pid to DIR/HOW.pid.
+std::string escape(const std::string& how, const fs::path& dir, const std::string& extra = "") {
+  return " --localizer " + test_plugin("escapes") + ":how=" + how +
+         ",pid_file=" + (dir / (how + ".pid")).string() + extra + "@" + how;
+}
+
+TEST(Isolation, NoProcessAPluginStartsOutlivesTheRunWhateverItDoes) {
+  const fs::path dir = testing::temp_dir("escapes");
+  const std::string common = " --duration 4 --seed 3 -q --localizer ekf_landmarks";
+  ASSERT_EQ(locsim("run " + kDemo + common + " --out " + (dir / "clean").string()).exit_code, 0);
+  const std::vector<std::string> survivors = {"fork_returns", "keep_child", "daemon", "flood"};
+  const std::vector<std::string> failing = {"hang_with_child", "crash_with_child"};
+  std::string faulty;
+  for (const auto* list : {&survivors, &failing}) {
+    for (const std::string& how : *list) faulty += escape(how, dir);
+  }
+  faulty += " --localizer python:" + std::string(LOCSIM_SOURCE_DIR) +
+            "/tests/python_plugins/py_popen.py:pid_file=" + (dir / "popen.pid").string() + "@popen";
+  // Before, the hang and the crash kept the run waiting for good (their children held its
+  // socket): the outer timeout ends it then. (A timeout of 5 s: Python's start on a loaded
+  // machine must fit in it.)
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome o = testing::run_command("timeout -s KILL 120 " + std::string(LOCSIM_BINARY) +
+                                         " run " + kDemo + common + faulty +
+                                         " --plugin-timeout 5 --out " + (dir / "faulty").string());
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(o.exit_code, 5) << tail_of(o.output);
+  EXPECT_LT(wall, 90.0);
+  // Nothing they started is left, whether it kept their process group, left it (setsid), ignored
+  // SIGTERM or wrote without pause.
+  for (const char* how : {"fork_returns", "keep_child", "daemon", "flood", "hang_with_child",
+                          "crash_with_child", "popen"}) {
+    const pid_t pid = pid_in(dir / (std::string(how) + ".pid"));
+    EXPECT_GT(pid, 0) << how;
+    EXPECT_TRUE(ended_within(pid, 10.0)) << how << ": process " << pid << " outlived the run";
+  }
+  const fs::path out = dir / "faulty";
+  EXPECT_EQ(testing::read_file(dir / "clean/ekf_landmarks.tum"),
+            testing::read_file(out / "ekf_landmarks.tum"));
+  EXPECT_EQ(testing::localizer_entry(dir / "clean/metrics.json", "ekf_landmarks"),
+            testing::localizer_entry(out / "metrics.json", "ekf_landmarks"));
+  const json samples = testing::localizer_entry(out / "metrics.json", "ekf_landmarks")["samples"];
+  // What they started costs them nothing: each answered every true pose once (a forked copy of
+  // the worker that came back from the plugin once added a second answer).
+  for (const char* label : {"fork_returns", "keep_child", "daemon", "flood", "popen"}) {
+    const json entry = testing::localizer_entry(out / "metrics.json", label);
+    EXPECT_EQ(entry["status"], "ok") << label << ": " << entry.dump();
+    EXPECT_EQ(entry["samples"], samples) << label;
+  }
+  EXPECT_NE(o.output.find("forked by the plugin, returned from the plugin into locsim's worker"),
+            std::string::npos)
+      << tail_of(o.output);
+  const json hang = testing::localizer_entry(out / "metrics.json", "hang_with_child");
+  EXPECT_EQ(hang["status"], "failed");
+  EXPECT_DOUBLE_EQ(hang["failure"]["timeout_s"].get<double>(), 5.0);
+  const json crash = testing::localizer_entry(out / "metrics.json", "crash_with_child");
+  EXPECT_EQ(crash["failure"]["signal"], 11) << crash.dump();
+}
+
+TEST(Isolation, APluginThatWritesOntoLocsimsSocketFailsSayingSoAndKeepsItsSamples) {
+  const fs::path dir = testing::temp_dir("garbage");
+  const Outcome o =
+      testing::run_command("timeout -s KILL 120 " + std::string(LOCSIM_BINARY) + " run " + kDemo +
+                           " --duration 4 --seed 3 -q --localizer ekf_landmarks" +
+                           escape("garbage", dir, ",at_s=3") + " --out " + (dir / "out").string());
+  EXPECT_EQ(o.exit_code, 5) << tail_of(o.output);
+  const json garbage = testing::localizer_entry(dir / "out/metrics.json", "garbage");
+  EXPECT_EQ(garbage["status"], "failed");
+  const std::string message = garbage["failure"].value("message", "");
+  testing::expect_contains(message, "sent what is not locsim's protocol: a frame of type 116");
+  testing::expect_contains(message, "did the plugin write to descriptor 1023, locsim's?");
+  // What it answered before the garbage stays (once, all of it was lost as "exited with code 0").
+  EXPECT_GT(garbage["samples"].get<int>(), 0);
+  EXPECT_LE(garbage["samples"].get<int>(), 150);
+  EXPECT_EQ(testing::localizer_entry(dir / "out/metrics.json", "ekf_landmarks")["status"], "ok");
+}
+
+TEST(Isolation, APluginOutOfMemoryFailsSayingSo) {
+  const fs::path dir = testing::temp_dir("memory");
+  // Allocations without end under a limit of 64 MiB; a SIGKILL locsim did not send (as the
+  // system's out-of-memory killer's).
+  const Outcome o = testing::run_command(
+      "timeout -s KILL 120 " + std::string(LOCSIM_BINARY) + " run " + kDemo +
+      " --duration 3 --seed 3 -q --plugin-memory 64M --localizer ekf_landmarks" +
+      escape("hog", dir) + escape("sigkill", dir) + " --out " + (dir / "out").string());
+  EXPECT_EQ(o.exit_code, 5) << tail_of(o.output);
+  const json hog = testing::localizer_entry(dir / "out/metrics.json", "hog");
+  EXPECT_EQ(hog["status"], "failed");
+  testing::expect_contains(hog["failure"].value("message", ""),
+                           "ran out of its memory limit of 64 MiB (--plugin-memory)");
+  const json killed = testing::localizer_entry(dir / "out/metrics.json", "sigkill");
+  EXPECT_EQ(killed["failure"]["signal"], 9);
+  testing::expect_contains(killed["failure"].value("message", ""),
+                           "not sent by locsim: most likely the system's out-of-memory killer");
+  EXPECT_EQ(testing::localizer_entry(dir / "out/metrics.json", "ekf_landmarks")["status"], "ok");
+  for (const char* bad : {"--plugin-memory 12Q", "--plugin-memory -1", "--plugin-memory 1.5G"}) {
+    EXPECT_EQ(locsim("run " + kDemo + " --duration 1 " + bad + " --out " + (dir / "bad").string())
+                  .exit_code,
+              2)
+        << bad;
+  }
 }
 
 TEST(Isolation, AVideoOfARunWithACrashedPluginShowsTheSurvivors) {

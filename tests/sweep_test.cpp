@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -403,6 +404,41 @@ TEST(Sweep, ASegfaultOrAHangFailsItsRunOnly) {
   EXPECT_NE(results.find("locsim_test_hang/seed-1,locsim_test_hang,,1,timeout,"), std::string::npos)
       << results;
   EXPECT_NE(results.find("odometry/seed-1,odometry,,1,ok,"), std::string::npos);
+}
+
+TEST(Sweep, NothingARunsPluginsStartOutlivesTheSweep) {
+  // A daemon (double fork, setsid, SIGTERM ignored) in a run that ends as it should, and a child
+  // ignoring SIGTERM in a run the sweep kills at its timeout (its plugin hangs): the sweep
+  // reaps what each run leaves, however it ended.
+  const fs::path dir = testing::temp_dir("sweep");
+  const fs::path experiment = dir / "experiment.yaml";
+  const auto escape = [&](const std::string& how) {
+    return "  - plugin: " + test_plugin("escapes") + "\n    label: " + how +
+           "\n    params: {how: " + how + ", pid_file: " + (dir / (how + ".pid")).string() + "}\n";
+  };
+  std::ofstream(experiment) << "name: escapes\nworld: " << LOCSIM_SOURCE_DIR
+                            << "/worlds/demo/demo.yaml\nduration_s: 2\nseeds: [1]\ntimeout_s: 10"
+                            << "\nlocalizers:\n"
+                            << escape("daemon") << escape("hang_with_child");
+  const SweepSummary summary = sweep(experiment, dir / "out", 2);
+  EXPECT_EQ(summary.total, 2u);
+  const std::string results = testing::read_file(dir / "out/results.csv");
+  EXPECT_NE(results.find("daemon/seed-1,daemon,,1,ok,"), std::string::npos) << results;
+  EXPECT_NE(results.find("hang_with_child/seed-1,hang_with_child,,1,timeout,"), std::string::npos)
+      << results;
+  for (const char* how : {"daemon", "hang_with_child"}) {
+    std::ifstream in(dir / (std::string(how) + ".pid"));
+    long pid = 0;
+    in >> pid;
+    ASSERT_GT(pid, 0) << how;
+    // Its end may be under way as the sweep returns; far less than this on a loaded machine.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (::kill(static_cast<pid_t>(pid), 0) == 0 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const bool ended = ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+    EXPECT_TRUE(ended) << how << ": process " << pid << " outlived the sweep";
+    if (!ended) ::kill(static_cast<pid_t>(pid), SIGKILL);
+  }
 }
 
 TEST(Sweep, AnUnknownPluginExitsWith3AtOnceAndLeavesNoFolder) {

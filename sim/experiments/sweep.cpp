@@ -27,6 +27,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/common/parallel.hpp"
+#include "sim/common/process_tree.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
@@ -1113,6 +1114,20 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   sigaction(SIGCHLD, &wake_on_child, &previous_child_action);
   sigset_t wait_mask = previous_mask;
   sigdelset(&wait_mask, SIGCHLD);
+  // Whatever a run leaves behind is the sweep's to end: as the subreaper of its runs' trees it
+  // gets every process whose run (or the run's keeper of a localizer, see
+  // plugin_host/worker_process) died, however the run ended (a timeout's SIGKILL, a crash) and
+  // whatever the process did (setsid too), and ends them when the run is reaped. Any child that
+  // is not a run in flight is such a process: the sweep starts nothing else meanwhile.
+  int was_subreaper = 0;
+  prctl(PR_GET_CHILD_SUBREAPER, &was_subreaper);
+  prctl(PR_SET_CHILD_SUBREAPER, 1);
+  std::vector<pid_t> running;
+  const auto end_strays = [&] {
+    running.clear();
+    for (const auto& [pid, a] : active) running.push_back(pid);
+    end_children(running);
+  };
   std::vector<pollfd> outputs;
   while (!queue.empty() || !active.empty()) {
     if (interrupt != nullptr && interrupt->load()) {
@@ -1165,7 +1180,8 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
     if (pid > 0 && active.count(pid)) {
       Active a = std::move(active[pid]);
       active.erase(pid);
-      drain(a);  // what it wrote before it ended (a process it left behind may hold the pipe)
+      end_strays();  // what it left, before its pipe is read for the last time
+      drain(a);      // what it wrote before it ended (nothing it started is left to hold the pipe)
       if (a.output_fd >= 0) ::close(a.output_fd);
       fs::create_directories(a.task.log.parent_path());
       write_file(a.task.log, a.output.kept());
@@ -1218,6 +1234,9 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   for (auto& [child, a] : active) {
     if (a.output_fd >= 0) ::close(a.output_fd);
   }
+  active.clear();
+  end_strays();  // nothing of a run outlives the sweep (Ctrl-C included)
+  prctl(PR_SET_CHILD_SUBREAPER, was_subreaper);
   sigaction(SIGCHLD, &previous_child_action, nullptr);
   sigprocmask(SIG_SETMASK, &previous_mask, nullptr);
   ::close(results_fd);

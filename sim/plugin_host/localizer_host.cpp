@@ -1,6 +1,7 @@
 #include "sim/plugin_host/localizer_host.hpp"
 
 #include <poll.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -119,13 +120,15 @@ LocalizerHost::LocalizerHost(const std::vector<LocalizerSpec>& specs, const Worl
   for (const LocalizerDef& def : defs_) {
     const std::string label =
         world.robots.size() > 1 ? def.info.robot_name + "/" + def.info.label : def.info.label;
-    workers_.push_back(
-        std::make_unique<WorkerProcess>(std::vector<const LocalizerDef*>{&def}, label));
+    workers_.push_back(std::make_unique<WorkerProcess>(
+        std::vector<const LocalizerDef*>{&def}, label,
+        WorkerLimits{.memory_bytes = options_.plugin_memory_bytes}));
   }
   create_errors_.assign(workers_.size(), "");
   snapshots_.assign(workers_.size(), {});
   finals_.assign(workers_.size(), {});
   snapshot_ready_.assign(workers_.size(), false);
+  expected_.assign(workers_.size(), {});
   pump_until([&] {
     return std::all_of(workers_.begin(), workers_.end(),
                        [](const auto& w) { return w->ready || !w->alive(); });
@@ -148,6 +151,11 @@ void LocalizerHost::estimate(const EstimateSample& sample) {
 void LocalizerHost::failure(const LocalizerFailure& f) {
   if (failed_[f.localizer]) return;
   failed_[f.localizer] = true;
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    const auto& indices = workers_[w]->indices();
+    if (std::find(indices.begin(), indices.end(), f.localizer) != indices.end())
+      expected_[w].clear();  // nothing of it follows a failure
+  }
   for (EstimateConsumer* out : outputs_) out->failure(f);
 }
 
@@ -163,10 +171,13 @@ void LocalizerHost::consume(const Record& record) {
   payload_.clear();
   encode_record(record, payload_);
   bool full = false;
-  for (const auto& worker : workers_) {
+  for (std::size_t w = 0; w < workers_.size(); ++w) {
+    WorkerProcess* worker = workers_[w].get();
     if (!worker->alive() || robot < 0 || !worker->serves_robot(static_cast<std::size_t>(robot)))
       continue;
     worker->queue(static_cast<std::uint8_t>(record.type), payload_);
+    if (record.type == Record::Type::kGroundTruth && !failed_[worker->indices().front()])
+      expected_[w].push_back(record.t_s);
     full = full || worker->pending_bytes() >= kBatchBytes;
   }
   if (full) flush();
@@ -226,32 +237,75 @@ void LocalizerHost::pump_until(Done&& done) {
 
 void LocalizerHost::dispatch(std::size_t w, std::uint8_t type, std::string_view payload) {
   WorkerProcess& worker = *workers_[w];
-  switch (type) {
-    case kWorkerReady:
-      worker.ready = true;
-      break;
-    case kWorkerCreateFailed: {
-      ByteReader in(payload);
-      create_errors_[w] = in.get_string();
-      break;
+  // A worker runs one localizer; whatever names another is not its answer.
+  const std::size_t index = worker.indices().front();
+  try {
+    switch (type) {
+      case kWorkerReady:
+        worker.ready = true;
+        break;
+      case kWorkerCreateFailed: {
+        ByteReader in(payload);
+        create_errors_[w] = in.get_string();
+        break;
+      }
+      case kWorkerSample: {
+        const EstimateSample sample = decode_sample(payload);
+        std::deque<double>& expected = expected_[w];
+        // One estimate per true pose it was sent, in order: a second answer to one (from a
+        // copy of the worker that the plugin forked) or one to a time never sent is not its.
+        if (sample.localizer != index || expected.empty() || expected.front() != sample.t_s) {
+          worker.reject("an estimate for t = " + fixed(sample.t_s, 3) + " s" +
+                        (sample.localizer != index ? " of another localizer" : "") +
+                        (expected.empty() ? ", which it was not asked for"
+                                          : ", where the next true pose it was sent is at t = " +
+                                                fixed(expected.front(), 3) + " s") +
+                        " (a second answer, from a process the plugin forked?)");
+          return;
+        }
+        expected.pop_front();
+        estimate(sample);
+        break;
+      }
+      case kWorkerFailure: {
+        LocalizerFailure f = decode_failure(payload);
+        if (f.localizer != index) {
+          worker.reject("a failure of another localizer");
+          return;
+        }
+        f.message = with_memory_cause(worker, std::move(f.message));
+        failure(f);
+        break;
+      }
+      case kWorkerSnapshot:
+        snapshots_[w] = decode_snapshots(payload);
+        snapshot_ready_[w] = true;
+        break;
+      case kWorkerFinal:
+        finals_[w] = decode_finals(payload);
+        worker.finished = true;
+        break;
+      default:  // WorkerProcess hands over the types it knows only
+        throw std::logic_error("localizer worker sent message type " + std::to_string(type));
     }
-    case kWorkerSample:
-      estimate(decode_sample(payload));
-      break;
-    case kWorkerFailure:
-      failure(decode_failure(payload));
-      break;
-    case kWorkerSnapshot:
-      snapshots_[w] = decode_snapshots(payload);
-      snapshot_ready_[w] = true;
-      break;
-    case kWorkerFinal:
-      finals_[w] = decode_finals(payload);
-      worker.finished = true;
-      break;
-    default:
-      throw std::logic_error("localizer worker sent message type " + std::to_string(type));
+  } catch (const DecodeError& e) {
+    worker.reject("a frame of type " + std::to_string(type) + " whose " +
+                  std::to_string(payload.size()) + " bytes do not decode (" + e.what() + ")");
   }
+}
+
+std::string LocalizerHost::with_memory_cause(const WorkerProcess& worker,
+                                             std::string message) const {
+  const std::uint64_t limit = worker.limits().memory_bytes;
+  if (limit == 0) return message;
+  // operator new's handler saw an allocation fail; a C library (CPython's) returns NULL
+  // instead, which its own error names.
+  const bool allocation_failed = worker.out_of_memory() ||
+                                 message.find("bad_alloc") != std::string::npos ||
+                                 message.find("MemoryError") != std::string::npos;
+  if (!allocation_failed) return message;
+  return "ran out of its memory limit of " + fixed(static_cast<double>(limit) / (1 << 20), 0) +
+         " MiB (--plugin-memory): " + message;
 }
 
 std::size_t LocalizerHost::slot_of(const WorkerProcess& worker) const {
@@ -265,7 +319,28 @@ void LocalizerHost::lost(WorkerProcess& worker) {
   const WorkerProcess::Call call = worker.last_call();
   std::optional<int> signal;
   const std::string how = worker.reap(&signal);
-  if (worker.finished) return;  // it said all it had to say, then ended as it should
+  if (worker.finished && worker.rejected().empty()) return;  // it said all, then ended as it should
+  // What ended it, as the user needs to hear it.
+  std::string message;
+  if (!worker.rejected().empty()) {
+    message = "sent what is not locsim's protocol: " + worker.rejected() + "; " +
+              std::to_string(worker.unread_bytes()) +
+              " bytes from there on (did the plugin write to descriptor " +
+              std::to_string(protocol_fd()) +
+              ", locsim's?); its process was killed, what it sent before is kept";
+  } else if (worker.timed_out) {
+    message = "did not return within the plugin timeout of " + fixed(options_.plugin_timeout_s, 1) +
+              " s; its process was killed";
+  } else if (signal && *signal == SIGKILL && !worker.killed_by_locsim()) {
+    message = "its process was " + how +
+              ", not sent by locsim: most likely the system's out-of-memory killer (see dmesg; "
+              "--plugin-memory gives each localizer a limit of its own)";
+  } else if (signal) {
+    message = "its process was " + how;
+  } else {
+    message = "its process " + how + " (did the plugin call exit()?)";
+  }
+  message = with_memory_cause(worker, std::move(message));
   if (!worker.ready) {
     std::string& error = create_errors_[slot_of(worker)];
     if (!error.empty()) return;  // it said why before it ended
@@ -274,7 +349,7 @@ void LocalizerHost::lost(WorkerProcess& worker) {
             "): create " +
             (worker.timed_out ? "did not return within the plugin timeout of " +
                                     fixed(options_.plugin_timeout_s, 1) + " s"
-                              : "crashed: its process was " + how);
+                              : "crashed: " + message);
     return;
   }
   for (const std::size_t index : worker.indices()) {
@@ -286,14 +361,12 @@ void LocalizerHost::lost(WorkerProcess& worker) {
         call.in_call && (call.localizer < 0 || static_cast<std::size_t>(call.localizer) == index);
     f.call = in_call ? plugin_call_name(call.call) : "none";
     f.t_s = call.t_s;
-    if (worker.timed_out) {
-      f.message = "did not return within the plugin timeout of " +
-                  fixed(options_.plugin_timeout_s, 1) + " s; its process was killed";
-      f.timeout_s = options_.plugin_timeout_s;
-    } else {
-      f.message = "its process was " + how;
-      if (!signal) f.message = "its process " + how + " (did the plugin call exit()?)";
-      f.signal = signal;
+    f.message = message;
+    if (worker.rejected().empty()) {
+      if (worker.timed_out)
+        f.timeout_s = options_.plugin_timeout_s;
+      else
+        f.signal = signal;
     }
     failure(f);
   }

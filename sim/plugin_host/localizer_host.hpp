@@ -7,6 +7,7 @@
 #pragma once
 
 #include <atomic>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,6 +25,9 @@ namespace locsim {
 struct HostOptions {
   bool isolate = true;             // each localizer in its own process
   double plugin_timeout_s = 60.0;  // longest a single plugin call may take [s]; 0: no limit
+  /// --plugin-memory: what each localizer's process may allocate beyond what it starts with
+  /// [bytes]; 0: no limit (isolation only)
+  std::uint64_t plugin_memory_bytes = 0;
   const std::atomic<bool>* interrupt = nullptr;  // waits end with Interrupted when it turns true
 };
 
@@ -67,6 +71,8 @@ class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
   /// Its socket closed: reaps it and, unless it had finished, fails its localizers with how it
   /// ended (signal, exit, timeout) and the call and time it was in.
   void lost(WorkerProcess& worker);
+  /// A failure's message with what locsim knows of its cause: the memory limit it ran into.
+  std::string with_memory_cause(const WorkerProcess& worker, std::string message) const;
   std::size_t slot_of(const WorkerProcess& worker) const;
 
   HostOptions options_;
@@ -82,6 +88,9 @@ class LocalizerHost final : public RecordConsumer, private EstimateConsumer {
   std::vector<std::vector<LocalizerSnapshot>> snapshots_;  // by worker, while asked
   std::vector<std::vector<LocalizerFinal>> finals_;        // by worker
   std::vector<bool> snapshot_ready_;
+  // By worker: the times of the true poses sent to it and not yet answered, each to be answered
+  // by one estimate of that time (while its localizer has not failed).
+  std::vector<std::deque<double>> expected_;
   std::string payload_;
 };
 

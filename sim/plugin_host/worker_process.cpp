@@ -4,10 +4,12 @@
 #include <poll.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -15,6 +17,7 @@
 #include <new>
 #include <stdexcept>
 
+#include "sim/common/process_tree.hpp"
 #include "sim/stream/record_codec.hpp"
 
 namespace locsim {
@@ -107,8 +110,68 @@ std::string encode_finals(const std::vector<LocalizerFinal>& finals) {
   return out;
 }
 
+// The worker's own process (set once it starts), and whether this process is a copy of it that
+// the plugin forked: the protocol is not the copy's (see WorkerProcess::WorkerProcess).
+pid_t g_worker_pid = 0;
+int g_protocol_fd = -1;
+void* g_shared = nullptr;
+std::size_t g_shared_bytes = 0;
+std::atomic<int>* g_out_of_memory = nullptr;
+volatile std::sig_atomic_t g_forked_copy = 0;
+
+/// In every process forked from the worker (pthread_atfork): the protocol socket becomes
+/// /dev/null and the shared memory this process's own, so that a copy of the worker answers
+/// nothing in its name and a child that outlives it holds nothing that keeps its end from
+/// being seen. Only system calls: it runs in the child of a fork.
+void leave_the_protocol() {
+  if (g_worker_pid == 0 || ::getpid() == g_worker_pid || g_forked_copy) return;
+  g_forked_copy = 1;
+  const int null_fd = ::open("/dev/null", O_RDWR | O_CLOEXEC);
+  if (null_fd >= 0) {
+    ::dup3(null_fd, g_protocol_fd, O_CLOEXEC);
+    ::close(null_fd);
+  } else {
+    ::close(g_protocol_fd);
+  }
+  ::mmap(g_shared, g_shared_bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED,
+         -1, 0);
+}
+
+/// A process the plugin forked has come back from the plugin into the worker's code (the plugin
+/// neither exited nor exec'd in it): it must not act as the worker, so it ends here.
+void end_if_forked_copy() {
+  if (!g_forked_copy) return;
+  std::fprintf(stderr,
+               "locsim: process %d, forked by the plugin, returned from the plugin into locsim's "
+               "worker; it is ended (a process a plugin forks must exit or exec)\n",
+               static_cast<int>(::getpid()));
+  std::fflush(nullptr);
+  _exit(0);
+}
+
+/// operator new's handler while the worker has a memory limit: says that an allocation failed
+/// (the parent's message names the limit), then fails it as usual.
+void on_allocation_failure() {
+  if (g_out_of_memory != nullptr) g_out_of_memory->store(1, std::memory_order_release);
+  throw std::bad_alloc();
+}
+
+/// This process's data size (VmData: what RLIMIT_DATA limits) [bytes]; 0 if unknown.
+std::uint64_t data_bytes() {
+  std::FILE* status = std::fopen("/proc/self/status", "r");
+  if (status == nullptr) return 0;
+  char line[256];
+  std::uint64_t kib = 0;
+  while (std::fgets(line, sizeof(line), status) != nullptr) {
+    if (std::sscanf(line, "VmData: %lu kB", &kib) == 1) break;
+  }
+  std::fclose(status);
+  return kib * 1024;
+}
+
 /// Writes all of `data` (blocking). A parent that is gone ends the child.
 void write_all(int fd, std::string_view data) {
+  end_if_forked_copy();
   while (!data.empty()) {
     const ssize_t n = ::send(fd, data.data(), data.size(), MSG_NOSIGNAL);
     if (n < 0) {
@@ -133,6 +196,7 @@ class ReplyWriter final : public EstimateConsumer {
     send(kWorkerFailure, encode_failure(failure));
   }
   void send(std::uint8_t type, std::string_view payload) {
+    end_if_forked_copy();
     frame_.clear();
     put_frame(frame_, type, payload);
     std::uint64_t used = stage_.used.load(std::memory_order_relaxed);
@@ -181,6 +245,7 @@ class ReplyWriter final : public EstimateConsumer {
   bool done = false;
   while (!done) {
     reply.flush();  // every answer to what was read, before waiting for more
+    end_if_forked_copy();
     const ssize_t n = ::read(fd, chunk.data(), chunk.size());
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;  // the parent is gone: nothing more to do
@@ -282,14 +347,44 @@ std::vector<LocalizerFinal> decode_finals(std::string_view payload) {
 }
 
 // ---------------------------------------------------------------------------------------------
-/// The memory parent and child share: which call the child is in, its unsent answers.
+/// The memory parent, keeper and worker share: which call the worker is in, its unsent answers,
+/// its process and how it ended.
 struct WorkerProcess::Shared {
   CallState calls;
+  std::atomic<pid_t> worker_pid{0};   // until the keeper reaps it
+  std::atomic<int> worker_status{0};  // as waitpid says it, once worker_ended
+  std::atomic<int> worker_ended{0};   // the keeper saw the worker end
+  std::atomic<int> out_of_memory{0};  // an allocation failed under --plugin-memory
   ReplyStage stage;
 };
 
-WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::string label)
-    : label_(std::move(label)) {
+int protocol_fd() {
+  rlimit files{};
+  if (::getrlimit(RLIMIT_NOFILE, &files) != 0 || files.rlim_cur >= 1024) return 1023;
+  return static_cast<int>(std::max<rlim_t>(files.rlim_cur, 16) - 1);
+}
+
+namespace {
+
+volatile std::sig_atomic_t g_keeper_told_to_end = 0;
+extern "C" void keeper_on_term(int) {
+  g_keeper_told_to_end = 1;
+}
+extern "C" void keeper_on_child(int) {}  // wakes sigsuspend (SIG_DFL would discard SIGCHLD)
+
+/// The keeper, after the worker ended or was told to end: kills the worker's process group and
+/// every process left in its tree (each reparented to the keeper, its subreaper, when its own
+/// parent dies), level by level, until the keeper has no child left.
+void end_the_tree(pid_t worker) {
+  ::kill(-worker, SIGKILL);  // what the worker forked and that kept its group (ESRCH: none)
+  end_children();
+}
+
+}  // namespace
+
+WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::string label,
+                             const WorkerLimits& limits)
+    : label_(std::move(label)), limits_(limits) {
   for (const LocalizerDef* def : defs) {
     indices_.push_back(def->index);
     if (robots_.size() <= def->info.robot) robots_.resize(def->info.robot + 1, false);
@@ -320,31 +415,120 @@ WorkerProcess::WorkerProcess(const std::vector<const LocalizerDef*>& defs, std::
   const int bytes = 1 << 20;
   ::setsockopt(sockets[0], SOL_SOCKET, SO_SNDBUF, &bytes, sizeof(bytes));
   ::setsockopt(sockets[1], SOL_SOCKET, SO_RCVBUF, &bytes, sizeof(bytes));
+  const int protocol = protocol_fd();
   std::fflush(nullptr);  // else the child would print the parent's buffered output again
   const pid_t parent = ::getpid();
-  pid_ = ::fork();
-  if (pid_ < 0) {
+  keeper_ = ::fork();
+  if (keeper_ < 0) {
     const int error = errno;
     ::close(sockets[0]), ::close(sockets[1]);
     ::close(output[0]), ::close(output[1]);
     ::munmap(page, sizeof(Shared));
     throw std::runtime_error(std::string("fork: ") + std::strerror(error));
   }
-  if (pid_ == 0) {
-    ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a parent killed hard takes its workers along
-    if (::getppid() != parent) _exit(1);
+  if (keeper_ == 0) {
+    // The keeper. SIGTERM (from the parent, or as its death signal) and SIGCHLD are waited for in
+    // sigsuspend only, so that neither can slip in between a check and the wait.
+    sigset_t waited, before;
+    sigemptyset(&waited);
+    sigaddset(&waited, SIGTERM);
+    sigaddset(&waited, SIGCHLD);
+    ::sigprocmask(SIG_BLOCK, &waited, &before);
+    struct sigaction on_term {
+    }, on_child{};
+    on_term.sa_handler = keeper_on_term;
+    on_child.sa_handler = keeper_on_child;
+    ::sigaction(SIGTERM, &on_term, nullptr);
+    ::sigaction(SIGCHLD, &on_child, nullptr);
     std::signal(SIGINT, SIG_IGN);  // Ctrl-C is the parent's to handle; it ends the workers
-    // What the plugin prints goes to the parent, which labels and caps it; stdout by lines, so
-    // that prints reach the parent in order with stderr's and before a crash.
-    ::dup2(output[1], STDOUT_FILENO);
-    ::dup2(output[1], STDERR_FILENO);
-    std::setvbuf(stdout, nullptr, _IOLBF, 0);
-    // Keep stdio and this worker's socket only: another worker's socket held open here would
-    // hide that worker's end from the parent.
-    const int fd = sockets[1];
-    if (fd > 3) ::close_range(3, static_cast<unsigned>(fd - 1), 0);
-    ::close_range(static_cast<unsigned>(fd + 1), ~0U, 0);
-    child_main(fd, defs, calls_, *stage_);
+    // A parent that dies, even killed hard, has the keeper end the tree.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) g_keeper_told_to_end = 1;
+    // Every orphan of the tree comes here rather than to init, whatever it does (setsid too).
+    ::prctl(PR_SET_CHILD_SUBREAPER, 1);
+    ::setpgid(0, 0);  // not the parent's group: a kill of that group leaves it to end the tree
+    const pid_t keeper = ::getpid();
+    const pid_t worker = ::fork();
+    if (worker == 0) {
+      struct sigaction standard {};
+      standard.sa_handler = SIG_DFL;
+      ::sigaction(SIGTERM, &standard, nullptr);
+      ::sigaction(SIGCHLD, &standard, nullptr);
+      ::sigprocmask(SIG_SETMASK, &before, nullptr);
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() != keeper) _exit(1);
+      // Its own process group: one signal to it ends what it forked too (and a plugin's
+      // kill(0, ...) stays in it).
+      ::setpgid(0, 0);
+      g_worker_pid = ::getpid();
+      shared_->worker_pid.store(g_worker_pid, std::memory_order_release);
+      // No terminal input: outside the terminal's foreground group, a read would stop it.
+      if (const int null_fd = ::open("/dev/null", O_RDONLY); null_fd >= 0) {
+        ::dup2(null_fd, STDIN_FILENO);
+        if (null_fd != STDIN_FILENO) ::close(null_fd);
+      }
+      // What the plugin prints goes to the parent, which labels and caps it; stdout by lines, so
+      // that prints reach the parent in order with stderr's and before a crash.
+      ::dup2(output[1], STDOUT_FILENO);
+      ::dup2(output[1], STDERR_FILENO);
+      std::setvbuf(stdout, nullptr, _IOLBF, 0);
+      // The protocol far from the descriptors a plugin's files get; close-on-exec, so that a
+      // program the plugin runs does not hold it.
+      if (sockets[1] != protocol && ::dup3(sockets[1], protocol, O_CLOEXEC) < 0) _exit(1);
+      // Keep stdio and this worker's socket only: another worker's socket held open here would
+      // hide that worker's end from the parent.
+      ::close_range(3, static_cast<unsigned>(protocol - 1), 0);
+      ::close_range(static_cast<unsigned>(protocol + 1), ~0U, 0);
+      g_protocol_fd = protocol;
+      g_shared = shared_;
+      g_shared_bytes = sizeof(Shared);
+      ::pthread_atfork(nullptr, nullptr, leave_the_protocol);
+      if (limits_.memory_bytes > 0) {
+        // What it has now is the simulator's, copied at fork; the plugin may add its limit.
+        rlimit data{};
+        ::getrlimit(RLIMIT_DATA, &data);
+        const std::uint64_t wanted = data_bytes() + limits_.memory_bytes;
+        if (data.rlim_max == RLIM_INFINITY || wanted < data.rlim_max) data.rlim_max = wanted;
+        data.rlim_cur = data.rlim_max;
+        ::setrlimit(RLIMIT_DATA, &data);
+        g_out_of_memory = &shared_->out_of_memory;
+        std::set_new_handler(on_allocation_failure);
+      }
+      child_main(protocol, defs, calls_, *stage_);
+    }
+    // The keeper holds nothing of the worker's: its socket and pipe end when the tree does.
+    ::close_range(0, ~0U, 0);
+    if (worker < 0) _exit(1);
+    shared_->worker_pid.store(worker, std::memory_order_release);
+    sigset_t wait_mask = before;
+    sigdelset(&wait_mask, SIGTERM);
+    sigdelset(&wait_mask, SIGCHLD);
+    int status = 0;
+    bool ended = false;
+    while (!ended) {
+      siginfo_t info{};
+      if (::waitid(P_ALL, 0, &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid != 0) {
+        // Forgotten before it is reaped: the parent never signals a number reused since.
+        if (info.si_pid == worker) shared_->worker_pid.store(0, std::memory_order_release);
+        int any = 0;
+        ::waitpid(info.si_pid, &any, 0);
+        if (info.si_pid == worker) status = any, ended = true;
+        continue;  // else an orphan of the tree that ended
+      }
+      if (g_keeper_told_to_end) {
+        ::kill(worker, SIGKILL);
+        shared_->worker_pid.store(0, std::memory_order_release);
+        while (::waitpid(worker, &status, 0) < 0 && errno == EINTR) {
+        }
+        ended = true;
+        break;
+      }
+      ::sigsuspend(&wait_mask);
+    }
+    shared_->worker_status.store(status, std::memory_order_relaxed);
+    shared_->worker_ended.store(1, std::memory_order_release);
+    end_the_tree(worker);
+    _exit(0);
   }
   ::close(sockets[1]);
   ::close(output[1]);
@@ -364,8 +548,10 @@ void WorkerProcess::write_output(std::string_view text) {
 }
 
 void WorkerProcess::forward_output() {
+  // At most this much per call: a process printing without pause must not keep the parent here.
+  constexpr int kChunks = 16;
   char chunk[1 << 16];
-  while (output_fd_ >= 0) {
+  for (int round = 0; round < kChunks && output_fd_ >= 0;) {
     const ssize_t n = ::read(output_fd_, chunk, sizeof(chunk));
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
@@ -375,11 +561,12 @@ void WorkerProcess::forward_output() {
       return;
     }
     write_output(output_.add(std::string_view(chunk, static_cast<std::size_t>(n))));
+    ++round;
   }
 }
 
 WorkerProcess::~WorkerProcess() {
-  if (pid_ > 0) {
+  if (keeper_ > 0) {
     if (alive()) kill_now();
     reap();
   }
@@ -417,25 +604,42 @@ bool WorkerProcess::send_some() {
 
 std::string WorkerProcess::reap(std::optional<int>* signal) {
   if (fd_ >= 0) ::close(fd_), fd_ = -1;
-  if (pid_ <= 0) return "ended";
-  int status = 0;
+  if (keeper_ <= 0) return "ended";
+  int keeper_status = 0;
+  // A worker ends at once when its socket has closed (it ended, or its parent ended it); one
+  // that has not within this long closed the socket itself and is ended here.
+  constexpr auto kEnding = std::chrono::seconds(5);
+  const auto waiting_since = std::chrono::steady_clock::now();
   while (true) {
-    // While the child runs, what it prints is read: one blocked on a full pipe never ends.
-    const pid_t ended = ::waitpid(pid_, &status, output_fd_ >= 0 ? WNOHANG : 0);
+    // While the tree ends, what it prints is read: one blocked on a full pipe never ends (the
+    // keeper kills it, but the worker may still be on its way out).
+    const pid_t ended = ::waitpid(keeper_, &keeper_status, WNOHANG);
     if (ended < 0 && errno == EINTR) continue;
     if (ended != 0) break;
+    if (!killed_by_locsim_ && std::chrono::steady_clock::now() - waiting_since > kEnding)
+      kill_now();
     pollfd readable{output_fd_, POLLIN, 0};
-    ::poll(&readable, 1, 10);
+    ::poll(&readable, output_fd_ >= 0 ? 1 : 0, 10);
     forward_output();
   }
-  pid_ = -1;
-  forward_output();  // what it printed last
+  keeper_ = -1;
+  // Nothing of the tree is left: what the pipe holds is all there is. Read without waiting, and
+  // boundedly (should anything outside the tree hold the pipe, it is not waited for).
+  for (int round = 0; round < 4 && output_fd_ >= 0; ++round) forward_output();
+  if (output_fd_ >= 0) ::close(output_fd_), output_fd_ = -1;
   if (output_.dropped_bytes() > 0) {
     if (!at_line_start_) write_output("\n");
     write_output(output_.dropped_line() + "\n");
     write_output(output_.tail());
   }
   if (!at_line_start_) write_output("\n");
+  if (shared_->worker_ended.load(std::memory_order_acquire) == 0) {
+    // The keeper itself died before the worker did (only a deliberate kill does that).
+    return WIFSIGNALED(keeper_status) ? "lost: its keeper process was killed by signal " +
+                                            std::to_string(WTERMSIG(keeper_status))
+                                      : "lost: its keeper process could not start it";
+  }
+  const int status = shared_->worker_status.load(std::memory_order_relaxed);
   if (WIFSIGNALED(status)) {
     const int number = WTERMSIG(status);
     if (signal != nullptr) *signal = number;
@@ -445,7 +649,22 @@ std::string WorkerProcess::reap(std::optional<int>* signal) {
 }
 
 void WorkerProcess::kill_now() {
-  if (pid_ > 0) ::kill(pid_, SIGKILL);
+  if (keeper_ <= 0) return;
+  killed_by_locsim_ = true;
+  // The worker at once (the watchdog's verdict must not wait), then the keeper ends the rest.
+  if (const pid_t worker = shared_->worker_pid.load(std::memory_order_acquire); worker > 0)
+    ::kill(worker, SIGKILL);
+  ::kill(keeper_, SIGTERM);
+}
+
+void WorkerProcess::reject(std::string what) {
+  if (!rejected_.empty()) return;
+  rejected_ = std::move(what);
+  kill_now();
+}
+
+bool WorkerProcess::out_of_memory() const {
+  return shared_->out_of_memory.load(std::memory_order_acquire) != 0;
 }
 
 std::optional<WorkerProcess::Call> WorkerProcess::current_call() const {

@@ -28,6 +28,7 @@ Session::Session(const SessionOptions& options, const WorldDef& world, const Sce
   HostOptions host;
   host.isolate = options.isolate;
   host.plugin_timeout_s = options.plugin_timeout_s;
+  host.plugin_memory_bytes = options.plugin_memory_bytes;
   host.interrupt = interrupt;
   host_ = std::make_unique<LocalizerHost>(specs, world, scenario.localization, grid, seed, host);
   scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence, &grid);

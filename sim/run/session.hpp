@@ -33,6 +33,9 @@ struct SessionOptions {
   bool overwrite = false;               // allow writing into a non-empty folder
   /// --params: values for every localizer's parameters, below its spec's (plugin_host/param_file)
   std::optional<std::filesystem::path> params_file;
+  /// --plugin-memory: what each localizer's process may allocate beyond what it starts with
+  /// [bytes]; 0: no limit
+  std::uint64_t plugin_memory_bytes = 0;
 };
 
 /// How a run or replay ended: completed, interrupted (Ctrl-C) or failed (with the first error,

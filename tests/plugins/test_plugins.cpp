@@ -1,7 +1,14 @@
 // Plugins that misbehave on purpose, one per failure the host must survive or report, plus a
 // no-op (host overhead), a hashing one (every filter sees the same readings), a fake SLAM filter
-// with a known landmark map and one built for ABI version 1. Each is built from this file with
-// LOCSIM_TEST_PLUGIN set to its kind.
+// with a known landmark map and one built for ABI version 1, and one whose `how` picks a way to
+// escape or break its process (fork, daemonise, flood, write onto locsim's socket, take all
+// memory). Each is built from this file with LOCSIM_TEST_PLUGIN set to its kind.
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,9 +20,11 @@
 #include <limits>
 #include <locsim/localizer.hpp>
 #include <locsim/models.hpp>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace {
 
@@ -303,6 +312,98 @@ class Plugin final : public Probe {
          ranges_ = 0.0;
   locsim_pose2 odom_{};
 };
+#elif defined(LOCSIM_TEST_ESCAPES)
+/// At its first reading at or after `at_s` (one second), does what `how` says, each a way for a
+/// plugin's processes to outlive locsim or to break its protocol, and writes the pid of the process
+/// that must not outlive the run to `pid_file`:
+/// - fork_returns: forks, and the child returns from the call into locsim's worker as a copy of it
+/// - keep_child: forks a child that ignores SIGTERM and sleeps for good
+/// - daemon: a daemon: double fork and setsid, ignoring SIGTERM, sleeping for good
+/// - flood: forks a child that ignores SIGTERM and SIGPIPE and writes to stderr without pause
+/// - hang_with_child, crash_with_child: keep_child, then the call hangs, or segfaults
+/// - garbage: writes bytes that are not locsim's protocol onto the socket it finds among its
+///   descriptors (as a plugin that writes to a stale descriptor would), then goes on
+/// - hog: allocates (and touches) 16 MiB after 16 MiB without end; only under a data limit
+///   (--plugin-memory), else it throws at once rather than take the machine's memory
+/// - sigkill: SIGKILL to itself, as the system's out-of-memory killer would send
+/// - none: nothing
+class Plugin final : public Probe {
+ public:
+  explicit Plugin(const locsim_init& init)
+      : Probe(init),
+        how_(locsim::sdk::Params(init).string("how")),
+        pid_file_(locsim::sdk::Params(init).string("pid_file")),
+        at_s_(locsim::sdk::Params(init).number("at_s")) {}
+  void on_reading(const locsim_reading& r) override {
+    if (r.t_s < at_s_ || done_) return;
+    done_ = true;
+    if (how_ == "fork_returns") {
+      if (::fork() == 0) write_pid();  // and on, into the worker's code
+    } else if (how_ == "keep_child" || how_ == "hang_with_child" || how_ == "crash_with_child") {
+      if (::fork() == 0) sleep_for_good();
+      if (how_ == "hang_with_child") {
+        while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
+      }
+      if (how_ == "crash_with_child") std::raise(SIGSEGV);
+    } else if (how_ == "daemon") {
+      const pid_t middle = ::fork();
+      if (middle == 0) {
+        ::setsid();
+        if (::fork() == 0) sleep_for_good();
+        _exit(0);
+      }
+      ::waitpid(middle, nullptr, 0);
+    } else if (how_ == "flood") {
+      if (::fork() == 0) {
+        write_pid();
+        std::signal(SIGTERM, SIG_IGN);
+        std::signal(SIGPIPE, SIG_IGN);
+        const std::string line = std::string(200, 'f') + "\n";
+        while (true) {
+          if (::write(STDERR_FILENO, line.data(), line.size()) < 0) ::usleep(100);
+        }
+      }
+    } else if (how_ == "garbage") {
+      static constexpr char kGarbage[] = "this is not locsim's protocol\n";
+      for (int fd = 3; fd < 4096; ++fd) {
+        struct stat info {};
+        if (::fstat(fd, &info) == 0 && S_ISSOCK(info.st_mode)) {
+          if (::write(fd, kGarbage, sizeof(kGarbage) - 1) < 0) std::perror("write");
+        }
+      }
+    } else if (how_ == "hog") {
+      rlimit data{};
+      ::getrlimit(RLIMIT_DATA, &data);
+      if (data.rlim_cur == RLIM_INFINITY) throw std::runtime_error("hog needs --plugin-memory");
+      while (true) {
+        hoard_.push_back(std::make_unique<char[]>(16 << 20));
+        std::memset(hoard_.back().get(), 1, 16 << 20);
+      }
+    } else if (how_ == "sigkill") {
+      std::raise(SIGKILL);
+    }
+  }
+
+ private:
+  void write_pid() const {
+    if (pid_file_.empty()) return;
+    const std::string text = std::to_string(::getpid()) + "\n";
+    const int fd = ::open(pid_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+      if (::write(fd, text.data(), text.size()) < 0) std::perror("write");
+      ::close(fd);
+    }
+  }
+  [[noreturn]] void sleep_for_good() const {
+    write_pid();
+    std::signal(SIGTERM, SIG_IGN);
+    while (true) ::pause();
+  }
+  std::string how_, pid_file_;
+  double at_s_;
+  bool done_ = false;
+  std::vector<std::unique_ptr<char[]>> hoard_;
+};
 #elif defined(LOCSIM_TEST_NOOP)
 /// Does nothing at all: what is measured is the host.
 class Plugin final : public locsim::sdk::Localizer {
@@ -323,6 +424,12 @@ constexpr locsim_param_decl kParams[] = {
     {"skip", LOCSIM_PARAM_INT, -1, -1, 1000, nullptr, "index left out (-1: none) [-]"},
     {"spurious", LOCSIM_PARAM_BOOL, 0, 0, 1, nullptr, "add one landmark 14 m from the first"},
     {"fail", LOCSIM_PARAM_STRING, 0, 0, 0, "none", "none, throw or nan"},
+};
+#elif defined(LOCSIM_TEST_ESCAPES)
+constexpr locsim_param_decl kParams[] = {
+    {"how", LOCSIM_PARAM_STRING, 0, 0, 0, "none", "what to do at one second (see the class)"},
+    {"pid_file", LOCSIM_PARAM_STRING, 0, 0, 0, "", "where to write the pid that must not outlive"},
+    {"at_s", LOCSIM_PARAM_DOUBLE, 1.0, 0.0, 1e6, nullptr, "when to do it [s]"},
 };
 #else
 constexpr locsim_param_decl kParams[] = {

@@ -77,7 +77,8 @@ constexpr const char* kExitCodes = R"(Exit codes:
   4    --video/--frames: the renderer cannot be loaded, no GL context, or a video or frame file
        cannot be opened or written (frames written before stay; the video is closed and plays)
   5    run or replay completed, but a localizer failed (crashed, hung past --plugin-timeout,
-       returned an error or NaN): every other localizer's files and metrics are written, and
+       ran out of --plugin-memory, broke locsim's protocol, returned an error or NaN): every
+       other localizer's files and metrics are written, and
        metrics.json says which failed, in which call, at what simulated time and why
   130  interrupted (Ctrl-C); the run folder keeps what was written, run.json says "interrupted";
        another Ctrl-C a second or more later ends locsim at once)";
@@ -145,6 +146,30 @@ CLI::Validator whole_number_in(std::int64_t lo, std::uint64_t hi) {
         return {};
       },
       range);
+}
+
+/// --plugin-memory: a size in bytes, or with a binary unit K, M, G or T (also KiB, MiB, ...):
+/// "512M" is 512 MiB. A transform: the option then reads the bytes in decimal.
+CLI::Validator memory_size() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::uint64_t number = 0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), number);
+        std::string unit = text.substr(static_cast<std::size_t>(end - text.data()));
+        if (unit.size() == 3 && unit.substr(1) == "iB") unit.resize(1);
+        static constexpr std::string_view kUnits = "KMGT";
+        const std::size_t power = unit.empty() ? 0 : kUnits.find(unit) + 1;
+        if (end == text.data() || error != std::errc() || unit.size() > 1 ||
+            (!unit.empty() && power == 0)) {
+          return "'" + text + "' is not a size (bytes, or with K, M, G or T: 512M)";
+        }
+        const int shift = static_cast<int>(10 * power);
+        if (power > 0 && number > (std::numeric_limits<std::uint64_t>::max() >> shift))
+          return "'" + text + "' is too large";
+        text = std::to_string(number << shift);
+        return {};
+      },
+      "SIZE");
 }
 
 /// --video-size: WxH, each even (encoders want 4:2:0 chroma) and in [kMinFramePx, kMaxFramePx].
@@ -472,6 +497,13 @@ int main(int argc, char** argv) {
                      "Longest a single plugin call may take before its localizer is failed "
                      "[s]; 0: no limit (needs --isolation process)")
         ->check(number_in(0.0, 1e6))
+        ->capture_default_str();
+    command
+        ->add_option("--plugin-memory", session.plugin_memory_bytes,
+                     "Memory each localizer's process may allocate beyond what it starts with, "
+                     "bytes or with K, M, G (512M); past it the plugin's allocations fail and the "
+                     "localizer fails saying so; 0: no limit (needs --isolation process)")
+        ->transform(memory_size())
         ->capture_default_str();
     command->add_flag("!--no-readings", session.readings,
                       "Do not write readings/ (one CSV per sensor)");
