@@ -153,12 +153,14 @@ TEST(NothingHalfWritten, ABadVideoSizeIsRefusedBeforeAnythingIsMade) {
 }
 
 TEST(NothingHalfWritten, AnUnwritableLogIsRefusedBeforeTheRunFolderIsMade) {
+  // A missing folder is made (as --out's is); one the system cannot make (in /proc) fails.
   const fs::path out = testing::temp_dir("log") / "out";
   const Outcome o =
-      locsim("run " + kDemo + " --duration 1 -q --log /nonexistent/folder/run.locsimlog --out " +
+      locsim("run " + kDemo + " --duration 1 -q --log /proc/locsim-none/run.locsimlog --out " +
              out.string());
   EXPECT_EQ(o.exit_code, 1) << o.output;
-  EXPECT_NE(o.output.find("cannot write the log /nonexistent/folder/run.locsimlog: No such file"),
+  EXPECT_NE(o.output.find("cannot write the log /proc/locsim-none/run.locsimlog: cannot make its "
+                          "folder"),
             std::string::npos)
       << o.output;
   EXPECT_FALSE(fs::exists(out));

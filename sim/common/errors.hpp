@@ -30,7 +30,7 @@ std::string quote_input(std::string_view text, std::size_t max_bytes = 120);
 
 /// A whole message fit for a terminal or a log line: escaped as quote_input() does, but newlines
 /// and tabs kept, and no longer than `max_bytes`: past that its middle is cut, keeping its start
-/// (the file and line) and its end. Every error type below passes its message through it.
+/// (the file and line) and its end. InputError and PluginError pass their messages through it.
 std::string printable(std::string_view message, std::size_t max_bytes = kMaxMessageBytes);
 
 /// Where in a file something was found. Line and column are 1-based; 0 means unknown.
@@ -68,9 +68,11 @@ class PluginError : public std::runtime_error {
 
 /// The renderer (render/, loaded at run time for --video and --frames) cannot be loaded, its GL
 /// context cannot be made, or a video or frame file cannot be opened or written.
+/// Header-only, unlike the others: the render module (a shared library loaded at run time, not
+/// linked with the core) throws it; the CLI makes its message printable where it prints it.
 class RenderError : public std::runtime_error {
  public:
-  explicit RenderError(const std::string& message) : std::runtime_error(printable(message)) {}
+  using std::runtime_error::runtime_error;
 };
 
 /// What locsim is doing, for the message of an error that cannot say what it was building

@@ -138,7 +138,14 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
          dir = dir.parent_path()) {
       made = dir;
     }
-    if (!made.empty()) fs::create_directories(options.log_file->parent_path());
+    if (!made.empty()) {
+      std::error_code error;
+      fs::create_directories(options.log_file->parent_path(), error);
+      if (error) {
+        throw std::runtime_error("cannot write the log " + options.log_file->string() +
+                                 ": cannot make its folder: " + error.message());
+      }
+    }
     try {
       log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
     } catch (...) {

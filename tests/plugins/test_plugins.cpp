@@ -337,10 +337,14 @@ class Plugin final : public Probe {
   void on_reading(const locsim_reading& r) override {
     if (r.t_s < at_s_ || done_) return;
     done_ = true;
+    // Each pid is written by a process the plugin's call waits for (not by the child itself,
+    // which the run may end before it writes): the file is there when the call returns.
     if (how_ == "fork_returns") {
-      if (::fork() == 0) write_pid();  // and on, into the worker's code
+      if (const pid_t child = ::fork(); child > 0) write_pid(child);  // the child returns too
     } else if (how_ == "keep_child" || how_ == "hang_with_child" || how_ == "crash_with_child") {
-      if (::fork() == 0) sleep_for_good();
+      const pid_t child = ::fork();
+      if (child == 0) sleep_for_good();
+      write_pid(child);
       if (how_ == "hang_with_child") {
         while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
       }
@@ -349,13 +353,16 @@ class Plugin final : public Probe {
       const pid_t middle = ::fork();
       if (middle == 0) {
         ::setsid();
-        if (::fork() == 0) sleep_for_good();
+        const pid_t daemon = ::fork();
+        if (daemon == 0) sleep_for_good();
+        write_pid(daemon);
         _exit(0);
       }
       ::waitpid(middle, nullptr, 0);
     } else if (how_ == "flood") {
-      if (::fork() == 0) {
-        write_pid();
+      const pid_t child = ::fork();
+      if (child > 0) write_pid(child);
+      if (child == 0) {
         std::signal(SIGTERM, SIG_IGN);
         std::signal(SIGPIPE, SIG_IGN);
         const std::string line = std::string(200, 'f') + "\n";
@@ -385,17 +392,16 @@ class Plugin final : public Probe {
   }
 
  private:
-  void write_pid() const {
-    if (pid_file_.empty()) return;
-    const std::string text = std::to_string(::getpid()) + "\n";
+  void write_pid(pid_t pid) const {
+    if (pid_file_.empty() || pid <= 0) return;
+    const std::string text = std::to_string(pid) + "\n";
     const int fd = ::open(pid_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd >= 0) {
       if (::write(fd, text.data(), text.size()) < 0) std::perror("write");
       ::close(fd);
     }
   }
-  [[noreturn]] void sleep_for_good() const {
-    write_pid();
+  [[noreturn]] static void sleep_for_good() {
     std::signal(SIGTERM, SIG_IGN);
     while (true) ::pause();
   }

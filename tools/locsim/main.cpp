@@ -996,7 +996,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "locsim: plugin error: %s\n", e.what());
     return locsim::kExitPlugin;
   } catch (const locsim::RenderError& e) {
-    std::fprintf(stderr, "locsim: render error: %s\n", e.what());
+    std::fprintf(stderr, "locsim: render error: %s\n", locsim::printable(e.what()).c_str());
     return locsim::kExitRender;
   } catch (const locsim::InputError& e) {
     std::fprintf(stderr, "locsim: error: %s\n", e.what());
