@@ -226,8 +226,18 @@ TEST(Isolation, APluginOutOfMemoryFailsSayingSo) {
   EXPECT_EQ(o.exit_code, 5) << tail_of(o.output);
   const json hog = testing::localizer_entry(dir / "out/metrics.json", "hog");
   EXPECT_EQ(hog["status"], "failed");
-  testing::expect_contains(hog["failure"].value("message", ""),
-                           "ran out of its memory limit of 64 MiB (--plugin-memory)");
+  bool allocator_throws = true;
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  // AddressSanitizer's allocator ends the process (exit 1) when the system refuses it memory,
+  // instead of throwing std::bad_alloc: the limit holds, the message cannot say why.
+  allocator_throws = false;
+#endif
+#endif
+  if (allocator_throws) {
+    testing::expect_contains(hog["failure"].value("message", ""),
+                             "ran out of its memory limit of 64 MiB (--plugin-memory)");
+  }
   const json killed = testing::localizer_entry(dir / "out/metrics.json", "sigkill");
   EXPECT_EQ(killed["failure"]["signal"], 9);
   testing::expect_contains(killed["failure"].value("message", ""),
