@@ -158,5 +158,20 @@ TEST(WritesAreChecked, AFileCutByAFullDiskIsNeverLeftBehind) {
   }
 }
 
+TEST(WritesAreChecked, APairOfFilesIsReplacedWholeOrNotAtAll) {
+  // calibrate writes calibration.json and calibration.yaml: a new .json beside an old .yaml (the
+  // second write failed) would describe another calibration than the file a twin reads.
+  const fs::path dir = testing::temp_dir("pair");
+  write_files({{dir / "a.json", "old a"}, {dir / "b.yaml", "old b"}});
+  EXPECT_THROW(write_files({{dir / "a.json", "new a"}, {dir / "missing" / "b.yaml", "new b"}}),
+               std::runtime_error);
+  EXPECT_EQ(testing::read_file(dir / "a.json"), "old a");
+  EXPECT_EQ(testing::read_file(dir / "b.yaml"), "old b");
+  EXPECT_EQ(files_in(dir).size(), 2u) << "a temporary left behind";
+  write_files({{dir / "a.json", "new a"}, {dir / "b.yaml", "new b"}});
+  EXPECT_EQ(testing::read_file(dir / "a.json"), "new a");
+  EXPECT_EQ(testing::read_file(dir / "b.yaml"), "new b");
+}
+
 }  // namespace
 }  // namespace locsim

@@ -359,6 +359,17 @@ TEST(MrclamImport, CommandLineImportsPrintsASummaryAndRefusesBadInputWithExit2) 
   const auto bad_list = testing::locsim("import mrclam " + dir.string() + " --robots 1,x --out " +
                                         (out / "y").string());
   EXPECT_EQ(bad_list.exit_code, 2) << bad_list.output;
+  // A missing folder is made (as run --log makes its); a folder or a file in the way is refused.
+  const auto nested = testing::locsim("import mrclam " + dir.string() + " --robots 1,2 -q --out " +
+                                      (out / "new/sub/n.locsimlog").string());
+  EXPECT_EQ(nested.exit_code, 0) << nested.output;
+  EXPECT_TRUE(fs::is_regular_file(out / "new/sub/n.locsimlog"));
+  for (const fs::path& target : {out / "new", log / "x.locsimlog"}) {
+    const auto refused =
+        testing::locsim("import mrclam " + dir.string() + " --robots 1,2 --out " + target.string());
+    EXPECT_EQ(refused.exit_code, 2) << target << refused.output;
+    EXPECT_NE(refused.output.find("--out: "), std::string::npos) << refused.output;
+  }
   std::ofstream(dir / "Robot2_Odometry.dat") << kHeader << "1248444000.1 \t 0.1\n";
   const auto bad = testing::locsim("import mrclam " + dir.string() + " --robots 1,2 --out " +
                                    (out / "bad.locsimlog").string());

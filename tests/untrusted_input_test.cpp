@@ -1,7 +1,9 @@
 // Input from someone else (a log, a dataset) reads nothing outside itself and cannot flood or
 // steer the terminal through a message; a command never destroys what it reads (issue 49).
 #include <gtest/gtest.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -356,6 +358,27 @@ TEST(InputsSurvive, ReplayOverwritingTheFolderItsLogIsInKeepsTheLog) {
     EXPECT_TRUE(fs::exists(dir / "R" / "params.yaml"));
     EXPECT_TRUE(fs::exists(dir / "R" / "odometry.tum"));
   }
+}
+
+TEST(InputsSurvive, AnInputWhosePathCannotBeResolvedIsKeptByItsName) {
+  // A log read through /proc/self/fd/N of a memfd: the link names a file no path reaches, so
+  // resolving it fails; --overwrite must still run (the fuzzer replays this way).
+  const fs::path dir = testing::temp_dir("memfd");
+  const RunOptions run = record_demo(1.0, dir / "R", dir / "rec.locsimlog");
+  const std::string recorded = testing::read_file(*run.log_file);
+  const int fd = memfd_create("locsim_test_log", 0);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(write(fd, recorded.data(), recorded.size()), static_cast<ssize_t>(recorded.size()));
+  for (int round = 0; round < 2; ++round) {
+    ReplayOptions replay;
+    replay.log_file = "/proc/self/fd/" + std::to_string(fd);
+    replay.out_dir = dir / "M";
+    replay.overwrite = true;
+    replay.localizers = {"odometry"};
+    EXPECT_NO_THROW(replay_log(replay)) << round;
+    EXPECT_TRUE(fs::exists(dir / "M" / "odometry.tum")) << round;
+  }
+  close(fd);
 }
 
 TEST(InputsSurvive, AnInputWhereTheRunWritesOrAnOutputOntoAnInputIsRefused) {

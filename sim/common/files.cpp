@@ -118,22 +118,68 @@ void check_output_folder(const fs::path& dir, std::string_view option) {
   }
 }
 
-void write_file(const fs::path& file, std::string_view content) {
-  // Through a temporary file beside it and a rename: a full disk, a file-size limit or a kill
-  // leaves the old file or the new one, never a cut one (a world cut at 4 KiB still loaded), and
-  // no temporary file.
+fs::path make_missing_folders(const fs::path& dir, std::string_view what) {
+  fs::path made;
+  for (fs::path at = dir; !at.empty() && !fs::exists(at); at = at.parent_path()) {
+    made = at;
+    if (at == at.parent_path()) break;
+  }
+  if (made.empty()) return made;
+  std::error_code error;
+  fs::create_directories(dir, error);
+  if (error) {
+    std::error_code ignored;
+    fs::remove_all(made, ignored);
+    throw std::runtime_error(std::string(what) + "cannot make its folder: " + error.message());
+  }
+  return made;
+}
+
+namespace {
+
+/// Writes `content` to `file`.tmp; false (the temporary removed, errno's reason in `reason`) when
+/// it could not be written whole.
+bool write_temporary(const fs::path& file, std::string_view content, std::string& reason) {
   const fs::path temporary = file.string() + ".tmp";
   std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
   if (out) out.write(content.data(), static_cast<std::streamsize>(content.size()));
   if (out) out.close();
-  const int error = errno;
-  std::error_code renamed;
-  if (out) fs::rename(temporary, file, renamed);
-  if (!out || renamed) {
-    std::error_code ignored;
-    fs::remove(temporary, ignored);
-    throw std::runtime_error("cannot write " + file.string() + ": " +
-                             (renamed ? renamed.message() : std::strerror(error)));
+  if (out) return true;
+  reason = std::strerror(errno);
+  std::error_code ignored;
+  fs::remove(temporary, ignored);
+  return false;
+}
+
+}  // namespace
+
+void write_file(const fs::path& file, std::string_view content) {
+  write_files({{file, content}});
+}
+
+void write_files(const std::vector<std::pair<fs::path, std::string_view>>& files) {
+  // Through a temporary file beside each and a rename: a full disk, a file-size limit or a kill
+  // leaves the old files or the new ones, never a cut one (a world cut at 4 KiB still loaded), and
+  // no temporary. Every file is written before any is renamed, so a pair (calibration.yaml and
+  // its .json) is never left half old, half new by a failed write.
+  std::string reason;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    if (write_temporary(files[i].first, files[i].second, reason)) continue;
+    for (std::size_t k = 0; k < i; ++k) {
+      std::error_code ignored;
+      fs::remove(files[k].first.string() + ".tmp", ignored);
+    }
+    throw std::runtime_error("cannot write " + files[i].first.string() + ": " + reason);
+  }
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    std::error_code renamed;
+    fs::rename(files[i].first.string() + ".tmp", files[i].first, renamed);
+    if (!renamed) continue;
+    for (std::size_t k = i; k < files.size(); ++k) {
+      std::error_code ignored;
+      fs::remove(files[k].first.string() + ".tmp", ignored);
+    }
+    throw std::runtime_error("cannot write " + files[i].first.string() + ": " + renamed.message());
   }
 }
 

@@ -10,6 +10,8 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
+#include <vector>
 
 namespace locsim {
 
@@ -58,10 +60,19 @@ class InputSandbox {
 /// nearest of its parents that exists is not one (a file given where a folder is meant).
 void check_output_folder(const std::filesystem::path& dir, std::string_view option);
 
+/// Makes `dir` and its missing parents; returns the outermost folder it made (remove_all it to
+/// undo), empty when `dir` existed. Throws std::runtime_error, after `what` (e.g. "cannot write
+/// the log x: "), when a folder cannot be made.
+std::filesystem::path make_missing_folders(const std::filesystem::path& dir, std::string_view what);
+
 /// Writes `content` to `file` (replacing it), through `file`.tmp and a rename: a reader never sees
 /// half a file, and a write that fails (a full disk) leaves the old file, or none, and no
 /// temporary. Throws std::runtime_error naming the path and the system's reason.
 void write_file(const std::filesystem::path& file, std::string_view content);
+
+/// write_file of several files, all written before any replaces its old version: a failed write
+/// leaves every old file (or none) and no temporary.
+void write_files(const std::vector<std::pair<std::filesystem::path, std::string_view>>& files);
 
 /// write_file of the JSON text, indented.
 void write_json_atomically(const std::filesystem::path& file,

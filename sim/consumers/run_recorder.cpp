@@ -29,6 +29,16 @@ bool same_file(const fs::path& a, const fs::path& b) {
   return !error_a && !error_b && resolved_a == resolved_b;
 }
 
+/// `path` with its links resolved where it can be; otherwise (a link to a deleted file, as
+/// /proc/self/fd/N of a memfd is) lexically absolute. Never throws.
+fs::path resolved(const fs::path& path) {
+  std::error_code error;
+  fs::path result = fs::weakly_canonical(path, error);
+  if (!error) return result;
+  result = fs::absolute(path, error);
+  return error ? path.lexically_normal() : result.lexically_normal();
+}
+
 /// `path` resolved, relative to the resolved `root`; empty when it lies outside it.
 fs::path inside(const fs::path& root, const fs::path& path) {
   std::error_code error;
@@ -95,9 +105,9 @@ RunFolder RunFolder::create(const fs::path& root, const WorldDef& world, bool ov
   if (overwrite && fs::is_directory(root)) {
     // An entry is kept when it is a kept file or a folder holding one (--frames inside --out).
     const auto kept = [&](const fs::path& entry) {
-      const fs::path candidate = fs::weakly_canonical(entry);
+      const fs::path candidate = resolved(entry);
       return std::any_of(keep.begin(), keep.end(), [&](const fs::path& file) {
-        const fs::path target = fs::weakly_canonical(file);
+        const fs::path target = resolved(file);
         return std::mismatch(candidate.begin(), candidate.end(), target.begin(), target.end())
                    .first == candidate.end();
       });

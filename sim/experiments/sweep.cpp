@@ -347,13 +347,9 @@ std::string jsonl_line(const json& result) {
 
 /// Writes `results` as the whole of `file`, atomically: a kill leaves the old file or the new one.
 void rewrite_results(const fs::path& file, const std::vector<json>& results) {
-  const fs::path temporary = file.string() + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    for (const json& r : results) out << jsonl_line(r);
-    if (!out.flush()) throw std::runtime_error("cannot write " + temporary.string());
-  }
-  fs::rename(temporary, file);
+  std::string text;
+  for (const json& r : results) text += jsonl_line(r);
+  write_file(file, text);
 }
 
 /// Whether a result stands on --resume. ok, and failed (the localizer's own failure: replaying
@@ -572,7 +568,7 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
   }
   if (families.empty()) return;
   if (families.size() > 1) families.push_back("");  // "": every family
-  std::ofstream csv(out_dir / "summary_by_family.csv", std::ios::binary);
+  std::ostringstream csv;
   csv << "config,family,worlds,runs,ok,kidnaps,kidnaps_recoverable,kidnaps_recovered,"
          "kidnaps_recovered_share,kidnaps_recovered_ci95_low,"
          "kidnaps_recovered_ci95_high,position_rms_m_mean,"
@@ -642,6 +638,7 @@ void write_family_tables(const fs::path& out_dir, const std::vector<json>& resul
          << " |\n";
     }
   }
+  write_file(out_dir / "summary_by_family.csv", csv.str());
 }
 
 }  // namespace
@@ -651,8 +648,9 @@ void write_tables(const fs::path& out_dir) {
   std::sort(results.begin(), results.end(), [](const json& a, const json& b) {
     return a["index"].get<std::size_t>() < b["index"].get<std::size_t>();
   });
+  // Each table whole or not at all (write_file): a full disk leaves no table cut mid-row.
   {
-    std::ofstream csv(out_dir / "results.csv", std::ios::binary);
+    std::ostringstream csv;
     csv << "index,id,config,log,seed,status,reason,position_rms_m,position_mean_m,position_max_m,"
            "x_rms_m,y_rms_m,heading_rms_deg,heading_mean_deg,heading_max_deg,converged_s,"
            "converged_steps,time_lost_s,recovery_s,recovery_steps,landmark_error_m,nees_mean,"
@@ -708,6 +706,7 @@ void write_tables(const fs::path& out_dir) {
                   : std::string(",,"))
           << ',' << (tracking ? fixed(*tracking, 6) : std::string()) << '\n';
     }
+    write_file(out_dir / "results.csv", csv.str());
   }
   // Per configuration: success and the metrics over seeds (mean +- 95 % CI, median).
   std::vector<std::string> order;
@@ -717,8 +716,7 @@ void write_tables(const fs::path& out_dir) {
     if (!by_config.count(config)) order.push_back(config);
     by_config[config].push_back(&r);
   }
-  std::ofstream csv(out_dir / "summary.csv", std::ios::binary);
-  std::ofstream md(out_dir / "summary.md", std::ios::binary);
+  std::ostringstream csv, md;
   csv << "config,runs,ok,converged,recovered_every_kidnap,first_segment_position_rms_m_mean,"
          "first_segment_position_rms_m_ci95,position_rms_m_mean,position_rms_m_ci95,position_rms_m_"
          "median,heading_rms_deg_mean,heading_rms_deg_ci95,heading_rms_deg_median,"
@@ -773,6 +771,8 @@ void write_tables(const fs::path& out_dir) {
        << " | " << (ne.n > 0 ? fixed(ne.median, 1) : std::string("—")) << " |\n";
   }
   write_family_tables(out_dir, results, order, md);
+  write_file(out_dir / "summary.csv", csv.str());
+  write_file(out_dir / "summary.md", md.str());
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/common/format.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/run/runner.hpp"
@@ -216,6 +217,9 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                  {"source", source}};
 
   const fs::path partial = out.string() + ".partial";
+  // The log's folder is made when missing, as `run --log` does, and removed again on failure.
+  const fs::path made =
+      make_missing_folders(out.parent_path(), "cannot write " + out.string() + ": ");
   try {
     LogWriter writer(partial, header);
     StreamOrderCheck stream_order;
@@ -270,6 +274,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
   } catch (...) {
     std::error_code ignored;
     fs::remove(partial, ignored);
+    if (!made.empty()) fs::remove_all(made, ignored);
     throw;
   }
   summary.header = header;

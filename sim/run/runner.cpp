@@ -133,19 +133,9 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   if (options.log_file) {
     // Its folder is made when missing, as the run folder is (`--out NEW --log NEW/run.locsimlog`),
     // and removed again when the log cannot be written.
-    fs::path made;
-    for (fs::path dir = options.log_file->parent_path(); !dir.empty() && !fs::exists(dir);
-         dir = dir.parent_path()) {
-      made = dir;
-    }
-    if (!made.empty()) {
-      std::error_code error;
-      fs::create_directories(options.log_file->parent_path(), error);
-      if (error) {
-        throw std::runtime_error("cannot write the log " + options.log_file->string() +
-                                 ": cannot make its folder: " + error.message());
-      }
-    }
+    const fs::path made =
+        make_missing_folders(options.log_file->parent_path(),
+                             "cannot write the log " + options.log_file->string() + ": ");
     try {
       log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
     } catch (...) {

@@ -349,9 +349,11 @@ int new_plugin(const std::string& name, const std::filesystem::path& dir) {
     }
     return text;
   };
+  locsim::check_output_folder(dir, "new-plugin");
   std::filesystem::create_directories(dir);
-  std::ofstream(dir / "CMakeLists.txt") << fill(locsim::cli::kTemplateCMakeLists);
-  std::ofstream(dir / (name + ".cpp")) << fill(locsim::cli::kTemplateSource);
+  const std::string cmake = fill(locsim::cli::kTemplateCMakeLists),
+                    source = fill(locsim::cli::kTemplateSource);
+  locsim::write_files({{dir / "CMakeLists.txt", cmake}, {dir / (name + ".cpp"), source}});
   std::printf(
       "wrote %s/CMakeLists.txt and %s/%s.cpp\nbuild: cmake -S %s -B %s/build "
       "-DCMAKE_PREFIX_PATH=<locsim prefix> && cmake --build %s/build\n",
@@ -802,6 +804,10 @@ int main(int argc, char** argv) {
     }
     if (*import_cmd) {
       if (*import_duration) import_window.duration_s = import_duration_s;
+      if (std::filesystem::is_directory(import_out)) {
+        throw locsim::InputError("--out: " + import_out + " is a folder; name the log file");
+      }
+      locsim::check_output_folder(std::filesystem::path(import_out).parent_path(), "--out");
       if (std::filesystem::exists(import_out) && !import_overwrite) {
         throw locsim::InputError("--out: " + import_out +
                                  " exists (pass --overwrite to replace it)");
@@ -851,8 +857,10 @@ int main(int argc, char** argv) {
       std::vector<std::filesystem::path> logs(calibrate_logs.begin(), calibrate_logs.end());
       const locsim::Calibration result = locsim::calibrate(logs, calibration);
       std::filesystem::create_directories(out);
-      locsim::write_json_atomically(out / "calibration.json", result.to_json());
-      locsim::write_file(out / "calibration.yaml", result.to_yaml());
+      // The pair together: a failed write leaves neither half of a new pair beside an old one.
+      const std::string json_text = result.to_json().dump(2) + '\n', yaml_text = result.to_yaml();
+      locsim::write_files(
+          {{out / "calibration.json", json_text}, {out / "calibration.yaml", yaml_text}});
       if (!calibrate_quiet) std::printf("%s", locsim::describe(result).c_str());
       return locsim::kExitOk;
     }
