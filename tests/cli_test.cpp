@@ -39,6 +39,57 @@ TEST(Cli, BadCommandLineExitsWithTwo) {
   EXPECT_EQ(locsim("fly").exit_code, 2);
 }
 
+TEST(Cli, ACommandLineErrorIsOneLineWithThePrefix) {
+  for (const std::string& arguments :
+       {"run " + kDemo + " --duration 0", "run " + kDemo + " --seed banana", std::string("fly")}) {
+    const Outcome o = locsim(arguments);
+    EXPECT_EQ(o.exit_code, 2) << arguments;
+    EXPECT_EQ(o.output.rfind("locsim: error: ", 0), 0u) << o.output;
+    EXPECT_EQ(std::count(o.output.begin(), o.output.end(), '\n'), 1) << o.output;
+  }
+}
+
+TEST(Cli, AnOutputPathThatCannotBeMadeExitsWithTwoNamingTheOption) {
+  const fs::path dir = testing::temp_dir("cli_outputs");
+  const std::string log = (dir / "rec.locsimlog").string();
+  ASSERT_EQ(locsim("run " + kDemo + " --duration 1 -q --no-readings --out " + (dir / "R").string() +
+                   " --log " + log)
+                .exit_code,
+            0);
+  for (const std::string& out : {std::string("/proc/locsim_test_out"), std::string("''")}) {
+    for (const auto& [command, option] :
+         {std::pair{"calibrate " + log + " -q --out " + out, "--out"},
+          std::pair{"generate room --seeds 1 -q --out " + out, "--out"},
+          std::pair{"new-plugin my_filter " + out, "new-plugin"},
+          std::pair{"twin " + log + " -q --out " + out, out == "''" ? "--out" : "cannot write"},
+          std::pair{
+              "run " + kDemo + " --duration 1 -q --out " + (dir / "S").string() + " --log " + out,
+              out == "''" ? "--log" : "cannot write the log"}}) {
+      const Outcome o = locsim(command);
+      EXPECT_EQ(o.exit_code, 2) << command << "\n" << o.output;
+      EXPECT_EQ(o.output.rfind(std::string("locsim: error: ") + option, 0), 0u) << command << "\n"
+                                                                                << o.output;
+      EXPECT_EQ(o.output.find("filesystem error"), std::string::npos) << o.output;
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir / "S"));
+  // A plugin name longer than a file name may be: refused, nothing made.
+  const Outcome long_name =
+      locsim("new-plugin " + std::string(300, 'a') + " " + (dir / "np").string());
+  EXPECT_EQ(long_name.exit_code, 2) << long_name.output;
+  EXPECT_FALSE(fs::exists(dir / "np"));
+  // twin onto the log it reads, or onto a folder.
+  fs::create_directories(dir / "folder.yaml");
+  for (const std::string& out : {log, (dir / "folder.yaml").string()}) {
+    const Outcome o = locsim("twin " + log + " -q --overwrite --out " + out);
+    EXPECT_EQ(o.exit_code, 2) << out << "\n" << o.output;
+  }
+  EXPECT_EQ(
+      locsim("replay " + log + " -q --localizer odometry --out " + (dir / "P").string()).exit_code,
+      0)
+      << "the log was damaged";
+}
+
 TEST(Cli, MissingWorldFileExitsWithTwoAndWritesNothing) {
   const fs::path out = testing::temp_dir("cli") / "out";
   const Outcome o = locsim("run /nonexistent/world.yaml --out " + out.string());

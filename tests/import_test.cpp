@@ -325,7 +325,23 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"LandmarkWithoutBarcode", "Landmark_Groundtruth.dat", 2, "  8 \t 1.0 \t 1.0",
                  "subject 8 has no barcode"},
         BadInput{"BarcodeTwice", "Barcodes.dat", 2, "  2 \t   5 ", "barcode listed twice"},
-        BadInput{"EmptyFile", "Robot2_Measurement.dat", 0, kHeader, "no data rows"}),
+        BadInput{"EmptyFile", "Robot2_Measurement.dat", 0, kHeader, "no data rows"},
+        // Times beyond any dataset's, at their own line: not at a generated world's duration.
+        BadInput{"HugeTime", "Robot1_Odometry.dat", 200, "1e308 \t 0.1 \t 0.1",
+                 "'time': 1e+308 s is outside ["},
+        BadInput{"HugeNegativeTime", "Robot1_Odometry.dat", 1, "-1e308 \t 0.1 \t 0.1",
+                 "'time': -1e+308 s is outside ["},
+        BadInput{"TimeNear1e16", "Robot1_Groundtruth.dat", 401, "1e16 \t 1 \t 0 \t 0",
+                 "'time': 1e+16 s is outside ["},
+        // Within the range, but 2e7 s after t0: longer than a log can be.
+        BadInput{"SpanTooLong", "Robot1_Measurement.dat", 18,
+                 line("%.3f \t 63 \t 1.0 \t 0.1", kT0 + 2e7),
+                 "'time': time 1268444000 s is 20000000 s after the log's start"},
+        // Two different true poses at one instant: the second is named, with the first's line.
+        BadInput{"SecondTruePose", "Robot1_Groundtruth.dat", 5,
+                 line("%.3f \t 9.0 \t 0.0 \t 0.0", kT0 + 0.03),
+                 "'time': robot 'robot1', t = 1248444000.03 s (0.03 s into the log): a second "
+                 "true pose"}),
     [](const auto& test) { return test.param.name; });
 
 TEST(MrclamImport, AMissingFileOrFolderIsNamed) {
@@ -384,7 +400,7 @@ TEST(MrclamImport, MemoryStaysWithinItsBytesPerInputLine) {
   GTEST_SKIP() << "AddressSanitizer's quarantine keeps freed tables: the peak is not the import's";
 #endif
 #endif
-  // docs/real_data.md states about 150 bytes per input line at the peak; 300 is the bound.
+  // docs/real_data.md states about 100-170 bytes per input line at the peak; 300 is the bound.
   const fs::path dir = write_dataset(testing::temp_dir("data"));
   const fs::path out = testing::temp_dir("out");
   const auto peak_kb = [&](const std::string& name) {
@@ -601,6 +617,194 @@ TEST(GenericImport, ReadsColoursAnImuAndTheRobotsGeometry) {
                                       (testing::temp_dir("replay")).string() +
                                       " --localizer mcl --localizer ekf_landmarks -q");
   EXPECT_EQ(replay.exit_code, 0) << replay.output;
+}
+
+/// One robot of the generic format (odometry.csv and groundtruth.tum, 3 s) in `dir`.
+fs::path write_generic_robot(const fs::path& dir) {
+  fs::create_directories(dir);
+  std::ofstream(dir / "odometry.csv") << "t,v,omega\n0,0.1,0\n1,0.1,0\n2,0.1,0\n3,0.1,0\n";
+  std::ofstream(dir / "groundtruth.tum")
+      << "0 0 0 0 0 0 0 1\n1 0.1 0 0 0 0 0 1\n2 0.2 0 0 0 0 0 1\n3 0.3 0 0 0 0 0 1\n";
+  return dir;
+}
+
+/// The message of the InputError `import` throws (a failure, and "", when it throws none).
+template <typename Import>
+std::string refusal(Import&& import) {
+  try {
+    import();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+/// A symbolic link loop is refused as what it is, naming it: not a raw filesystem_error (exit 1),
+/// not "no such file".
+TEST(GenericImport, ASymbolicLinkLoopIsRefusedNamingIt) {
+  const fs::path dir = testing::temp_dir("data");
+  write_generic_robot(dir / "r1");
+  const fs::path log = testing::temp_dir("out") / "x.locsimlog";
+  const auto import_generic = [&] { write_import(read_generic(dir), {}, log); };
+  fs::create_symlink("loop", dir / "loop");  // beside the robots' folders
+  testing::expect_contains(refusal(import_generic),
+                           (dir / "loop").string() + ": a symbolic link loop");
+  fs::remove(dir / "loop");
+  fs::create_symlink("map.csv", dir / "map.csv");
+  testing::expect_contains(refusal(import_generic),
+                           (dir / "map.csv").string() + ": a symbolic link loop");
+  fs::remove(dir / "map.csv");
+  fs::create_symlink("imu.csv", dir / "r1" / "imu.csv");  // a robot's optional file
+  testing::expect_contains(refusal(import_generic),
+                           (dir / "r1" / "imu.csv").string() + ": a symbolic link loop");
+  fs::remove(dir / "r1" / "imu.csv");
+  fs::remove(dir / "r1" / "groundtruth.tum");  // a required one
+  fs::create_symlink("groundtruth.tum", dir / "r1" / "groundtruth.tum");
+  testing::expect_contains(refusal(import_generic),
+                           (dir / "r1" / "groundtruth.tum").string() + ": a symbolic link loop");
+  fs::create_symlink("self", dir / "self");  // the dataset's folder itself
+  testing::expect_contains(refusal([&] { read_generic(dir / "self"); }),
+                           (dir / "self").string() + ": a symbolic link loop");
+  EXPECT_FALSE(fs::exists(log));
+
+  const fs::path mrclam = write_dataset(testing::temp_dir("mrclam"));
+  fs::remove(mrclam / "Robot2_Odometry.dat");
+  fs::create_symlink("Robot2_Odometry.dat", mrclam / "Robot2_Odometry.dat");
+  const std::string message = refusal([&] { import(mrclam, log); });
+  testing::expect_contains(message,
+                           (mrclam / "Robot2_Odometry.dat").string() + ": a symbolic link loop");
+  EXPECT_EQ(message.find("no such file"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(log));
+  const auto cli = testing::locsim("import generic " + dir.string() + " --out " + log.string());
+  EXPECT_EQ(cli.exit_code, 2) << cli.output;
+  testing::expect_contains(cli.output, "symbolic link loop");
+}
+
+/// A time beyond any dataset's is refused at its line, and so is the first time that makes the
+/// log longer than a log can be (not at a generated world's `scenario.duration_s`).
+TEST(GenericImport, TimesOutOfRangeOrTooFarApartAreRefusedAtTheirLine) {
+  const auto refused = [](const std::string& file, const std::string& content,
+                          const std::string& expected) {
+    const fs::path dir = write_generic_robot(testing::temp_dir("data"));
+    std::ofstream(dir / "map.csv") << "id,x,y\n6,4.0,0.0\n";
+    std::ofstream(dir / file) << content;
+    const fs::path log = testing::temp_dir("out") / "x.locsimlog";
+    testing::expect_contains(refusal([&] { write_import(read_generic(dir), {}, log); }),
+                             (dir / file).string() + ":" + expected);
+    EXPECT_FALSE(fs::exists(log));
+  };
+  refused("detections.csv", "t,id,range,bearing\n0.5,6,1.0,0.1\n1e308,6,1.0,0.1\n",
+          "3:1: 't': 1e+308 s is outside [");
+  refused("odometry.csv", "t,v,omega\n-1e308,0.1,0\n1e308,0.1,0\n",
+          "2:1: 't': -1e+308 s is outside [");
+  refused("imu.csv", "yaw_rate,t\n0.1,0\n0.1,1e16\n", "3:5: 't': 1e+16 s is outside [");
+  refused("groundtruth.tum", "0 0 0 0 0 0 0 1\n1e16 0 0 0 0 0 0 1\n",
+          "2:1: 't': 1e+16 s is outside [");
+  // Each within the range, but 2e7 s apart: the row that makes the span too long is named.
+  refused("odometry.csv", "t,v,omega\n0,0.1,0\n1,0.1,0\n20000001,0.1,0\n30000000,0.1,0\n",
+          "4:1: 't': time 20000001 s is 20000001 s after the log's start (0 s: the earliest time "
+          "stamp, at ");
+  refused("detections.csv", "t,id,range,bearing\n0.5,6,1.0,0.1\n2e7,6,1.0,0.1\n",
+          "3:1: 't': time 20000000 s is 20000000 s after");
+  // A window of such a dataset that spans less is imported.
+  const fs::path dir = write_generic_robot(testing::temp_dir("window"));
+  std::ofstream(dir / "odometry.csv") << "t,v,omega\n0,0.1,0\n1,0.1,0\n20000001,0.1,0\n";
+  const ImportSummary summary =
+      write_import(read_generic(dir), {0.0, 10.0}, testing::temp_dir("out") / "window.locsimlog");
+  EXPECT_EQ(summary.odometry, 2u);
+}
+
+/// A robot is named after its folder: a folder name that could not name a robot (or would write
+/// YAML of its own into the generated world) is refused naming the folder, before anything is
+/// written; the world's name, from the dataset's folder, keeps only safe characters.
+TEST(GenericImport, RobotFolderNamesThatCannotNameARobotAreRefused) {
+  for (const std::string& name :
+       {std::string("r1\n    mass_kg: 99999\n    height_m: 7"), std::string("a: b"),
+        std::string("has space"), std::string("a\nb: [1"), std::string("r.1"),
+        std::string("\"quoted\""), std::string("caf\xc3\xa9"), std::string("bad\xff")}) {
+    const fs::path dir = testing::temp_dir("data");
+    write_generic_robot(dir / "alpha");
+    write_generic_robot(dir / name);
+    const fs::path log = testing::temp_dir("out") / "x.locsimlog";
+    const std::string message = refusal([&] { write_import(read_generic(dir), {}, log); });
+    testing::expect_contains(message, dir.string() + ": the robot folder " + quote_input(name));
+    testing::expect_contains(message, "rename the folder");
+    EXPECT_FALSE(fs::exists(log)) << name;
+  }
+  // Names of letters, digits, '_' and '-' are robots' names as they are.
+  const fs::path dir = testing::temp_dir("ok");
+  write_generic_robot(dir / "Robot_1");
+  write_generic_robot(dir / "husky-2");
+  const fs::path log = testing::temp_dir("out") / "ok.locsimlog";
+  write_import(read_generic(dir), {}, log);
+  LogSource source(log);
+  ASSERT_EQ(source.world().robots.size(), 2u);
+  EXPECT_EQ(source.world().robots[0].name, "Robot_1");
+  EXPECT_EQ(source.world().robots[1].name, "husky-2");
+
+  // The dataset's own folder may be named anything: the world's name keeps what is safe.
+  const fs::path odd = testing::temp_dir("odd") / "d\"a: b\n  x: [";
+  write_generic_robot(odd);
+  const ImportSummary summary = write_import(read_generic(odd), {}, log.string() + "2");
+  LogSource odd_source(log.string() + "2");
+  EXPECT_EQ(odd_source.world().name, "imported_d_a__b___x___");
+  EXPECT_EQ(odd_source.world().robots.size(), 1u);
+  EXPECT_EQ(summary.header.at("world_file"), "imported_d_a__b___x___.yaml");
+  // A folder whose path is not UTF-8 cannot be named in the log's header (JSON): refused.
+  const fs::path not_utf8 = testing::temp_dir("odd") / "d\xff";
+  write_generic_robot(not_utf8);
+  testing::expect_contains(
+      refusal([&] { write_import(read_generic(not_utf8), {}, log.string() + "3"); }), "not UTF-8");
+  EXPECT_FALSE(fs::exists(log.string() + "3"));
+}
+
+TEST(GenericImport, ASecondTruePoseAtOneInstantIsNamedAtItsLine) {
+  const fs::path dir = write_generic_robot(testing::temp_dir("data"));
+  std::ofstream(dir / "groundtruth.tum")
+      << "# t x y z qx qy qz qw\n0 0 0 0 0 0 0 1\n1 0.1 0 0 0 0 0 1\n1 0.5 0 0 0 0 0 1\n";
+  const fs::path log = testing::temp_dir("out") / "x.locsimlog";
+  testing::expect_contains(
+      refusal([&] { write_import(read_generic(dir), {}, log); }),
+      (dir / "groundtruth.tum").string() +
+          ":4:1: 't': robot 'robot', t = 1 s (1 s into the log): a second true pose");
+  testing::expect_contains(refusal([&] { write_import(read_generic(dir), {}, log); }), "(line 3)");
+  EXPECT_FALSE(fs::exists(log));
+}
+
+/// `--out` naming a file the import reads would replace the dataset's own file with the log:
+/// refused before anything is written, however the file is named (a link to it too).
+TEST(GenericImport, TheLogMayNotReplaceAFileOfTheDataset) {
+  const fs::path dir = write_generic_robot(testing::temp_dir("data") / "r1");
+  std::ofstream(dir.parent_path() / "map.csv") << "id,x,y\n6,4.0,0.0\n";
+  const std::string odometry = testing::read_file(dir / "odometry.csv");
+  fs::create_symlink(dir / "odometry.csv", dir.parent_path() / "link.locsimlog");
+  for (const fs::path& out :
+       {dir / "odometry.csv", dir / "groundtruth.tum", dir.parent_path() / "map.csv",
+        dir.parent_path() / "link.locsimlog", dir / ".." / "r1" / "odometry.csv"}) {
+    testing::expect_contains(
+        refusal([&] { write_import(read_generic(dir.parent_path()), {}, out); }), "--out: ");
+  }
+  EXPECT_EQ(testing::read_file(dir / "odometry.csv"), odometry);
+  const auto cli = testing::locsim("import generic " + dir.parent_path().string() + " --out " +
+                                   (dir / "odometry.csv").string() + " --overwrite");
+  EXPECT_EQ(cli.exit_code, 2) << cli.output;
+  testing::expect_contains(cli.output, "--out: ");
+  EXPECT_EQ(testing::read_file(dir / "odometry.csv"), odometry);
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_NE(entry.path().extension(), ".partial") << entry.path();
+  // A file of the dataset's folder that the import does not read may be replaced.
+  std::ofstream(dir / "old.locsimlog") << "an earlier log";
+  write_import(read_generic(dir.parent_path()), {}, dir / "old.locsimlog");
+
+  const fs::path mrclam = write_dataset(testing::temp_dir("mrclam"));
+  const std::string barcodes = testing::read_file(mrclam / "Barcodes.dat");
+  for (const char* file : {"Barcodes.dat", "Robot2_Measurement.dat"}) {
+    testing::expect_contains(refusal([&] { import(mrclam, mrclam / file); }), "--out: ");
+  }
+  EXPECT_EQ(testing::read_file(mrclam / "Barcodes.dat"), barcodes);
+  // A robot's files that are not imported are not read: not refused.
+  import(mrclam, mrclam / "Robot1_Odometry.dat.locsimlog", {2});
 }
 
 }  // namespace

@@ -154,6 +154,23 @@ TEST(PythonPlugin, TheDocsParticleFilterRunsAsWritten) {
             2.0 * ekf["position_error_m"]["rms"].get<double>() + 0.05);
 }
 
+TEST(PythonPlugin, RunsFromAShellWhosePython3HasNoNumpy) {
+  // A venv (or pyenv) python3 first on the PATH, without numpy: the embedded interpreter must
+  // still be the one locsim was built with, not the first python3 it finds on the PATH.
+  const fs::path dir = testing::temp_dir("python_plugin_venv");
+  const Outcome venv = testing::run_command(std::string(LOCSIM_PYTHON_EXECUTABLE) +
+                                            " -m venv --without-pip " + (dir / "venv").string());
+  ASSERT_EQ(venv.exit_code, 0) << venv.output;
+  const std::string path = "PATH=" + (dir / "venv/bin").string() + ":\"$PATH\" ";
+  ASSERT_NE(testing::run_command(path + "python3 -c 'import numpy'").exit_code, 0)
+      << "the venv sees a numpy: the test tests nothing";
+  const Outcome run = testing::run_command(path + LOCSIM_BINARY + " run " + kDemo +
+                                           " --duration 2 -q --localizer python:landmark_pf" +
+                                           " --out " + (dir / "run").string());
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(testing::localizer_entry(dir / "run/metrics.json", "landmark_pf")["status"], "ok");
+}
+
 TEST(PythonPlugin, RaisingNanAndMissingImportFailAloneWithFileAndLine) {
   const fs::path dir = testing::temp_dir("python_plugin_failures");
   const std::string common = " --duration 4 --seed 3 -q --localizer ekf_landmarks";

@@ -794,6 +794,25 @@ TEST(Merge, ABrokenResultLineExitsWith2NamingFileAndLineAndOnlyACutShortLastLine
   EXPECT_EQ(jsonl(dir / "m2/results.jsonl").size(), 4u);
 }
 
+TEST(Merge, AFullDiskLeavesNoHalfMergedFolderAndTheSameCommandThenWorks) {
+  // Before: exit 1 naming two folders, a folder of cut logs and CSVs that the next merge refused
+  // as not empty.
+  const fs::path dir = testing::temp_dir("merge_full");
+  write_two_shards(dir);
+  const std::string merge =
+      "merge " + (dir / "m").string() + " " + (dir / "a").string() + " " + (dir / "b").string();
+  // A file-size limit of 8 KiB (16 of dash's 512-byte blocks) fails the first write past it with
+  // EFBIG, as a full disk would.
+  const testing::Outcome full = testing::run_command("trap '' XFSZ; ulimit -f 16; " +
+                                                     std::string(LOCSIM_BINARY) + " " + merge);
+  EXPECT_EQ(full.exit_code, 1) << full.output;
+  testing::expect_contains(full.output, "locsim: failure: cannot write " + (dir / "m").string());
+  EXPECT_TRUE(!fs::exists(dir / "m") || fs::is_empty(dir / "m"));
+  const TimedOutcome again = locsim(merge, dir);
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(jsonl(dir / "m/results.jsonl").size(), 4u);
+}
+
 TEST(Merge, TheSameShardTwiceOrARunInTwoShardsExitsWith2NamingBoth) {
   // Before: merged, exit 0, with the runs of the first.
   const fs::path dir = testing::temp_dir("merge");

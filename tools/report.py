@@ -17,12 +17,14 @@ that flip and whether each flip is significant on both sides); writes DIR/compar
 Uses Debian's python3-matplotlib; writes DIR/report.md and DIR/report/*.png.
 """
 import argparse
+import contextlib
 import csv
-import json
+import errno
 import math
 import os
 import statistics
 import sys
+import warnings
 from collections import defaultdict
 
 import locsim_path  # noqa: F401  (this tree's python/locsim first)
@@ -35,10 +37,119 @@ import locsim  # noqa: E402
 
 COLORS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
+# A character the font lacks is drawn as a box; matplotlib's warning would quote it on stderr.
+warnings.filterwarnings("ignore", message=r"Glyph \d+ .*missing from", category=UserWarning)
+
+# As the C++ side's (sim/common/errors.hpp): a quoted input is cut after this many bytes, a whole
+# message after kMaxMessageBytes (its middle cut).
+MAX_QUOTED_BYTES = 120
+MAX_MESSAGE_BYTES = 8 << 10
+
 
 class CannotWrite(Exception):
     """A report's file cannot be written (a read-only folder, a full disk): the message names it
-    and the system's reason."""
+    and the system's reason. Exit 1, `locsim: failure: ...`."""
+
+
+class BadInput(Exception):
+    """Input the user can fix; the message names the folder or file (and the line or key). Exit 2,
+    `locsim: error: ...`."""
+
+
+class WrongValue(Exception):
+    """A value in a file is not of the type locsim writes there; contents_of adds the file."""
+
+
+def escaped(text):
+    """`text` (from a file or the command line) fit for a terminal, a table or a plot: control
+    characters (newlines and ESC too), DEL, C1 controls and bytes that are not UTF-8 (decoded by
+    Python as lone surrogates) as \\xNN, as the C++ side's quote_input writes them."""
+    out = []
+    for ch in str(text):
+        code = ord(ch)
+        if code < 0x20 or code == 0x7F:
+            out.append(f"\\x{code:02x}")
+        elif 0x80 <= code <= 0x9F:  # a C1 control: its two UTF-8 bytes
+            out.append("".join(f"\\x{b:02x}" for b in ch.encode("utf-8")))
+        elif 0xDC80 <= code <= 0xDCFF:  # a byte that is not UTF-8, as surrogateescape keeps it
+            out.append(f"\\x{code - 0xDC00:02x}")
+        elif 0xD800 <= code <= 0xDFFF:
+            out.append(f"\\u{code:04x}")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
+def cut_bytes(text, limit):
+    """(the longest start of `text` of at most `limit` UTF-8 bytes, how many bytes are left out)."""
+    data = text.encode("utf-8")
+    if len(data) <= limit:
+        return text, 0
+    head = data[:limit].decode("utf-8", errors="ignore")
+    return head, len(data) - len(head.encode("utf-8"))
+
+
+def quoted(text, limit=MAX_QUOTED_BYTES):
+    """Untrusted text (a label, a name from a file) fit to stand in a message: escaped, in single
+    quotes, cut after `limit` bytes with how many were left out."""
+    head, left = cut_bytes(escaped(text), limit)
+    return f"'{head}'" + (f" (and {left} bytes more)" if left else "")
+
+
+def printable(message, limit=MAX_MESSAGE_BYTES):
+    """A whole message fit for stderr: escaped, its middle cut past `limit` bytes (the start names
+    the file and line, the end often says why)."""
+    text = escaped(message)
+    if len(text.encode("utf-8")) <= limit:
+        return text
+    head, _ = cut_bytes(text, limit // 2)
+    tail = text.encode("utf-8")[-(limit // 8):].decode("utf-8", errors="ignore")
+    cut = len(text.encode("utf-8")) - len(head.encode("utf-8")) - len(tail.encode("utf-8"))
+    return f"{head} [... {cut} bytes cut ...] {tail}"
+
+
+def read_json_object(path):
+    """The JSON object in `path`; BadInput names the file (with the line and column of what is not
+    JSON) when it cannot be read or is not a JSON object."""
+    try:
+        value = locsim.io.read_json(path)
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read it: {error.strerror or error}") from None
+    except ValueError as error:  # locsim.io.FormatError: the file, line and column
+        raise BadInput(str(error)) from None
+    if not isinstance(value, dict):
+        raise BadInput(f"{path}: not a JSON object (not as locsim writes it)")
+    return value
+
+
+def read_text(path):
+    """A text file's contents; BadInput names the file when it cannot be read or is not UTF-8."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.read()
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read it: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{path}: not UTF-8 (byte 0x{error.object[error.start]:02x} at byte "
+                       f"{error.start})") from None
+
+
+@contextlib.contextmanager
+def contents_of(path):
+    """Turns what reading a file's values raises (a key missing, a value of another type) into
+    BadInput naming `path`; errors that name their own file (BadInput, locsim.io.FormatError, an
+    OSError) pass unchanged."""
+    try:
+        yield
+    except (BadInput, CannotWrite, locsim.io.FormatError, OSError):
+        raise
+    except WrongValue as error:
+        raise BadInput(f"{path}: {error}") from None
+    except KeyError as error:
+        key = error.args[0] if error.args else "?"
+        raise BadInput(f"{path}: no key {quoted(key)} where locsim writes one") from None
+    except (TypeError, ValueError, IndexError, AttributeError, ZeroDivisionError):
+        raise BadInput(f"{path}: a value is missing or of another type than locsim writes") from None
 
 
 def save_figure(fig, path):
@@ -47,7 +158,7 @@ def save_figure(fig, path):
     try:
         replace_with(path, lambda temporary: fig.savefig(temporary, format="png", dpi=100))
     except OSError as error:
-        raise CannotWrite(f"{path}: {error.strerror or error}") from None
+        raise CannotWrite(f"cannot write {path}: {error.strerror or error}") from None
     finally:
         plt.close(fig)
 
@@ -71,8 +182,15 @@ def mark_kidnaps(ax, times):
 def run_logs(root):
     """Each run's log.txt, relative to the sweep folder, as results.jsonl names it (the newest
     result of a run wins: a resume appends its retried runs' new results)."""
-    return {r["id"]: r["log"] for r in locsim.io.read_jsonl(os.path.join(root, "results.jsonl"))
-            if "id" in r and "log" in r} if os.path.exists(os.path.join(root, "results.jsonl")) else {}
+    path = os.path.join(root, "results.jsonl")
+    if not os.path.exists(path):
+        return {}
+    try:
+        records = locsim.io.read_jsonl(path)
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read it: {error.strerror or error}") from None
+    return {r["id"]: r["log"] for r in records
+            if isinstance(r.get("id"), str) and isinstance(r.get("log"), str)}
 
 
 def run_folder(root, run_id, logs):
@@ -82,9 +200,9 @@ def run_folder(root, run_id, logs):
 
 
 def table_cell(text, limit=300):
-    """`text` fit for a markdown table cell: no '|', at most `limit` characters (the log has it
-    all)."""
-    text = text.replace("|", "\\|")
+    """`text` fit for a markdown table cell: no '|', no control characters (as \\xNN), at most
+    `limit` characters (the log has it all)."""
+    text = escaped(text).replace("|", "\\|")
     return text if len(text) <= limit else text[:limit] + " …"
 
 
@@ -126,27 +244,86 @@ def per_log_lines(results, configs):
             ok = [r for r in rows if r["status"] == "ok"]
             position = [float(r["position_rms_m"]) for r in ok if r["position_rms_m"]]
             heading = [float(r["heading_rms_deg"]) for r in ok if r["heading_rms_deg"]]
-            lines.append(f"| {config} | {log} | {len(rows)} | {len(ok)} | {mean_ci(position)} | "
-                         f"{mean_ci(heading)} |")
+            lines.append(f"| {table_cell(config)} | {table_cell(log)} | {len(rows)} | {len(ok)} | "
+                         f"{mean_ci(position)} | {mean_ci(heading)} |")
     return lines + [""]
 
 
+# The columns of a sweep's results.csv that the report reads.
+RESULT_COLUMNS = ("id", "config", "status", "reason", "position_rms_m", "heading_rms_deg",
+                  "converged_steps", "recovery_steps")
+
+
+def read_results(path):
+    """results.csv's rows as dicts of strings, each with the columns the report reads, `config`
+    escaped (it names plots and table rows) and the numbers of a finished run checked; BadInput
+    names the file and line."""
+    rows = []
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            columns = reader.fieldnames or []
+            missing = [c for c in RESULT_COLUMNS if c not in columns]
+            if missing:
+                raise BadInput(f"{path}:1: no column {', '.join(missing)} (not a sweep's results)")
+            for row in reader:
+                line = reader.line_num
+                # DictReader files surplus fields under None and fills missing ones with None.
+                if None in row or None in row.values():
+                    raise BadInput(f"{path}:{line}: not as many fields as the header's {len(columns)}")
+                if not row["id"] or not row["config"] or not row["status"]:
+                    raise BadInput(f"{path}:{line}: empty id, config or status")
+                for column in ("position_rms_m", "heading_rms_deg", "converged_steps"):
+                    # The errors of a run that did not finish are not used (nor checked); the
+                    # convergence CDF counts every run.
+                    if column == "converged_steps" or row["status"] == "ok":
+                        text = row[column]
+                        try:
+                            value = float(text) if text else 0.0
+                        except ValueError:
+                            value = math.nan
+                        if not (math.isfinite(value) and value >= 0):
+                            raise BadInput(f"{path}:{line}: {column} {quoted(text)} is not a "
+                                           "number >= 0")
+                for value in filter(None, row["recovery_steps"].split(";")):
+                    try:
+                        ok = value == "never" or float(value) >= 0
+                    except ValueError:
+                        ok = False
+                    if not ok:
+                        raise BadInput(f"{path}:{line}: recovery_steps {quoted(row['recovery_steps'])}"
+                                       " is not a list of numbers >= 0 or 'never' (';' between)")
+                # The label as written names the runs' files; escaped, it names plots and rows.
+                row["label"], row["config"] = row["config"], escaped(row["config"])
+                rows.append(row)
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read it: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{path}: not UTF-8 (byte 0x{error.object[error.start]:02x})") from None
+    except csv.Error as error:
+        raise BadInput(f"{path}: not a CSV file ({error})") from None
+    return rows
+
+
 def sweep_report(root, out_dir):
-    with open(os.path.join(root, "sweep.json")) as f:
-        header = json.load(f)
-    with open(os.path.join(root, "results.csv"), newline="") as f:
-        results = list(csv.DictReader(f))
+    sweep_json = os.path.join(root, "sweep.json")
+    header = read_json_object(sweep_json)
+    for key in ("experiment", "file", "runs"):
+        if key not in header:
+            raise BadInput(f"{sweep_json}: no key '{key}' (not a sweep's)")
+    results_csv = os.path.join(root, "results.csv")
+    results = read_results(results_csv)
     configs = list(dict.fromkeys(r["config"] for r in results))
-    lines = [f"# {header['experiment']}: sweep report", "",
-             f"Experiment file `{header['file']}`, {header['runs']} runs "
+    lines = [f"# {escaped(header['experiment'])}: sweep report", "",
+             f"Experiment file `{escaped(header['file'])}`, {escaped(header['runs'])} runs "
              f"({len(results)} present). Generated by `tools/report.py` from `results.csv`.", ""]
-    with open(os.path.join(root, "summary.md")) as f:
-        lines += ["## Summary", "", f.read(), ""]
+    lines += ["## Summary", "", read_text(os.path.join(root, "summary.md")), ""]
     lines += per_log_lines(results, configs)
     statuses = defaultdict(int)
     for r in results:
         statuses[r["status"]] += 1
-    lines += ["Run outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(statuses.items())) + ".", ""]
+    lines += ["Run outcomes: " + ", ".join(f"{escaped(k)} {v}" for k, v in sorted(statuses.items())) +
+              ".", ""]
     not_ok = [r for r in results if r["status"] != "ok"]
     if not_ok:
         logs = run_logs(root)
@@ -154,8 +331,10 @@ def sweep_report(root, out_dir):
         for r in not_ok[:50]:
             log = logs.get(r["id"], f"runs/{r['id']}/log.txt")
             # A merged sweep has no run folders: its logs are in the shards' folders.
-            link = f"[log.txt]({log})" if os.path.exists(os.path.join(root, log)) else f"`{log}`"
-            lines.append(f"| {r['id']} | {r['status']} | {table_cell(r['reason'])} | {link} |")
+            link = f"[log.txt]({escaped(log)})" if os.path.exists(os.path.join(root, log)) \
+                else f"`{escaped(log)}`"
+            lines.append(f"| {table_cell(r['id'])} | {table_cell(r['status'])} | "
+                         f"{table_cell(r['reason'])} | {link} |")
         if len(not_ok) > 50:
             lines.append(f"\n{len(not_ok) - 50} more in `results.csv`.")
         lines.append("")
@@ -172,7 +351,7 @@ def sweep_report(root, out_dir):
             run_dir = run_folder(root, r["id"], logs)
             if not kidnaps:
                 kidnaps = kidnap_times(run_dir)
-            for t, e in zip(*error_series(run_dir, config)):
+            for t, e in zip(*error_series(run_dir, r["label"])):
                 per_time[t].append(e)
         if not per_time:
             continue
@@ -259,15 +438,28 @@ def sweep_report(root, out_dir):
     return lines
 
 
+def number(value, spec):
+    """`value` formatted by `spec`, or '—' for null (no samples: JSON has no NaN). A value of
+    another type raises (contents_of names the file)."""
+    if value is None:
+        return "—"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise WrongValue(f"{quoted(value, 60)} (a {type(value).__name__}) where locsim writes a number")
+    return format(value, spec)
+
+
 def localizer_rows(metrics):
     """Table rows of a metrics.json's localizers (one robot's)."""
     rows = []
     for l in metrics["localizers"]:
-        segments = "; ".join(f"{s['from_s']:.0f}-{s['to_s']:.0f} s: {s['position_error_m']['rms']:.3f}, "
-                             f"{'never' if s['recovery_s'] is None else format(s['recovery_s'], '.1f')}"
+        segments = "; ".join(f"{number(s['from_s'], '.0f')}-{number(s['to_s'], '.0f')} s: "
+                             f"{number(s['position_error_m']['rms'], '.3f')}, "
+                             f"{'never' if s['recovery_s'] is None else number(s['recovery_s'], '.1f')}"
                              for s in l["segments"])
-        rows.append(f"{l['label']} | {l['status']} | {l['position_error_m']['rms']:.3f} | "
-                    f"{l['position_error_m']['max']:.3f} | {l['heading_error_deg']['rms']:.2f} | "
+        rows.append(f"{table_cell(l['label'])} | {table_cell(l['status'])} | "
+                    f"{number(l['position_error_m']['rms'], '.3f')} | "
+                    f"{number(l['position_error_m']['max'], '.3f')} | "
+                    f"{number(l['heading_error_deg']['rms'], '.2f')} | "
                     f"{consistency_cell(l)} | {segments} |")
     return rows
 
@@ -277,7 +469,7 @@ def consistency_cell(localizer):
     (0.95 and about 2.4, the chi-square median with 3 degrees of freedom, when the covariance is
     honest); '—' without a positive definite covariance."""
     c = localizer.get("consistency")
-    return "—" if not c else f"{c['inside_95_ellipse']:.2f}, {c['nees_median']:.3g}"
+    return "—" if not c else f"{number(c['inside_95_ellipse'], '.2f')}, {number(c['nees_median'], '.3g')}"
 
 
 def landmark_map_lines(metrics, robot=None):
@@ -285,23 +477,24 @@ def landmark_map_lines(metrics, robot=None):
     if not mapping:
         return []
     lines = ["", "Landmark maps (SLAM filters; matched to the true landmarks within "
-             f"{mapping[0]['landmark_map']['gate_m']:g} m)" + (f", robot {robot}" if robot else "") + ":", "",
+             f"{number(mapping[0]['landmark_map']['gate_m'], 'g')} m)" +
+             (f", robot {escaped(robot)}" if robot else "") + ":", "",
              "| localizer | mapped | matched | error RMS [m] | max [m] | spurious | missed of observed |",
              "|---|---|---|---|---|---|---|"]
     for l in mapping:
         m = l["landmark_map"]
         rms, top = m["error_m"]["rms"], m["error_m"]["max"]
-        lines.append(f"| {l['label']} | {m['mapped']} | {m['matched']} | "
-                     f"{'—' if rms is None else format(rms, '.3f')} | "
-                     f"{'—' if top is None else format(top, '.3f')} | {m['spurious']} | "
-                     f"{m['missed']} of {m['observed']} |")
+        lines.append(f"| {table_cell(l['label'])} | {number(m['mapped'], 'd')} | "
+                     f"{number(m['matched'], 'd')} | {number(rms, '.3f')} | {number(top, '.3f')} | "
+                     f"{number(m['spurious'], 'd')} | {number(m['missed'], 'd')} of "
+                     f"{number(m['observed'], 'd')} |")
     return lines
 
 
 def plot_errors(ax, run_dir, metrics):
     for i, l in enumerate(metrics["localizers"]):
         times, errors = error_series(run_dir, l["label"])
-        ax.plot(times, errors, color=COLORS[i % len(COLORS)], label=l["label"])
+        ax.plot(times, errors, color=COLORS[i % len(COLORS)], label=escaped(l["label"]))
     ax.set_yscale("log")
     ax.set_ylabel("position error [m]")
     ax.legend(fontsize=8)
@@ -310,27 +503,67 @@ def plot_errors(ax, run_dir, metrics):
 
 def pooled_rms(parts):
     """RMS over every sample of several robots from (samples, rms) pairs; None without samples."""
+    parts = [(samples, rms) for samples, rms in parts if samples and rms is not None]
     n = sum(samples for samples, _ in parts)
     return math.sqrt(sum(samples * rms * rms for samples, rms in parts) / n) if n else None
 
 
+def check_finished(path, run):
+    """BadInput unless run.json (`run`, read from `path`) is a finished run's: status "completed",
+    or "interrupted" (Ctrl-C: its files hold the run so far), or none (a folder of an older
+    locsim). A run still running, or killed before it could say how it ended, says "running"; one
+    that failed says "failed" and, in "error", why."""
+    status = run.get("status", "completed")
+    if status in ("completed", "interrupted"):
+        return
+    error = run.get("error")
+    why = f": {quoted(error)}" if isinstance(error, str) and error else ""
+    if status == "running":
+        raise BadInput(f"{path}: the run did not finish: status 'running' (it is still running, or "
+                       f"it was killed before it could write how it ended){why}")
+    if status == "failed":
+        raise BadInput(f"{path}: the run did not finish: status 'failed'{why or ' (no error given)'}")
+    raise BadInput(f"{path}: 'status': {quoted(status)} is not a status locsim writes (completed, "
+                   f"interrupted, failed or running){why}")
+
+
+def load_metrics(path):
+    """A metrics.json, its values checked by making the report's rows of it (BadInput names the
+    file and the missing key)."""
+    metrics = read_json_object(path)
+    with contents_of(path):
+        if not isinstance(metrics["localizers"], list) or \
+                not all(isinstance(l, dict) and isinstance(l["label"], str) for l in metrics["localizers"]):
+            raise WrongValue("'localizers' is not a list of localizers, each with its label")
+        localizer_rows(metrics)
+        landmark_map_lines(metrics)
+    return metrics
+
+
 def run_report(root, out_dir):
-    with open(os.path.join(root, "run.json")) as f:
-        run = json.load(f)
-    lines = [f"# Run report: {run['config']['world']['name']} / {run['config']['scenario']['name']}, "
-             f"seed {run['seed']}", ""]
-    if run.get("source") == "replay":
-        lines += [f"Replay of `{run.get('log_file', '')}`.", ""]
+    run_json = os.path.join(root, "run.json")
+    run = read_json_object(run_json)
+    check_finished(run_json, run)
+    with contents_of(run_json):
+        lines = [f"# Run report: {escaped(run['config']['world']['name'])} / "
+                 f"{escaped(run['config']['scenario']['name'])}, seed {escaped(run['seed'])}", ""]
+        if run.get("source") == "replay":
+            lines += [f"Replay of `{escaped(run.get('log_file', ''))}`.", ""]
+        if run.get("status") == "interrupted":
+            lines += [f"Interrupted (Ctrl-C) after {escaped(run.get('simulated_s', '?'))} simulated "
+                      "seconds: the numbers cover the run up to there.", ""]
+        # A run of several robots keeps each robot's files in its own folder (run.json's robots).
+        robots = run.get("robots", [])
+        if not isinstance(robots, list):
+            raise WrongValue("'robots' is not a list")
+        folders = [(r["name"], os.path.join(root, r["folder"])) for r in robots if r.get("folder")]
     header = ("| localizer | status | position RMS [m] | max [m] | heading RMS [deg] | "
               "in 95 % ellipse, median NEES (0.95, 2.37: honest) | per segment (RMS m, recovery s) |")
-    # A run of several robots keeps each robot's files in its own folder (run.json's robots).
-    folders = [(r["name"], os.path.join(root, r["folder"])) for r in run.get("robots", []) if r.get("folder")]
     if len(folders) < 2:
         metrics_path = os.path.join(root, "metrics.json")
         if not os.path.exists(metrics_path):
             return lines + ["No localizers ran (run with --localizer)."]
-        with open(metrics_path) as f:
-            metrics = json.load(f)
+        metrics = load_metrics(metrics_path)
         lines += [header, "|---|---|---|---|---|---|---|"]
         lines += ["| " + row for row in localizer_rows(metrics)]
         lines += landmark_map_lines(metrics)
@@ -346,8 +579,15 @@ def run_report(root, out_dir):
     for name, folder in folders:
         path = os.path.join(folder, "metrics.json")
         if os.path.exists(path):
-            with open(path) as f:
-                robots.append((name, folder, json.load(f)))
+            metrics = load_metrics(path)
+            with contents_of(path):  # the values pooled over the robots below
+                for l in metrics["localizers"]:
+                    for value in (l["samples"], l["position_error_m"]["rms"],
+                                  l["position_error_m"]["max"], l["heading_error_deg"]["rms"]):
+                        number(value, "g")
+                    if not isinstance(l["samples"], int) or l["samples"] < 0:
+                        raise WrongValue(f"'samples' {quoted(l['samples'], 60)} is not a count")
+            robots.append((escaped(name), folder, metrics))
     if not robots:
         return lines + ["No localizers ran (run with --localizer)."]
     # Over all robots: every true-pose sample of every robot counts once (a robot that was
@@ -363,13 +603,13 @@ def run_report(root, out_dir):
         ok = [l for l in ls if l["status"] == "ok"]
         position = pooled_rms([(l["samples"], l["position_error_m"]["rms"]) for l in ls])
         heading = pooled_rms([(l["samples"], l["heading_error_deg"]["rms"]) for l in ls])
-        lines.append(f"| {label} | {len(ok)} of {len(ls)} | {sum(l['samples'] for l in ls)} | "
-                     f"{'—' if position is None else format(position, '.3f')} | "
-                     f"{max(l['position_error_m']['max'] for l in ls):.3f} | "
-                     f"{'—' if heading is None else format(heading, '.2f')} |")
+        maxima = [l["position_error_m"]["max"] for l in ls if l["position_error_m"]["max"] is not None]
+        lines.append(f"| {table_cell(label)} | {len(ok)} of {len(ls)} | {sum(l['samples'] for l in ls)} | "
+                     f"{number(position, '.3f')} | {number(max(maxima) if maxima else None, '.3f')} | "
+                     f"{number(heading, '.2f')} |")
     lines += ["", "Per robot:", "", "| robot " + header, "|---|---|---|---|---|---|---|---|"]
     for name, _folder, metrics in robots:
-        lines += [f"| {name} | " + row for row in localizer_rows(metrics)]
+        lines += [f"| {table_cell(name)} | " + row for row in localizer_rows(metrics)]
     for name, _folder, metrics in robots:
         lines += landmark_map_lines(metrics, name)
     fig, axes = plt.subplots(len(robots), 1, figsize=(10, 2.6 * len(robots)), sharex=True, squeeze=False)
@@ -385,10 +625,15 @@ def run_report(root, out_dir):
 
 
 def calibration_report(root, out_dir):
-    with open(os.path.join(root, "calibration.json")) as f:
-        cal = json.load(f)
+    path = os.path.join(root, "calibration.json")
+    cal = read_json_object(path)
+    with contents_of(path):
+        return calibration_lines(cal, out_dir)
+
+
+def calibration_lines(cal, out_dir):
     lines = ["# Calibration report", "", "Measured against the ground truth of:", ""]
-    lines += [f"- `{source}`" for source in cal["sources"]]
+    lines += [f"- `{escaped(source)}`" for source in cal["sources"]]
     motion = cal.get("motion")
     if motion:
         lines += ["", f"## Motion ({motion['intervals']} intervals between perception steps, mean "
@@ -411,7 +656,7 @@ def calibration_report(root, out_dir):
             lines += ["", f"Velocity model (Thrun table 5.3, {v['intervals']} intervals): variance of v = "
                       f"{v['alpha1']:.4g} v² + {v['alpha2']:.4g} ω², of ω = {v['alpha3']:.4g} v² + {v['alpha4']:.4g} ω²."]
     for camera in cal.get("cameras", []):
-        name = camera["camera"]
+        name = escaped(camera["camera"])
         rb, rs, rr = camera["range_bias"], camera["range_spread"], camera["range_rms"]
         lines += ["", f"## {name}", "",
                   f"{camera['detections']} detections of landmarks in {camera['readings']} readings; "
@@ -448,13 +693,10 @@ def calibration_report(root, out_dir):
         ax2.set_ylabel("measured − true bearing [deg]")
         fig.suptitle(f"{name}: detection errors per range bin (inliers) and the fits", fontsize=9)
         fig.tight_layout()
-        save_figure(fig, os.path.join(out_dir, f"{name}_errors.png"))
-        lines += ["", f"![{name} errors against range](report/{name}_errors.png)"]
+        image = f"{name}_errors.png".replace("/", "_")
+        save_figure(fig, os.path.join(out_dir, image))
+        lines += ["", f"![{name} errors against range](report/{image})"]
     return lines + [""]
-
-
-class BadInput(Exception):
-    """Input the user can fix; the message names the folder or file (and the line or key)."""
 
 
 def read_compared_sweep(root):
@@ -462,18 +704,12 @@ def read_compared_sweep(root):
     status and position and heading RMS (floats, or None when empty); BadInput names what is
     wrong."""
     if not os.path.isdir(root):
-        raise BadInput(f"{root}: no such folder")
+        raise BadInput(f"{root}: no such folder" if not os.path.exists(root) else f"{root}: not a folder")
     for name in ("sweep.json", "results.csv"):
         if not os.path.isfile(os.path.join(root, name)):
             raise BadInput(f"{root} is not a sweep folder (no {name}; `locsim sweep` writes one)")
     path = os.path.join(root, "sweep.json")
-    try:
-        with open(path, encoding="utf-8") as f:
-            header = json.load(f)
-    except (OSError, ValueError) as error:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
-        raise BadInput(f"{path}: {error}") from None
-    if not isinstance(header, dict):
-        raise BadInput(f"{path}: not a JSON object")
+    header = read_json_object(path)
     for key in ("experiment", "file"):
         if not isinstance(header.get(key), str):
             raise BadInput(f"{path}: key '{key}' is missing or not a string")
@@ -505,13 +741,18 @@ def read_compared_sweep(root):
                     except ValueError:
                         value = math.nan
                     if value is not None and not (math.isfinite(value) and value >= 0):
-                        raise BadInput(f"{path}:{line}: {column} '{text}' is not a number >= 0")
+                        raise BadInput(f"{path}:{line}: {column} {quoted(text)} is not a number >= 0")
                     values[column] = value
-                rows.append({"config": row["config"], "status": row["status"],
+                # The configuration names table rows, plot ticks and compare.csv's rows: escaped.
+                rows.append({"config": escaped(row["config"]), "status": row["status"],
                              "position": values["position_rms_m"],
                              "heading": values["heading_rms_deg"]})
-    except (OSError, ValueError, csv.Error) as error:  # unreadable, not UTF-8, a broken quote
-        raise BadInput(f"{path}: {error}") from None
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read it: {error.strerror or error}") from None
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{path}: not UTF-8 (byte 0x{error.object[error.start]:02x})") from None
+    except csv.Error as error:  # a broken quote
+        raise BadInput(f"{path}:{reader.line_num}: not a CSV file ({error})") from None
     if not rows:
         raise BadInput(f"{path}: no runs")
     return header, rows
@@ -667,16 +908,22 @@ def compare_labels(a, b, labels):
     """The two sides' names: --labels NAME_A,NAME_B, or the folders' base names (the paths as given
     when these are the same)."""
     if labels is not None:
+        # Names for tables and plots: a control character (ESC, a newline) would reach report.md
+        # and the terminal, a byte that is not UTF-8 could not be written.
+        if escaped(labels) != labels:
+            raise BadInput(f"--labels: the names may not hold control characters or bytes that are "
+                           f"not UTF-8, got {quoted(labels)}")
         parts = labels.split(",")
         if len(parts) != 2 or not all(p.strip() for p in parts):
-            raise BadInput(f"--labels: expected NAME_A,NAME_B, got '{labels}'")
+            raise BadInput(f"--labels: expected NAME_A,NAME_B, got {quoted(labels)}")
         parts = [p.strip() for p in parts]
         if parts[0] == parts[1]:
-            raise BadInput(f"--labels: the two names are the same ('{parts[0]}')")
+            raise BadInput(f"--labels: the two names are the same ({quoted(parts[0])})")
         return parts
-    names = [os.path.basename(os.path.abspath(p)) for p in (a, b)]
+    # The folders' names, escaped as any name from outside.
+    names = [escaped(os.path.basename(os.path.abspath(p))) for p in (a, b)]
     if names[0] == names[1]:
-        names = [os.path.normpath(p) for p in (a, b)]
+        names = [escaped(os.path.normpath(p)) for p in (a, b)]
     if names[0] == names[1]:
         names = [names[0] + " (A)", names[1] + " (B)"]
     return names
@@ -694,6 +941,17 @@ def check_compare_out(out_dir):
             not os.path.exists(os.path.join(out_dir, "compare.csv")):
         raise BadInput(f"--out {out_dir}: holds a report.md that is not a comparison's; choose a new "
                        "folder")
+
+
+def make_folder(path):
+    """Makes the folder `path` (and its parents): BadInput when a file is in the way, CannotWrite
+    when the system refuses (a read-only folder, a full disk)."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise BadInput(f"{path}: a file is in the way (not a folder)") from None
+    except OSError as error:
+        raise CannotWrite(f"cannot write {path}: {error.strerror or error}") from None
 
 
 def replace_with(path, write):
@@ -739,8 +997,7 @@ def plot_compare(path, configs, a, b, labels):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    replace_with(path, lambda temporary: fig.savefig(temporary, format="png", dpi=100))
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def compare_report(a, b, labels, out_dir):
@@ -801,8 +1058,8 @@ def compare_report(a, b, labels, out_dir):
                          f"{ranking_text({c: stats[c]['position_mean'] for c in position})}.")
         lines.append("")
     for label, root, header, rows in ((la, a, header_a, rows_a), (lb, b, header_b, rows_b)):
-        lines.append(f"- {label}: `{root}`, experiment {table_cell(header['experiment'], 100)} "
-                     f"(`{header['file']}`), {len(rows)} runs.")
+        lines.append(f"- {label}: `{escaped(root)}`, experiment {table_cell(header['experiment'], 100)} "
+                     f"(`{escaped(header['file'])}`), {len(rows)} runs.")
     only = [c for c in order if c not in common]
     lines += ["", f"{len(common)} configurations in common"
               + (f"; {len(only)} in only one sweep ({', '.join(only)}): listed with '—', left out of "
@@ -889,39 +1146,58 @@ def compare_report(a, b, labels, out_dir):
         with open(path, "w", encoding="utf-8") as f:
             f.write("\n".join(lines) + "\n")
 
-    os.makedirs(os.path.join(out_dir, "report"), exist_ok=True)
-    plot_compare(os.path.join(out_dir, "report", "compare.png"), order, sa, sb, labels)
-    replace_with(os.path.join(out_dir, "compare.csv"), write_csv)
-    replace_with(os.path.join(out_dir, "report.md"), write_markdown)
-
-
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("dir", nargs="?", help="a sweep, run or calibration folder")
-    parser.add_argument("--compare", nargs=2, metavar=("A", "B"),
-                        help="compare two sweep folders' configurations (with --out)")
-    parser.add_argument("--out", help="--compare: the folder for report.md, compare.csv, report/")
-    parser.add_argument("--labels", help="--compare: the two sweeps' names, as NAME_A,NAME_B "
-                        "(default: the folders' base names)")
-    args = parser.parse_args()
-    if args.compare:
-        if args.dir is not None or args.out is None:
-            parser.error("--compare A B takes --out DIR and no other folder")
+    folder = os.path.join(out_dir, "report")
+    make_folder(folder)
+    plot_compare(os.path.join(folder, "compare.png"), order, sa, sb, labels)
+    for name, write in (("compare.csv", write_csv), ("report.md", write_markdown)):
+        path = os.path.join(out_dir, name)
         try:
-            compare_report(args.compare[0], args.compare[1], args.labels, args.out)
-        except BadInput as error:
-            print(f"compare: {error}", file=sys.stderr)
-            return 2
+            replace_with(path, write)
         except OSError as error:
-            print(f"compare: cannot write to {args.out}: {error}", file=sys.stderr)
-            return 1
-        print(f"compare: wrote {os.path.join(args.out, 'report.md')}")
-        return 0
-    if args.dir is None:
-        parser.error("give a folder, or --compare A B --out DIR")
-    if args.out is not None or args.labels is not None:
-        parser.error("--out and --labels go with --compare")
-    root = args.dir
+            raise CannotWrite(f"cannot write {path}: {error.strerror or error}") from None
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, its complaints as locsim's: `locsim: error: report: ...`, exit 2."""
+
+    def error(self, message):
+        print(f"locsim: error: report: {printable(message)}", file=sys.stderr)
+        sys.exit(2)
+
+
+def as_given(argv):
+    """The arguments with the values that begin with '-' kept as values: `locsim report DIR` passes
+    DIR alone, `locsim compare` --out OUT and --labels NAMES after their options."""
+    if len(argv) == 1 and argv[0] not in ("-h", "--help"):
+        return ["--", argv[0]]
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in ("--out", "--labels") and i + 1 < len(argv):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
+def complain(kind, command, message):
+    """Prints `locsim: KIND: COMMAND: MESSAGE` to stderr, made printable (no control characters, at
+    most MAX_MESSAGE_BYTES), as the C++ side's messages are."""
+    print(f"locsim: {kind}: {command}: {printable(message)}", file=sys.stderr)
+
+
+# The errors of a full or broken disk: the system's fault, not the input's (exit 1).
+SYSTEM_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.ENOMEM}
+
+
+def report(root):
+    """`locsim report ROOT`: writes ROOT/report.md and ROOT/report/*.png. BadInput when ROOT is not
+    a sweep, run or calibration folder or a file in it cannot be used; CannotWrite when the report
+    cannot be written."""
+    if not os.path.isdir(root):
+        raise BadInput(f"{root}: no such folder" if not os.path.exists(root) else
+                       f"{root}: not a folder")
     out_dir = os.path.join(root, "report")
     if os.path.exists(os.path.join(root, "sweep.json")):
         make_lines = sweep_report
@@ -930,32 +1206,73 @@ def main():
     elif os.path.exists(os.path.join(root, "calibration.json")):
         make_lines = calibration_report
     else:
-        print(f"report: {root} is neither a sweep, a run nor a calibration folder", file=sys.stderr)
-        return 2
+        raise BadInput(f"{root} is neither a sweep, a run nor a calibration folder (no sweep.json, "
+                       "run.json or calibration.json)")
     report_md = os.path.join(root, "report.md")
+    make_folder(out_dir)
     try:
-        try:
-            os.makedirs(out_dir, exist_ok=True)
-        except OSError as error:
-            raise CannotWrite(f"{out_dir}: {error.strerror or error}") from None
-        try:
-            lines = make_lines(root, out_dir)
-        except (OSError, ValueError, KeyError) as error:
-            print(f"report: cannot read {root}: {error}", file=sys.stderr)
-            return 2
+        lines = make_lines(root, out_dir)
+    except locsim.io.FormatError as error:  # a run's .tum, events.csv, results.jsonl
+        raise BadInput(str(error)) from None
+    except OSError as error:  # writes raise CannotWrite: this is a file that cannot be read
+        if error.errno in SYSTEM_ERRNOS:
+            raise CannotWrite(f"cannot read {error.filename or root}: {error.strerror or error}") from None
+        raise BadInput(f"{error.filename or root}: cannot read it: {error.strerror or error}") from None
 
-        def write_markdown(path):
-            with open(path, "w", encoding="utf-8") as f:
-                f.write("\n".join(lines) + "\n")
+    def write_markdown(path):
+        with open(path, "w", encoding="utf-8") as f:
+            f.write("\n".join(lines) + "\n")
 
-        try:
-            replace_with(report_md, write_markdown)
-        except OSError as error:
-            raise CannotWrite(f"{report_md}: {error.strerror or error}") from None
+    try:
+        replace_with(report_md, write_markdown)
+    except OSError as error:
+        raise CannotWrite(f"cannot write {report_md}: {error.strerror or error}") from None
+    return report_md
+
+
+def main(argv=None):
+    parser = Parser(description=__doc__.split("\n")[0])
+    parser.add_argument("dir", nargs="?", help="a sweep, run or calibration folder")
+    parser.add_argument("--compare", nargs=2, metavar=("A", "B"),
+                        help="compare two sweep folders' configurations (with --out)")
+    parser.add_argument("--out", help="--compare: the folder for report.md, compare.csv, report/")
+    parser.add_argument("--labels", help="--compare: the two sweeps' names, as NAME_A,NAME_B "
+                        "(default: the folders' base names)")
+    args = parser.parse_args(as_given(sys.argv[1:] if argv is None else argv))
+    if args.compare:
+        if args.dir is not None or args.out is None:
+            parser.error("--compare A B takes --out DIR and no other folder")
+    elif args.dir is None:
+        parser.error("give a folder, or --compare A B --out DIR")
+    elif args.out is not None or args.labels is not None:
+        parser.error("--out and --labels go with --compare")
+    command = "compare" if args.compare else "report"
+    try:
+        if args.compare:
+            compare_report(args.compare[0], args.compare[1], args.labels, args.out)
+            written = os.path.join(args.out, "report.md")
+        else:
+            written = report(args.dir)
+    except BadInput as error:
+        complain("error", command, str(error))
+        return 2
     except CannotWrite as error:
-        print(f"report: cannot write {error}", file=sys.stderr)
+        complain("failure", command, str(error))
         return 1
-    print(f"report: wrote {report_md}")
+    except KeyboardInterrupt:
+        complain("failure", command, "interrupted; a report.md of before is left whole")
+        return 130
+    except MemoryError:
+        complain("failure", command, "out of memory")
+        return 1
+    except Exception as error:  # a bug of this script: still no traceback, but what and where
+        where = error.__traceback__
+        while where.tb_next is not None:
+            where = where.tb_next
+        complain("failure", command, f"internal error, please report it: {type(error).__name__} at "
+                 f"{os.path.basename(where.tb_frame.f_code.co_filename)}:{where.tb_lineno}: {error}")
+        return 1
+    print(f"{command}: wrote {printable(written)}")
     return 0
 
 

@@ -218,6 +218,16 @@ void start_interpreter() {
     config.use_hash_seed = 1;            // set and dict-of-str orders the same in every run
     config.hash_seed = 0;
     config.buffered_stdio = 0;  // print() reaches the labelled output before a worker _exits
+    // The interpreter this plugin was built against, whatever python3 is first on the PATH (a
+    // venv's or pyenv's, without numpy): CPython finds its prefix, and so its packages, from the
+    // program's path, and searches the PATH for a bare name. numpy's C API is compiled in, so the
+    // numpy it imports must be the one beside that interpreter anyway.
+    const PyStatus named =
+        PyConfig_SetBytesString(&config, &config.program_name, LOCSIM_PYTHON_EXECUTABLE);
+    if (PyStatus_Exception(named)) {
+      PyConfig_Clear(&config);
+      throw std::runtime_error(named.err_msg != nullptr ? named.err_msg : "PyConfig");
+    }
     py::initialize_interpreter(&config, 0, nullptr, false);
   } else {
     PyGILState_Ensure();  // inside a Python process: take the GIL as the code below expects
@@ -460,7 +470,10 @@ void* create_instance(Script& script, const locsim_init* init, char* error, std:
   try {
     start_interpreter();
   } catch (const std::exception& e) {
-    write_error(error, size, std::string("Python could not start: ") + e.what());
+    write_error(error, size,
+                std::string("Python (") + LOCSIM_PYTHON_EXECUTABLE + ", the interpreter locsim " +
+                    "was built with) could not start: " + e.what() +
+                    " (docs/python.md, \"Which Python\")");
     return nullptr;
   }
   py::gil_scoped_acquire gil;

@@ -18,6 +18,17 @@ import numpy as np
 POSE_COLUMNS = ("t_s", "x_m", "y_m", "theta_rad")
 
 
+class FormatError(ValueError):
+    """A file is not as locsim writes it (not UTF-8, not valid JSON, a row that is not numbers):
+    the message names the file, and the line (and column) where there is one."""
+
+
+def _excerpt(text, limit=60):
+    """`text` fit to quote in a message: repr() escapes control characters, cut after `limit`."""
+    text = str(text)
+    return repr(text) if len(text) <= limit else f"{text[:limit]!r}... ({len(text)} characters)"
+
+
 def wrap_angle(a):
     """Angles (scalar or array) wrapped into (-pi, pi], the interval of the C++ SDK's wrap: pi
     stays pi and -pi becomes pi, so that a Python filter and a C++ one agree at the seam."""
@@ -31,15 +42,38 @@ def read_tum(path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "input contained no data": an empty trajectory
         try:
-            raw = np.loadtxt(path, comments="#", ndmin=2)
-        except ValueError as error:
-            raise ValueError(f"{path}: not a TUM trajectory ({error})") from None
+            raw = np.loadtxt(path, comments="#", ndmin=2, encoding="utf-8")
+        except ValueError:  # UnicodeDecodeError too
+            raise FormatError(_bad_tum_line(path) or f"{path}: not a TUM trajectory") from None
     if raw.size == 0:
         return np.zeros((0, 4))
     if raw.shape[1] != 8:
-        raise ValueError(f"{path}: a TUM line has 8 numbers (t x y z qx qy qz qw), not {raw.shape[1]}")
+        raise FormatError(f"{path}: a TUM line has 8 numbers (t x y z qx qy qz qw), not {raw.shape[1]}")
     theta = wrap_angle(2.0 * np.arctan2(raw[:, 6], raw[:, 7]))
     return np.column_stack((raw[:, 0], raw[:, 1], raw[:, 2], theta))
+
+
+def _bad_tum_line(path):
+    """The message for the first line of `path` that is not a TUM line ('PATH:LINE: ...'), or None
+    if none is found. numpy's own message counts rows, not lines, and suggests `usecols`."""
+    with open(path, "rb") as f:
+        for number, raw in enumerate(f, start=1):
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError as error:
+                return f"{path}:{number}: not UTF-8 (byte 0x{raw[error.start]:02x})"
+            fields = line.split("#", 1)[0].split()
+            if not fields:
+                continue
+            if len(fields) != 8:
+                return (f"{path}:{number}: a TUM line has 8 numbers (t x y z qx qy qz qw), not "
+                        f"{len(fields)}: {_excerpt(line.rstrip())}")
+            for field in fields:
+                try:
+                    float(field)
+                except ValueError:
+                    return f"{path}:{number}: {_excerpt(field)} is not a number"
+    return None
 
 
 def time_key(t_s):
@@ -71,8 +105,22 @@ def read_csv(path):
 
 
 def read_json(path):
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
+    """A JSON file's value. FormatError names the file, and the line and column, when it is not
+    UTF-8 or not valid JSON (a file cut short, say); OSError when it cannot be read."""
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        line = data.count(b"\n", 0, error.start) + 1
+        column = error.start - (data.rfind(b"\n", 0, error.start) + 1) + 1
+        raise FormatError(f"{path}:{line}:{column}: not UTF-8 (byte 0x{data[error.start]:02x})") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise FormatError(f"{path}:{error.lineno}:{error.colno}: not valid JSON ({error.msg})") from None
+    except RecursionError:
+        raise FormatError(f"{path}: not valid JSON (nested too deeply)") from None
 
 
 def read_jsonl(path):
@@ -96,9 +144,9 @@ def read_jsonl(path):
             continue
         if number == len(lines) and record is None:  # the last line, cut short
             break
-        excerpt = line if len(line) <= 60 else f"{line[:60]}... ({len(line)} characters)"
-        raise ValueError(f"{path}:{number}: not a JSON object (a line cut short or edited; only the "
-                         f"last line may be, by a sweep killed while writing it): {excerpt!r}")
+        raise FormatError(f"{path}:{number}: not a JSON object (a line cut short or edited; only "
+                          f"the last line may be, by a sweep killed while writing it): "
+                          f"{_excerpt(line)}")
     return out
 
 
@@ -123,9 +171,26 @@ def read_events(path):
     file does not exist (a folder written before events were logged)."""
     if not os.path.exists(path):
         return []
+    events = []
     with open(path, newline="", encoding="utf-8") as f:
-        return [{"t_s": float(r["t_s"]), "kind": r["kind"], "robot": r["robot"],
-                 "details": parse_details(r["details"])} for r in csv.DictReader(f)]
+        reader = csv.DictReader(f)
+        try:
+            missing = [c for c in ("t_s", "kind") if c not in (reader.fieldnames or [])]
+            if missing:
+                raise FormatError(f"{path}:1: no column {', '.join(missing)} (not an events file)")
+            for r in reader:
+                try:
+                    t = float(r["t_s"])
+                except (TypeError, ValueError):
+                    raise FormatError(f"{path}:{reader.line_num}: t_s {_excerpt(r['t_s'])} is not a "
+                                      "number") from None
+                events.append({"t_s": t, "kind": r["kind"] or "", "robot": r.get("robot") or "",
+                               "details": parse_details(r.get("details") or "")})
+        except UnicodeDecodeError as error:
+            raise FormatError(f"{path}: not UTF-8 (byte 0x{error.object[error.start]:02x})") from None
+        except csv.Error as error:
+            raise FormatError(f"{path}:{reader.line_num}: not a CSV file ({error})") from None
+    return events
 
 
 def read_laser(path):

@@ -30,7 +30,12 @@ class Run:
         if not os.path.isfile(info_path):
             raise FileNotFoundError(f"{self.path} is not a run folder: no run.json")
         self.info = io.read_json(info_path)
-        self._folders = {r["name"]: os.path.join(self.path, r.get("folder", ".")) for r in self.info.get("robots", [])}
+        if not isinstance(self.info, dict):
+            raise io.FormatError(f"{info_path}: not a JSON object")
+        # A run that has not finished (status "running" or "failed") may not list its robots yet.
+        robots = self.info.get("robots")
+        self._folders = {r["name"]: os.path.join(self.path, r.get("folder", "."))
+                         for r in (robots if isinstance(robots, list) else [])}
 
     def __repr__(self):
         return f"locsim.Run({self.path!r}: {self.status}, seed {self.seed}, robots {self.robots}, localizers {self.labels() if len(self.robots) == 1 else '...'})"

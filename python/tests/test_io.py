@@ -67,3 +67,26 @@ def test_read_jsonl_drops_only_a_last_line_cut_short(tmp_path):
     with pytest.raises(ValueError) as error:
         io.read_jsonl(path)
     assert "results.jsonl:2:" in str(error.value) and len(str(error.value)) < 600
+
+
+def test_bad_files_are_named_with_their_line(tmp_path):
+    """What `locsim report` prints about a file it cannot read (issue 49's audit): the file, line
+    (and column), not Python's text alone; FormatError is a ValueError, as before."""
+    path = tmp_path / "run.json"
+    path.write_text('{\n  "seed": 1,\n  "status": "compl')
+    with pytest.raises(io.FormatError, match=r"run.json:3:13: not valid JSON \(Unterminated string"):
+        io.read_json(path)
+    path.write_bytes(b'{"a":\n "\x1b[31m\xff"}')
+    with pytest.raises(ValueError, match=r"run.json:2:8: not UTF-8 \(byte 0xff\)"):
+        io.read_json(path)
+    path = tmp_path / "groundtruth.tum"
+    path.write_text("# t x y z qx qy qz qw\n0 1 2 0 0 0 0 1\nnan nan nan\n")
+    with pytest.raises(io.FormatError, match=r"groundtruth.tum:3: a TUM line has 8 numbers .*not 3"):
+        io.read_tum(path)
+    path.write_text("0 1 2 0 0 0 0 1\n0.1 1 2 0 0 0 zero 1\n")
+    with pytest.raises(io.FormatError, match=r"groundtruth.tum:2: 'zero' is not a number"):
+        io.read_tum(path)
+    path = tmp_path / "events.csv"
+    path.write_text("t_s,kind,robot,details\n20.0,kidnap,robot,\nsoon,kidnap,robot,\n")
+    with pytest.raises(io.FormatError, match=r"events.csv:3: t_s 'soon' is not a number"):
+        io.read_events(path)

@@ -70,6 +70,10 @@ std::string read_input_file(const fs::path& file, std::uintmax_t max_bytes) {
   }
   std::error_code error;
   const fs::file_status status = fs::status(file, error);
+  if (error && error.value() == ELOOP)
+    throw InputError(where, "", "a symbolic link loop (too many levels of symbolic links)");
+  if (error && status.type() != fs::file_type::not_found)
+    throw InputError(where, "", "cannot be looked up: " + error.message());
   if (!fs::exists(status)) throw InputError(where, "", "no such file");
   if (fs::is_directory(status)) throw InputError(where, "", "is a directory, not a file");
   if (!fs::is_regular_file(status)) {
@@ -118,6 +122,23 @@ void check_output_folder(const fs::path& dir, std::string_view option) {
   }
 }
 
+namespace {
+
+/// Whether a failed write's `error` (an errno) is the machine's state, exit 1: a full disk, a
+/// file-size limit, an I/O error. Any other (no such folder, /proc, read-only, not permitted, a
+/// name too long) is the path the user gave, exit 2.
+bool machine_fault(int error) {
+  return error == ENOSPC || error == EDQUOT || error == EIO || error == EFBIG || error == ENOMEM ||
+         error == EMFILE || error == ENFILE;
+}
+
+[[noreturn]] void fail_to_write(const std::string& message, int error) {
+  if (machine_fault(error)) throw std::runtime_error(message);
+  throw InputError(message);
+}
+
+}  // namespace
+
 fs::path make_missing_folders(const fs::path& dir, std::string_view what) {
   fs::path made;
   for (fs::path at = dir; !at.empty() && !fs::exists(at); at = at.parent_path()) {
@@ -130,22 +151,30 @@ fs::path make_missing_folders(const fs::path& dir, std::string_view what) {
   if (error) {
     std::error_code ignored;
     fs::remove_all(made, ignored);
-    throw std::runtime_error(std::string(what) + "cannot make its folder: " + error.message());
+    fail_to_write(
+        std::string(what) + "cannot make the folder '" + dir.string() + "': " + error.message(),
+        error.value());
   }
   return made;
+}
+
+fs::path make_output_folder(const fs::path& dir, std::string_view option) {
+  if (dir.empty()) throw InputError(std::string(option) + ": the path is empty");
+  check_output_folder(dir, option);
+  return make_missing_folders(dir, std::string(option) + ": ");
 }
 
 namespace {
 
 /// Writes `content` to `file`.tmp; false (the temporary removed, errno's reason in `reason`) when
 /// it could not be written whole.
-bool write_temporary(const fs::path& file, std::string_view content, std::string& reason) {
+bool write_temporary(const fs::path& file, std::string_view content, int& error) {
   const fs::path temporary = file.string() + ".tmp";
   std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
   if (out) out.write(content.data(), static_cast<std::streamsize>(content.size()));
   if (out) out.close();
   if (out) return true;
-  reason = std::strerror(errno);
+  error = errno;
   std::error_code ignored;
   fs::remove(temporary, ignored);
   return false;
@@ -162,14 +191,14 @@ void write_files(const std::vector<std::pair<fs::path, std::string_view>>& files
   // leaves the old files or the new ones, never a cut one (a world cut at 4 KiB still loaded), and
   // no temporary. Every file is written before any is renamed, so a pair (calibration.yaml and
   // its .json) is never left half old, half new by a failed write.
-  std::string reason;
+  int error = 0;
   for (std::size_t i = 0; i < files.size(); ++i) {
-    if (write_temporary(files[i].first, files[i].second, reason)) continue;
+    if (write_temporary(files[i].first, files[i].second, error)) continue;
     for (std::size_t k = 0; k < i; ++k) {
       std::error_code ignored;
       fs::remove(files[k].first.string() + ".tmp", ignored);
     }
-    throw std::runtime_error("cannot write " + files[i].first.string() + ": " + reason);
+    fail_to_write("cannot write " + files[i].first.string() + ": " + std::strerror(error), error);
   }
   for (std::size_t i = 0; i < files.size(); ++i) {
     std::error_code renamed;
@@ -191,7 +220,10 @@ OutputFile::OutputFile(fs::path path, std::string what)
     : path_(std::move(path)),
       what_(std::move(what)),
       out_(path_, std::ios::binary | std::ios::trunc) {
-  check();
+  if (!out_) {
+    const int error = errno;
+    fail_to_write("cannot write " + what_ + path_.string() + ": " + std::strerror(error), error);
+  }
   pending_.reserve(kBufferBytes);
 }
 

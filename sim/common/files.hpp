@@ -61,13 +61,20 @@ class InputSandbox {
 void check_output_folder(const std::filesystem::path& dir, std::string_view option);
 
 /// Makes `dir` and its missing parents; returns the outermost folder it made (remove_all it to
-/// undo), empty when `dir` existed. Throws std::runtime_error, after `what` (e.g. "cannot write
-/// the log x: "), when a folder cannot be made.
+/// undo), empty when `dir` existed. When a folder cannot be made, throws, after `what` (e.g.
+/// "cannot write the log x: "): std::runtime_error when the machine is at fault (a full disk, an
+/// I/O error), InputError when the path is (a file in the way, /proc, no permission).
 std::filesystem::path make_missing_folders(const std::filesystem::path& dir, std::string_view what);
+
+/// An output folder given by `option` (e.g. "--out"), made with its parents: check_output_folder,
+/// then make_missing_folders; an empty path is refused. Returns what make_missing_folders does.
+std::filesystem::path make_output_folder(const std::filesystem::path& dir, std::string_view option);
 
 /// Writes `content` to `file` (replacing it), through `file`.tmp and a rename: a reader never sees
 /// half a file, and a write that fails (a full disk) leaves the old file, or none, and no
-/// temporary. Throws std::runtime_error naming the path and the system's reason.
+/// temporary. Throws, naming the path and the system's reason, std::runtime_error when the
+/// machine is at fault (a full disk, a file-size limit, an I/O error: exit 1), InputError when the
+/// path is (no such folder, /proc, read-only, not permitted: exit 2).
 void write_file(const std::filesystem::path& file, std::string_view content);
 
 /// write_file of several files, all written before any replaces its old version: a failed write
@@ -87,7 +94,7 @@ class OutputFile {
  public:
   static constexpr std::size_t kBufferBytes = 64 << 10;
 
-  /// Creates (or empties) the file. Throws as above when it cannot.
+  /// Creates (or empties) the file. Throws as write_file does when it cannot.
   explicit OutputFile(std::filesystem::path path, std::string what = "");
   /// Hands on what is pending even when not closed (a run that unwinds from an error), as
   /// std::ofstream does; unchecked, as a destructor cannot throw.

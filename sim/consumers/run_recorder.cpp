@@ -1,8 +1,14 @@
 #include "sim/consumers/run_recorder.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
+#include <string_view>
 #include <type_traits>
 #include <variant>
 
@@ -61,7 +67,50 @@ bool run_writes(const fs::path& relative) {
          relative.extension() == ".tum" || name.ends_with("_map.csv");
 }
 
+/// `path` absolute, its links resolved where it can be, without a trailing separator.
+fs::path clean(const fs::path& path) {
+  std::error_code error;
+  const fs::path absolute = fs::absolute(path, error);
+  fs::path normal = resolved(error ? path : absolute);
+  if (!normal.has_filename() && normal.has_parent_path() && normal != normal.root_path())
+    normal = normal.parent_path();
+  return normal;
+}
+
+/// Whether `inner` is `outer` or lies inside it (both clean).
+bool at_or_under(const fs::path& outer, const fs::path& inner) {
+  return std::mismatch(outer.begin(), outer.end(), inner.begin(), inner.end()).first == outer.end();
+}
+
+/// Whether `file` is a run.json that locsim wrote: every one begins with its version (an earlier
+/// locsim's too), whatever its status. Reads its first bytes only.
+bool locsim_run_json(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  char head[64] = {};
+  in.read(head, sizeof(head));
+  const std::string_view text(head, static_cast<std::size_t>(in.gcount()));
+  std::size_t at = 0;
+  const auto skip_space = [&] {
+    while (at < text.size() &&
+           (text[at] == ' ' || text[at] == '\n' || text[at] == '\r' || text[at] == '\t'))
+      ++at;
+  };
+  skip_space();
+  if (at >= text.size() || text[at] != '{') return false;
+  ++at;
+  skip_space();
+  return text.substr(at).starts_with("\"locsim_version\"");
+}
+
 }  // namespace
+
+bool held_by_a_run(const fs::path& run_json) {
+  const int fd = ::open(run_json.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);
+  return held;
+}
 
 void RunFolder::check(const fs::path& root, bool overwrite, const std::vector<fs::path>& inputs) {
   if (fs::exists(root) && !fs::is_directory(root)) {
@@ -73,9 +122,24 @@ void RunFolder::check(const fs::path& root, bool overwrite, const std::vector<fs
                      "' is not empty; choose another or pass --overwrite");
   }
   if (!fs::exists(root / "run.json")) {
+    // A run killed while it wrote its first run.json leaves that alone, as run.json.tmp.
+    const bool begun = std::distance(fs::directory_iterator(root), fs::directory_iterator()) == 1 &&
+                       locsim_run_json(root / "run.json.tmp");
+    if (begun) return;
     throw InputError("--out: folder '" + root.string() +
                      "' is not empty and holds no run.json: --overwrite empties only a run "
                      "folder; choose another folder");
+  }
+  if (held_by_a_run(root / "run.json")) {
+    throw InputError("--out: folder '" + root.string() +
+                     "' is the folder of a run still going on (its run.json is locked): wait "
+                     "for it to end, or choose another folder");
+  }
+  if (!locsim_run_json(root / "run.json")) {
+    throw InputError("--out: folder '" + root.string() +
+                     "' holds a run.json that is not locsim's (a JSON object beginning with "
+                     "\"locsim_version\"): --overwrite empties only a run folder; choose another "
+                     "folder");
   }
   for (const fs::path& input : inputs) {
     const fs::path relative = inside(root, input);
@@ -100,11 +164,73 @@ void RunFolder::check_outputs(const std::vector<std::pair<std::string, fs::path>
   }
 }
 
-RunFolder RunFolder::create(const fs::path& root, const WorldDef& world, bool overwrite,
-                            const std::vector<fs::path>& keep) {
-  if (overwrite && fs::is_directory(root)) {
+void RunFolder::check_apart(const fs::path& root, const std::vector<Output>& outputs) {
+  std::vector<Output> all{Output{"--out", root, true}};
+  all.insert(all.end(), outputs.begin(), outputs.end());
+  for (std::size_t i = 1; i < all.size(); ++i) {
+    const Output& file = all[i];
+    if (file.folder) continue;
+    const fs::path outer = clean(file.path);
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      if (k == i) continue;
+      const Output& other = all[k];
+      const fs::path inner = clean(other.path);
+      if (!at_or_under(outer, inner)) continue;
+      if (inner == outer && other.option == "--out") {
+        throw InputError(
+            file.option + ": '" + file.path.string() +
+            "' is the run folder (--out) too: name a file of its own, e.g. '" +
+            (file.path / (file.option == "--log" ? "run.locsimlog" : "run.mp4")).string() + "'");
+      }
+      if (inner == outer) {
+        throw InputError(file.option + ": '" + file.path.string() + "' is " + other.option +
+                         "'s path too: name a file of its own");
+      }
+      throw InputError(file.option + ": '" + file.path.string() + "' would be a file, but " +
+                       other.option + " '" + other.path.string() +
+                       "' lies inside it: a file cannot hold a folder");
+    }
+    std::error_code error;
+    if (fs::is_directory(file.path, error)) {
+      throw InputError(file.option + ": '" + file.path.string() +
+                       "' is a folder; name the file to write");
+    }
+    // Inside the run folder, not where the run writes a file of its own (`--log D/run.json`).
+    const fs::path folder = clean(root);
+    if (at_or_under(folder, outer) && run_writes(outer.lexically_relative(folder))) {
+      throw InputError(file.option + ": '" + file.path.string() + "' lies in '" + root.string() +
+                       "' where the run writes a file of that name: name another file");
+    }
+  }
+}
+
+fs::path RunFolder::robot_folder(const WorldDef& world, std::size_t robot) {
+  return world.robots.size() == 1 ? fs::path(".") : fs::path(world.robots[robot].name);
+}
+
+RunFolder RunFolder::make(const fs::path& root, const WorldDef& world, std::string_view run_json) {
+  // run.json first: from here on the folder is known as a run folder (--overwrite replaces one
+  // left by a run that is killed or fails), and only run.json and what a run writes are in it.
+  const fs::path made = make_missing_folders(root, "--out: ");
+  try {
+    write_file(root / "run.json", run_json);
+  } catch (...) {
+    std::error_code ignored;
+    if (!made.empty()) fs::remove_all(made, ignored);
+    throw;
+  }
+  RunFolder folder{root, {}};
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    folder.robot_dirs.push_back(world.robots.size() == 1 ? root : root / robot_folder(world, i));
+  }
+  return folder;
+}
+
+void RunFolder::prepare(bool overwrite, const std::vector<fs::path>& keep) const {
+  if (overwrite) {
     // An entry is kept when it is a kept file or a folder holding one (--frames inside --out).
     const auto kept = [&](const fs::path& entry) {
+      if (entry.filename() == "run.json") return true;  // this run's, written by make()
       const fs::path candidate = resolved(entry);
       return std::any_of(keep.begin(), keep.end(), [&](const fs::path& file) {
         const fs::path target = resolved(file);
@@ -117,74 +243,122 @@ RunFolder RunFolder::create(const fs::path& root, const WorldDef& world, bool ov
       if (!kept(entry.path())) fs::remove_all(entry.path());
     }
   }
-  RunFolder folder{root, {}};
-  fs::create_directories(root);
-  for (const RobotDef& robot : world.robots) {
-    folder.robot_dirs.push_back(world.robots.size() == 1 ? root : root / robot.name);
-    fs::create_directories(folder.robot_dirs.back());
+  for (const fs::path& dir : robot_dirs) make_missing_folders(dir, "--out: ");
+}
+
+RunRecorder::File::File(fs::path path) : path_(std::move(path)), out_(path_) {}
+
+void RunRecorder::File::flush() {
+  if (cut_) return;
+  try {
+    out_.flush();
+  } catch (...) {
+    cut_ = true;
+    throw;
   }
-  return folder;
+}
+
+void RunRecorder::File::close() {
+  try {
+    out_.close();
+  } catch (...) {
+    if (cut_) return;  // reported when it was cut
+    cut_ = true;
+    throw;
+  }
+}
+
+template <typename Visit>
+void RunRecorder::for_each_file(Visit visit) {
+  for (auto& file : groundtruth_) visit(*file);
+  for (auto& file : estimates_) visit(*file);
+  for (auto& robot : readings_) {
+    for (auto& file : robot) {
+      if (file) visit(*file);
+    }
+  }
+  if (events_) visit(*events_);
 }
 
 RunRecorder::RunRecorder(const RunFolder& folder, const WorldDef& world,
-                         const std::vector<LocalizerInfo>& localizers, bool readings) {
-  for (std::size_t i = 0; i < world.robots.size(); ++i) {
-    const fs::path& dir = folder.robot_dirs[i];
-    auto& file = groundtruth_.emplace_back(std::make_unique<OutputFile>(dir / "groundtruth.tum"));
-    file->write("# timestamp tx ty tz qx qy qz qw  (true pose of robot '" + world.robots[i].name +
-                "', TUM format, z = 0)\n");
-  }
-  readings_.resize(world.robots.size());
-  reports_velocity_.assign(world.robots.size(), false);
-  // The world as JSON once, not once per robot (a 100-robot fleet spent most of its start there).
-  const json world_json = readings ? to_json(world) : json();
-  for (std::size_t i = 0; readings && i < world.robots.size(); ++i) {
-    const SensorsDef& sensors = world.robots[i].sensors;
-    const auto enabled = [&](SensorKind kind) { return sensor_enabled(sensors, kind); };
-    if (std::none_of(kSensorKinds.begin(), kSensorKinds.end(), enabled)) continue;
-    const json& config = world_json.at("robots").at(i).at("sensors");
-    const fs::path dir = folder.robot_dirs[i] / "readings";
-    fs::create_directories(dir);
-    // By SensorKind. The odometry's velocity columns only when the encoders report it: the
-    // readings/ of every other world stay as they were.
-    reports_velocity_[i] =
-        enabled(SensorKind::kEncoders) && (sensors.encoders->reports & kOdometryVelocity) != 0;
-    const std::string headers[] = {
-        std::string("t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad") +
-            (reports_velocity_[i] ? ",v_mps,omega_radps" : ""),
-        "t_s,yaw_rate_radps,accel_x_mps2,accel_y_mps2",
-        "t_s,pan_rad,tilt_rad,zoom,detections,color,id,range_m,bearing_rad,truth_id",
-        "t_s,detections,color,id,range_m,bearing_rad,truth_id",
-        "t_s,receiver,beacon_id,range_m,truth_status",
-        "t_s,ranges_m",
-        "t_s,detections,color,id,range_m,bearing_rad,truth_id,target",
-    };
-    static_assert(std::size(headers) == kSensorKinds.size());
-    for (const SensorKind kind : kSensorKinds) {
-      if (!enabled(kind)) continue;
-      const auto k = static_cast<std::size_t>(kind);
-      readings_[i][k] =
-          std::make_unique<OutputFile>(dir / (std::string(sensor_name(kind)) + ".csv"));
-      readings_[i][k]->write(headers[k] + '\n');
+                         const std::vector<LocalizerInfo>& localizers, bool readings)
+    : root_(folder.root) {
+  std::vector<fs::path> made;  // the readings/ folders, to remove when a file cannot be opened
+  try {
+    for (std::size_t i = 0; i < world.robots.size(); ++i) {
+      const fs::path& dir = folder.robot_dirs[i];
+      auto& file = groundtruth_.emplace_back(std::make_unique<File>(dir / "groundtruth.tum"));
+      file->write("# timestamp tx ty tz qx qy qz qw  (true pose of robot '" + world.robots[i].name +
+                  "', TUM format, z = 0)\n");
     }
-    json described = config;
-    if (described.contains("laser")) {
-      const LaserDef& laser = *sensors.laser;
-      json angles = json::array();
-      for (int b = 0; b < laser.beams; ++b)
-        angles.push_back(laser_beam_angle(b, laser.beams, laser.fov_rad));
-      described["laser"]["beam_angles_rad"] = angles;
+    readings_.resize(world.robots.size());
+    reports_velocity_.assign(world.robots.size(), false);
+    // The world as JSON once, not once per robot (a 100-robot fleet spent most of its start there).
+    const json world_json = readings ? to_json(world) : json();
+    for (std::size_t i = 0; readings && i < world.robots.size(); ++i) {
+      const SensorsDef& sensors = world.robots[i].sensors;
+      const auto enabled = [&](SensorKind kind) { return sensor_enabled(sensors, kind); };
+      if (std::none_of(kSensorKinds.begin(), kSensorKinds.end(), enabled)) continue;
+      const json& config = world_json.at("robots").at(i).at("sensors");
+      const fs::path dir = folder.robot_dirs[i] / "readings";
+      if (!fs::exists(dir)) made.push_back(dir);
+      fs::create_directories(dir);
+      // By SensorKind. The odometry's velocity columns only when the encoders report it: the
+      // readings/ of every other world stay as they were.
+      reports_velocity_[i] =
+          enabled(SensorKind::kEncoders) && (sensors.encoders->reports & kOdometryVelocity) != 0;
+      const std::string headers[] = {
+          std::string("t_s,left_ticks,right_ticks,odom_x_m,odom_y_m,odom_theta_rad") +
+              (reports_velocity_[i] ? ",v_mps,omega_radps" : ""),
+          "t_s,yaw_rate_radps,accel_x_mps2,accel_y_mps2",
+          "t_s,pan_rad,tilt_rad,zoom,detections,color,id,range_m,bearing_rad,truth_id",
+          "t_s,detections,color,id,range_m,bearing_rad,truth_id",
+          "t_s,receiver,beacon_id,range_m,truth_status",
+          "t_s,ranges_m",
+          "t_s,detections,color,id,range_m,bearing_rad,truth_id,target",
+      };
+      static_assert(std::size(headers) == kSensorKinds.size());
+      for (const SensorKind kind : kSensorKinds) {
+        if (!enabled(kind)) continue;
+        const auto k = static_cast<std::size_t>(kind);
+        readings_[i][k] = std::make_unique<File>(dir / (std::string(sensor_name(kind)) + ".csv"));
+        readings_[i][k]->write(headers[k] + '\n');
+      }
+      json described = config;
+      if (described.contains("laser")) {
+        const LaserDef& laser = *sensors.laser;
+        json angles = json::array();
+        for (int b = 0; b < laser.beams; ++b)
+          angles.push_back(laser_beam_angle(b, laser.beams, laser.fov_rad));
+        described["laser"]["beam_angles_rad"] = angles;
+      }
+      write_file(dir / "sensors.json", described.dump(2) + '\n');
     }
-    write_file(dir / "sensors.json", described.dump(2) + '\n');
+    for (const LocalizerInfo& l : localizers) {
+      auto& file = estimates_.emplace_back(
+          std::make_unique<File>(folder.robot_dirs[l.robot] / (l.label + ".tum")));
+      file->write("# timestamp tx ty tz qx qy qz qw  (estimate of localizer '" + l.label +
+                  "', plugin " + l.plugin + ", TUM format)\n");
+    }
+    events_ = std::make_unique<File>(folder.root / "events.csv");
+    events_->write("t_s,kind,robot,details\n");
+  } catch (...) {
+    // Nothing of a recorder that could not start is left: the files it opened (headers only),
+    // then its empty folders. The run's failure says why.
+    std::error_code ignored;
+    for_each_file([&](File& file) {
+      try {
+        file.close();
+      } catch (...) {
+      }
+      fs::remove(file.path(), ignored);
+    });
+    for (const fs::path& dir : made) {
+      fs::remove(dir / "sensors.json", ignored);
+      fs::remove(dir, ignored);
+    }
+    throw;
   }
-  for (const LocalizerInfo& l : localizers) {
-    auto& file = estimates_.emplace_back(
-        std::make_unique<OutputFile>(folder.robot_dirs[l.robot] / (l.label + ".tum")));
-    file->write("# timestamp tx ty tz qx qy qz qw  (estimate of localizer '" + l.label +
-                "', plugin " + l.plugin + ", TUM format)\n");
-  }
-  events_ = std::make_unique<OutputFile>(folder.root / "events.csv");
-  events_->write("t_s,kind,robot,details\n");
 }
 
 void RunRecorder::write_reading(const Reading& reading) {
@@ -295,25 +469,30 @@ void RunRecorder::estimate(const EstimateSample& sample) {
 }
 
 void RunRecorder::flush() {
-  for (auto& file : groundtruth_) file->flush();
-  for (auto& file : estimates_) file->flush();
-  for (auto& robot : readings_) {
-    for (auto& file : robot) {
-      if (file) file->flush();
-    }
-  }
-  events_->flush();
+  for_each_file([](File& file) { file.flush(); });
 }
 
 void RunRecorder::close() {
-  for (auto& file : groundtruth_) file->close();
-  for (auto& file : estimates_) file->close();
-  for (auto& robot : readings_) {
-    for (auto& file : robot) {
-      if (file) file->close();
+  std::exception_ptr first;
+  for_each_file([&](File& file) {
+    try {
+      file.close();
+    } catch (...) {
+      if (!first) first = std::current_exception();
     }
-  }
-  events_->close();
+  });
+  if (first) std::rethrow_exception(first);
+}
+
+std::vector<std::string> RunRecorder::remove_cut() {
+  std::vector<std::string> removed;
+  for_each_file([&](File& file) {
+    if (!file.cut()) return;
+    std::error_code error;
+    if (fs::remove(file.path(), error))
+      removed.push_back(file.path().lexically_relative(root_).generic_string());
+  });
+  return removed;
 }
 
 }  // namespace locsim

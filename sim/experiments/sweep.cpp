@@ -283,8 +283,7 @@ class FolderLock {
   /// holds it; nothing is written then.
   FolderLock(const fs::path& dir, const std::string& command, const std::string& option)
       : dir_(dir), file_(dir / kLockFile) {
-    made_dir_ = !fs::exists(dir);
-    fs::create_directories(dir);
+    made_dir_ = !make_output_folder(dir, option).empty();
     for (;;) {
       fd_ = ::open(file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
       if (fd_ < 0)
@@ -1247,6 +1246,27 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
   return summary;
 }
 
+namespace {
+
+/// Copies the files of `from` into `to` (made as needed), keeping a file `to` already has (a
+/// seed's log in two shards is the same file). Throws std::runtime_error naming the file that
+/// could not be written and the system's reason.
+void copy_tree(const fs::path& from, const fs::path& to) {
+  fs::create_directories(to);
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(from)) {
+    const fs::path target = to / entry.path().lexically_relative(from);
+    std::error_code error;
+    if (entry.is_directory()) {
+      fs::create_directories(target, error);
+    } else if (entry.is_regular_file() && !fs::exists(target)) {
+      fs::copy_file(entry.path(), target, error);
+    }
+    if (error) throw std::runtime_error("cannot write " + target.string() + ": " + error.message());
+  }
+}
+
+}  // namespace
+
 void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   if (parts.empty()) throw InputError("merge: give the shard folders to join");
   std::map<std::size_t, std::pair<json, const fs::path*>> by_index;  // with the part it is from
@@ -1287,6 +1307,8 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
     }
   }
   check_output_folder(out_dir, "merge: out");
+  if (const std::string holder = lock_holder(out_dir); !holder.empty())
+    throw InputError("merge: folder '" + out_dir.string() + "' is in use by " + holder);
   if (holds_files(out_dir))
     throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
   const FolderLock lock(out_dir, "merge", "merge: out");
@@ -1295,22 +1317,29 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   header["shard"] = nullptr;
   header["merged_from"] = json::array();
   for (const fs::path& part : parts) header["merged_from"].push_back(part.string());
-  write_json_atomically(out_dir / "sweep.json", header);
-  // The runs' folders and the seeds' logs too, so that the joined folder is a sweep like any
-  // (`locsim report` draws from the runs' files). A run is in one shard only; a seed's log may
-  // be in several, the same file (a seed is simulated the same wherever).
-  for (const fs::path& part : parts) {
-    for (const char* sub : {"runs", "logs"}) {
-      if (fs::exists(part / sub)) {
-        fs::copy(part / sub, out_dir / sub,
-                 fs::copy_options::recursive | fs::copy_options::skip_existing);
+  // The folder was empty: a merge that fails (a full disk) empties it again, so that nothing half
+  // copied is taken for a sweep and the same command can be run again.
+  try {
+    write_json_atomically(out_dir / "sweep.json", header);
+    // The runs' folders and the seeds' logs too, so that the joined folder is a sweep like any
+    // (`locsim report` draws from the runs' files). A run is in one shard only; a seed's log may
+    // be in several, the same file (a seed is simulated the same wherever).
+    for (const fs::path& part : parts) {
+      for (const char* sub : {"runs", "logs"}) {
+        if (fs::exists(part / sub)) copy_tree(part / sub, out_dir / sub);
       }
     }
+    std::string results;
+    for (const auto& [index, r] : by_index) results += jsonl_line(r.first);
+    write_file(out_dir / "results.jsonl", results);
+    write_tables(out_dir);
+  } catch (...) {
+    std::error_code ignored;
+    for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, ignored)) {
+      if (entry.path().filename() != "sweep.lock") fs::remove_all(entry.path(), ignored);
+    }
+    throw;
   }
-  std::string results;
-  for (const auto& [index, r] : by_index) results += jsonl_line(r.first);
-  write_file(out_dir / "results.jsonl", results);
-  write_tables(out_dir);
   if (by_index.size() != header["runs"].get<std::size_t>()) {
     std::fprintf(stderr,
                  "locsim merge: warning: %zu of %zu runs present (a shard not given, or not "

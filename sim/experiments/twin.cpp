@@ -321,15 +321,25 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
 }
 
 Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool overwrite) {
+  if (world_file.empty()) throw InputError("--out: the path is empty");
   Twin twin = make_twin(options, world_file);
   const fs::path dir = world_file.parent_path();
+  check_output_folder(dir.empty() ? fs::path(".") : dir, "--out");
   std::vector<fs::path> files{world_file};
   for (const TwinRobot& r : twin.robots) files.push_back(dir / r.poses_file);
-  if (!overwrite) {
-    for (const fs::path& f : files) {
-      if (fs::exists(f))
-        throw InputError("--out: " + f.string() + " exists (pass --overwrite to replace it)");
+  std::vector<fs::path> inputs{options.log};
+  if (options.calibration) inputs.push_back(*options.calibration);
+  for (const fs::path& f : files) {
+    if (fs::is_directory(f)) throw InputError("--out: " + f.string() + " is a folder");
+    for (const fs::path& input : inputs) {
+      std::error_code error;
+      if (fs::equivalent(f, input, error)) {
+        throw InputError("--out: " + f.string() + " is " + input.string() +
+                         ", which this command reads: writing it would destroy it");
+      }
     }
+    if (!overwrite && fs::exists(f))
+      throw InputError("--out: " + f.string() + " exists (pass --overwrite to replace it)");
   }
   std::map<std::string, std::string> texts;  // by file, as the loaders will ask for them
   const fs::path world_path = fs::absolute(world_file);
@@ -352,14 +362,22 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
                      "write), so nothing was written: " +
                      e.what());
   }
-  if (!dir.empty()) fs::create_directories(dir);
-  // The paths first, then the world that names them: a world file is never left naming paths
-  // that were not written. Each file is written whole or not at all (write_file).
+  const fs::path made = dir.empty() ? fs::path() : make_output_folder(dir, "--out");
+  // Every file written before any replaces an old one (write_files), the world renamed last: a
+  // world file is never left naming paths that were not written.
+  std::vector<std::pair<fs::path, std::string_view>> written;
   for (const TwinRobot& r : twin.robots) {
-    write_file(dir / r.poses_file,
-               texts.at(InputSandbox::key(world_path.parent_path() / r.poses_file)));
+    written.emplace_back(dir / r.poses_file,
+                         texts.at(InputSandbox::key(world_path.parent_path() / r.poses_file)));
   }
-  write_file(world_file, twin.world_yaml);
+  written.emplace_back(world_file, twin.world_yaml);
+  try {
+    write_files(written);
+  } catch (...) {
+    std::error_code ignored;
+    if (!made.empty()) fs::remove_all(made, ignored);
+    throw;
+  }
   return twin;
 }
 

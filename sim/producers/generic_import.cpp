@@ -25,6 +25,22 @@ using Layout = TextTable::Layout;
 /// The landmarks of map.csv: id -> colour ("" when it has no color column).
 using LandmarkColors = std::map<int, std::string>;
 
+/// Whether a sub-folder's name can name a robot: ASCII letters, digits, '_' and '-'. Stricter than
+/// the world format (no spaces, dots or slashes): the name also goes into the generated world's
+/// YAML, the log's JSON header, output folders, TUM file names and `--robots a,b` lists, and a
+/// folder may be named anything a file system takes (newlines, quotes, bytes that are not UTF-8).
+bool is_robot_name(std::string_view name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-';
+  });
+}
+
+/// Whether the dataset holds `file` (an optional one).
+bool has_file(const fs::path& file) {
+  return dataset_file_type(file) != fs::file_type::not_found;
+}
+
 /// robot.yaml: the robot's geometry and its range-bearing sensor's field of view and ranges, where
 /// the data cannot tell them.
 void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
@@ -46,12 +62,26 @@ void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
   }
 }
 
+/// The stream's source, and the file among those the import read.
+StreamSource source_of(const TextTable& table, int time_column, std::vector<fs::path>& files_read) {
+  files_read.push_back(table.file());
+  return {table.file().string(), table.column_name(time_column)};
+}
+
+SamplePlace place_of(const TextTable& table, const TextTable::Row& row, int column) {
+  return {row.line, table.column_in_line(row, column)};
+}
+
 ImportedRobot read_robot(const fs::path& dir, const std::string& name,
                          const LandmarkColors& landmarks,
-                         const std::vector<std::string>& robot_names) {
+                         const std::vector<std::string>& robot_names,
+                         std::vector<fs::path>& files_read) {
   ImportedRobot robot;
   robot.name = name;
-  if (fs::exists(dir / "robot.yaml")) read_robot_yaml(dir / "robot.yaml", robot);
+  if (has_file(dir / "robot.yaml")) {
+    read_robot_yaml(dir / "robot.yaml", robot);
+    files_read.push_back(dir / "robot.yaml");
+  }
 
   const TextTable odometry(dir / "odometry.csv", Layout::kCsv, {"t"},
                            {"v", "omega", "x", "y", "theta"});
@@ -64,10 +94,12 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     throw InputError(SourceLocation{odometry.file().string(), odometry.rows().front().line - 1}, "",
                      "the header row must name t,v,omega or t,x,y,theta or both");
   }
-  odometry.check_non_decreasing(t);
+  odometry.check_times(t, kDatasetTimeRange);
+  robot.odometry_source = source_of(odometry, t, files_read);
   for (const auto& row : odometry.rows()) {
     ImportedRobot::Odometry o;
     o.t_s = odometry.number(row, t);
+    o.at = place_of(odometry, row, t);
     o.reading.fields = 0;
     if (velocity) {
       o.reading.fields |= kOdometryVelocity;
@@ -83,9 +115,16 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     robot.odometry.push_back(o);
   }
 
-  robot.truth = read_tum(dir / "groundtruth.tum");
+  const TextTable truth = tum_table(dir / "groundtruth.tum");
+  truth.check_times(0, kDatasetTimeRange);
+  robot.truth_source = source_of(truth, 0, files_read);
+  robot.truth.reserve(truth.rows().size());
+  for (const auto& row : truth.rows()) {
+    const StampedPose sample = tum_pose(truth, row);
+    robot.truth.push_back({sample.t_s, sample.pose, place_of(truth, row, 0)});
+  }
 
-  if (fs::exists(dir / "detections.csv")) {
+  if (has_file(dir / "detections.csv")) {
     const TextTable detections(dir / "detections.csv", Layout::kCsv,
                                {"t", "id", "range", "bearing"}, {"target", "color"});
     const int dt = detections.column("t"), id = detections.column("id");
@@ -94,7 +133,8 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
     const int color = detections.column("color");
     std::set<std::string> map_colors;
     for (const auto& [landmark, c] : landmarks) map_colors.insert(c);
-    detections.check_non_decreasing(dt);
+    detections.check_times(dt, kDatasetTimeRange);
+    robot.detections_source = source_of(detections, dt, files_read);
     for (const auto& row : detections.rows()) {
       const double t_s = detections.number(row, dt);
       Detection d;
@@ -121,28 +161,30 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
         if (!seen.empty()) {
           if (!map_colors.contains(seen)) {
             detections.fail(row, color,
-                            "no landmark of colour '" + seen +
-                                "' in map.csv (give map.csv a color column naming each one's)");
+                            "no landmark of colour " + quote_input(seen) +
+                                " in map.csv (give map.csv a color column naming each one's)");
           }
-          if (d.id >= 0 && landmarks.at(d.id) != seen) {
+          if (const auto own = landmarks.find(d.id);
+              own != landmarks.end() && own->second != seen) {
             detections.fail(row, color,
-                            "landmark " + std::to_string(d.id) + " is " + landmarks.at(d.id) +
-                                " in map.csv, not " + seen);
+                            "landmark " + std::to_string(d.id) + " is " +
+                                (own->second.empty() ? "of no colour" : own->second) +
+                                " in map.csv, not " + quote_input(seen));
           }
           d.color = seen;
         }
       } else {
         detections.fail(row, target,
-                        "target '" + std::string(kind) + "': expected landmark or robot");
+                        "target " + quote_input(kind) + ": expected landmark or robot");
       }
       d.truth_id = d.id;
       if (robot.detections.empty() || robot.detections.back().t_s != t_s)
-        robot.detections.push_back({t_s, {}});
+        robot.detections.push_back({t_s, {}, place_of(detections, row, dt)});
       robot.detections.back().detections.push_back(d);
     }
   }
 
-  if (fs::exists(dir / "imu.csv")) {
+  if (has_file(dir / "imu.csv")) {
     const TextTable imu(dir / "imu.csv", Layout::kCsv, {"t", "yaw_rate"}, {"accel_x", "accel_y"});
     const int it = imu.column("t"), yaw = imu.column("yaw_rate");
     const int ax = imu.column("accel_x"), ay = imu.column("accel_y");
@@ -150,10 +192,12 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
       throw InputError(SourceLocation{imu.file().string(), imu.rows().front().line - 1}, "",
                        "the header row names accel_x or accel_y alone: give both or neither");
     }
-    imu.check_non_decreasing(it);
+    imu.check_times(it, kDatasetTimeRange);
+    robot.imu_source = source_of(imu, it, files_read);
     for (const auto& row : imu.rows()) {
       ImportedRobot::Imu sample;
       sample.t_s = imu.number(row, it);
+      sample.at = place_of(imu, row, it);
       sample.reading.yaw_rate_radps = imu.number(row, yaw, kReadingTurnRateRange);
       if (ax >= 0) {
         sample.reading.accel_mps2 = {imu.number(row, ax, kReadingAccelRange),
@@ -168,17 +212,18 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
 }  // namespace
 
 ImportedDataset read_generic(const fs::path& dir) {
-  if (!fs::is_directory(dir)) {
+  if (dataset_file_type(dir) != fs::file_type::directory) {
     throw InputError(SourceLocation{dir.string()}, "",
                      "not a folder (expected map.csv and odometry.csv, groundtruth.tum, "
                      "detections.csv in it or in one sub-folder per robot)");
   }
   ImportedDataset dataset;
   const fs::path absolute = fs::absolute(dir).lexically_normal();
-  dataset.name = "imported_" + absolute.filename().string();
+  dataset.name = imported_world_name("imported_", dir);
   LandmarkColors landmarks;
-  if (fs::exists(dir / "map.csv")) {
+  if (has_file(dir / "map.csv")) {
     const TextTable map(dir / "map.csv", Layout::kCsv, {"id", "x", "y"}, {"color"});
+    dataset.files.push_back(map.file());
     const int id_column = map.column("id"), x = map.column("x"), y = map.column("y");
     const int color = map.column("color");
     for (const auto& row : map.rows()) {
@@ -188,7 +233,7 @@ ImportedDataset read_generic(const fs::path& dir) {
       if (!c.empty() && !named_colors().contains(c)) {
         std::string known;
         for (const auto& [n, rgb] : named_colors()) known += (known.empty() ? "" : ", ") + n;
-        map.fail(row, color, "unknown colour '" + c + "' (known: " + known + ")");
+        map.fail(row, color, "unknown colour " + quote_input(c) + " (known: " + known + ")");
       }
       if (!landmarks.emplace(id, c).second) map.fail(row, id_column, "landmark id listed twice");
       dataset.landmarks.push_back(
@@ -198,12 +243,30 @@ ImportedDataset read_generic(const fs::path& dir) {
     }
   }
   std::vector<std::pair<std::string, fs::path>> robots;
-  if (fs::exists(dir / "odometry.csv")) {
+  if (has_file(dir / "odometry.csv")) {
     robots.emplace_back("robot", dir);
   } else {
-    for (const auto& entry : fs::directory_iterator(dir)) {
-      if (entry.is_directory() && fs::exists(entry.path() / "odometry.csv"))
-        robots.emplace_back(entry.path().filename().string(), entry.path());
+    // Every entry is looked at (with error codes: std::filesystem would throw a raw
+    // filesystem_error at a symbolic link loop); one that cannot be looked up may be a robot's
+    // folder, so it is refused, not skipped.
+    std::error_code error;
+    for (fs::directory_iterator it(dir, error), end; !error && it != end; it.increment(error)) {
+      const fs::path& entry = it->path();
+      if (dataset_file_type(entry) != fs::file_type::directory || !has_file(entry / "odometry.csv"))
+        continue;
+      const std::string name = entry.filename().string();
+      if (!is_robot_name(name)) {
+        throw InputError(SourceLocation{dir.string()}, "",
+                         "the robot folder " + quote_input(name) +
+                             " has a name that cannot name a robot: a robot is named after its "
+                             "folder, and a robot's name is ASCII letters, digits, '_' and '-' "
+                             "(docs/real_data.md); rename the folder");
+      }
+      robots.emplace_back(name, entry);
+    }
+    if (error) {
+      throw InputError(SourceLocation{dir.string()}, "",
+                       "cannot list the folder: " + error.message());
     }
     std::sort(robots.begin(), robots.end());
   }
@@ -215,7 +278,7 @@ ImportedDataset read_generic(const fs::path& dir) {
   for (const auto& [name, path] : robots) names.push_back(name);
   dataset.source = {{"format", "generic"}, {"path", absolute.string()}, {"robots", names}};
   for (const auto& [name, path] : robots)
-    dataset.robots.push_back(read_robot(path, name, landmarks, names));
+    dataset.robots.push_back(read_robot(path, name, landmarks, names, dataset.files));
   return dataset;
 }
 

@@ -57,18 +57,119 @@ std::string number(double value) {
   return short_number(value);
 }
 
+/// A time for a message, to the microsecond: a dataset's time rebuilt from the log's (t + t0) or
+/// a difference of two is not exactly the number the file gave ("0.012000083923339844").
+std::string time_text(double t_s) {
+  std::string text = fixed(t_s, 6);
+  while (text.back() == '0') text.pop_back();
+  if (text.back() == '.') text.pop_back();
+  return text;
+}
+
+/// `text` as a YAML scalar, double-quoted and escaped: a JSON string is one (YAML 1.2 reads JSON),
+/// so no text (a newline, a quote, "a: b") can end the scalar and write a key of its own into the
+/// generated world. Every string that enters the world's YAML goes through here.
+std::string yaml_string(const std::string& text) {
+  return json(text).dump();
+}
+
+/// Whether the JSON value's strings are all UTF-8, as the log's header must be (a path is bytes;
+/// nlohmann's dump refuses others with a raw type_error).
+bool is_json_text(const json& value) {
+  try {
+    (void)value.dump();
+    return true;
+  } catch (const json::type_error&) {
+    return false;
+  }
+}
+
+/// Refuses an `out` (or its temporary) that is one of the files the import read: the log would
+/// replace, or its temporary overwrite, the dataset's own file. Before anything is written.
+void check_not_a_dataset_file(const fs::path& out, const fs::path& partial,
+                              const std::vector<fs::path>& files) {
+  for (const fs::path& file : files) {
+    for (const fs::path& written : {out, partial}) {
+      std::error_code error;  // set when either does not exist: then they are not one file
+      if (fs::equivalent(written, file, error)) {
+        // Named as the reader named it too when the paths differ (a link, "a/../b").
+        throw InputError(
+            "--out: " + quote_input(out.string()) +
+            (written == out ? "" : ": its temporary " + quote_input(written.string())) +
+            " is a file of the dataset being imported" +
+            (written == file ? "" : " (" + quote_input(file.string()) + ")") +
+            ", which the log would replace: name another file");
+      }
+    }
+  }
+}
+
+/// The earliest sample of some streams, and where it stands.
+struct Earliest {
+  double t_s = std::numeric_limits<double>::infinity();
+  SourceLocation where;
+
+  template <typename Samples>
+  void consider(const Samples& samples, const StreamSource& source) {
+    // Each stream is in time order (the readers check it): its first sample is its earliest.
+    if (!samples.empty() && samples.front().t_s < t_s) {
+      t_s = samples.front().t_s;
+      where = {source.file, samples.front().at.line, samples.front().at.column};
+    }
+  }
+};
+
+/// The first sample of a stream (in the log's times) beyond the longest time a log can span.
+struct Beyond {
+  double t_s = std::numeric_limits<double>::infinity();
+  SourceLocation where;
+  std::string key;
+
+  template <typename Samples>
+  void consider(const Samples& samples, const StreamSource& source) {
+    const auto it = std::find_if(samples.begin(), samples.end(), [](const auto& sample) {
+      return sample.t_s > kSimulatedTimeRange.max;
+    });
+    if (it != samples.end() && it->t_s < t_s) {
+      t_s = it->t_s;
+      where = {source.file, it->at.line, it->at.column};
+      key = source.time_key;
+    }
+  }
+};
+
 }  // namespace
+
+std::string imported_world_name(std::string_view prefix, const fs::path& dir) {
+  fs::path folder = fs::absolute(dir).lexically_normal();
+  if (!folder.has_filename()) folder = folder.parent_path();  // "data/" and "." name their folder
+  std::string name(prefix);
+  for (const char c : folder.filename().string()) {
+    const bool safe = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '-' || c == '_' || c == '.';
+    name += safe ? c : '_';
+  }
+  return name;
+}
 
 ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                            const fs::path& out) {
+  const fs::path partial = out.string() + ".partial";
+  check_not_a_dataset_file(out, partial, dataset.files);
   const SourceLocation where{dataset.source.value("path", std::string())};
-  double t0 = std::numeric_limits<double>::infinity();
-  for (const ImportedRobot& robot : dataset.robots) {
-    if (!robot.odometry.empty()) t0 = std::min(t0, robot.odometry.front().t_s);
-    if (!robot.truth.empty()) t0 = std::min(t0, robot.truth.front().t_s);
-    if (!robot.detections.empty()) t0 = std::min(t0, robot.detections.front().t_s);
-    if (!robot.imu.empty()) t0 = std::min(t0, robot.imu.front().t_s);
+  if (!is_json_text(dataset.source)) {
+    throw InputError(where, "",
+                     "the dataset's path (or a robot's name) is not UTF-8 text, which the log's "
+                     "header must hold: rename the folder");
   }
+  Earliest earliest;
+  for (const ImportedRobot& robot : dataset.robots) {
+    earliest.consider(robot.odometry, robot.odometry_source);
+    earliest.consider(robot.truth, robot.truth_source);
+    earliest.consider(robot.detections, robot.detections_source);
+    earliest.consider(robot.imu, robot.imu_source);
+  }
+  const double t0 = earliest.t_s;
   if (!std::isfinite(t0)) throw InputError(where, "", "the dataset holds no readings");
   const double lo = t0 + window.from_s;
   const double hi =
@@ -87,11 +188,26 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     window_samples(robot.truth, lo, hi);
     window_samples(robot.detections, lo, hi);
     window_samples(robot.imu, lo, hi);
+    Beyond beyond;
+    beyond.consider(robot.odometry, robot.odometry_source);
+    beyond.consider(robot.truth, robot.truth_source);
+    beyond.consider(robot.detections, robot.detections_source);
+    beyond.consider(robot.imu, robot.imu_source);
+    if (std::isfinite(beyond.t_s)) {
+      throw InputError(
+          beyond.where, beyond.key,
+          "time " + time_text(beyond.t_s + lo) + " s is " + time_text(beyond.t_s) +
+              " s after the log's start (" + time_text(lo) + " s: the earliest time stamp, at " +
+              earliest.where.str() +
+              (window.from_s > 0.0 ? ", plus --from " + time_text(window.from_s) + " s" : "") +
+              "); a log spans at most " + rounded_number(kSimulatedTimeRange.max) +
+              " s (116 days): import a window of the dataset (--from S --duration S)");
+    }
     if (!robot.start) {
       if (robot.truth.empty()) {
         throw InputError(where, "",
-                         "robot '" + robot.name +
-                             "' has no ground truth in the imported time window, so it has no "
+                         "robot " + quote_input(robot.name) +
+                             " has no ground truth in the imported time window, so it has no "
                              "start pose (give one, or import another window)");
       }
       robot.start = robot.truth.front().pose;
@@ -124,7 +240,7 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
   // poses, no walls; the scenario only says how long the log is and that the start is known.
   std::map<int, std::string> colors;
   std::string yaml = "# Generated by `locsim import` (docs/real_data.md)\n";
-  yaml += "name: " + json(dataset.name).dump() + "\n";
+  yaml += "name: " + yaml_string(dataset.name) + "\n";
   yaml += "physics: {step_hz: " + number(kPhysicsHz) + "}\n";
   if (!dataset.landmarks.empty()) yaml += "landmarks:\n";
   for (std::size_t i = 0; i < dataset.landmarks.size(); ++i) {
@@ -132,11 +248,11 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
     const std::string color = l.color.empty() ? kPalette[i % kPalette.size()] : l.color;
     colors[l.id] = color;
     yaml += "  - {id: " + std::to_string(l.id) + ", position: [" + number(l.position_m.x()) + ", " +
-            number(l.position_m.y()) + "], color: " + color + ", radius_m: 0.05}\n";
+            number(l.position_m.y()) + "], color: " + yaml_string(color) + ", radius_m: 0.05}\n";
   }
   yaml += "robots:\n";
   for (const ImportedRobot& robot : dataset.robots) {
-    yaml += "  - name: " + robot.name + "\n";
+    yaml += "  - name: " + yaml_string(robot.name) + "\n";
     yaml += "    footprint: {radius_m: " + number(robot.radius_m) + "}\n";
     yaml += "    wheel_base_m: " + number(robot.wheel_base_m) + "\n";
     yaml += "    wheel_radius_m: " + number(robot.wheel_radius_m) + "\n";
@@ -173,6 +289,10 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
 
   const std::string world_file = dataset.name + ".yaml";
   const fs::path world_dir = fs::absolute(out).parent_path();
+  if (!is_json_text(world_dir.string())) {
+    throw InputError("--out: " + quote_input(out.string()) +
+                     ": the path is not UTF-8 text, which the log's header must hold");
+  }
   // Checked as LogSource will read it: a dataset whose numbers the world format refuses (a
   // landmark beyond the coordinate range, say) is refused here, before anything is written.
   parse_world(YamlNode::load_string(yaml, world_file), world_dir);
@@ -216,7 +336,6 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                  {"scenario_yaml", nullptr}, {"duration_s", summary.duration_s},
                  {"source", source}};
 
-  const fs::path partial = out.string() + ".partial";
   // The log's folder is made when missing, as `run --log` does, and removed again on failure.
   const fs::path made =
       make_missing_folders(out.parent_path(), "cannot write " + out.string() + ": ");
@@ -256,15 +375,30 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
           ++summary.detection_readings;
         }
       }
-      // What a replay will refuse is refused here, before the log exists: the dataset's own
-      // numbers out of a world file's ranges (a Vicon x of 1e30), two true poses at one instant.
-      for (const std::string& problem :
-           {record_value_problem(record), stream_order.problem(record)}) {
-        if (!problem.empty()) {
-          throw InputError(SourceLocation{dataset.name}, "",
-                           "robot " + quote_input(robot.name) +
-                               ", t = " + short_number(record_time_s(record)) + " s: " + problem);
-        }
+      // What a replay will refuse is refused here, before the log exists, at the sample's line:
+      // the dataset's own numbers out of a world file's ranges (a Vicon x of 1e30), two true
+      // poses at one instant.
+      std::string problem = record_value_problem(record);
+      const bool order_problem = problem.empty();
+      if (order_problem) problem = stream_order.problem(record);
+      if (!problem.empty()) {
+        const StreamSource& stream = e.cls == 1    ? robot.truth_source
+                                     : e.kind == 0 ? robot.odometry_source
+                                     : e.kind == 1 ? robot.imu_source
+                                                   : robot.detections_source;
+        const SamplePlace at = e.cls == 1    ? robot.truth[e.index].at
+                               : e.kind == 0 ? robot.odometry[e.index].at
+                               : e.kind == 1 ? robot.imu[e.index].at
+                                             : robot.detections[e.index].at;
+        // The pose a second one contradicts: the robot's previous one, at the same time.
+        if (order_problem && e.cls == 1 && e.index > 0 && robot.truth[e.index - 1].t_s == e.t_s)
+          problem += " (line " + std::to_string(robot.truth[e.index - 1].at.line) + ")";
+        // An order problem is the time's (its column); a value one is somewhere on the line.
+        throw InputError(SourceLocation{stream.file, at.line, order_problem ? at.column : 0},
+                         order_problem ? stream.time_key : "",
+                         "robot " + quote_input(robot.name) +
+                             ", t = " + time_text(record_time_s(record) + lo) + " s (" +
+                             time_text(record_time_s(record)) + " s into the log): " + problem);
       }
       writer.consume(record);
       ++summary.records;

@@ -9,12 +9,33 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/common/math.hpp"
+#include "sim/common/range.hpp"
 #include "sim/sensors/readings.hpp"
 
 namespace locsim {
+
+/// The time stamps a dataset may give, absolute (Unix times, ~1.7e9 s) or relative. Within 1e10 s
+/// (the year 2286) a double still resolves 2 microseconds; a time given in nanoseconds by mistake
+/// (1.7e18), or a 1e308, is refused at its line instead of becoming a log of 1e308 s. [s]
+inline constexpr Range kDatasetTimeRange{-1e10, 1e10, "s"};
+
+/// Where a sample's time stamp stands in its stream's file (1-based line and column), so that a
+/// problem found only when the streams are put together (a log too long, a second true pose at
+/// one instant) is reported at the line that causes it.
+struct SamplePlace {
+  int line = 0;
+  int column = 0;
+};
+
+/// The file a stream of samples was read from, and the name of its time column, for messages.
+struct StreamSource {
+  std::string file;
+  std::string time_key;
+};
 
 struct ImportedLandmark {
   int id = 0;
@@ -32,19 +53,33 @@ struct ImportedRobot {
   struct Odometry {
     double t_s = 0.0;
     OdometryReading reading;
+    SamplePlace at;
+  };
+  struct Truth {
+    double t_s = 0.0;
+    Pose2 pose;
+    SamplePlace at;
+    Truth() = default;
+    // Not an aggregate: a dataset built in code (tests, benchmarks) writes `{t_s, pose}`, without
+    // a place and without -Wmissing-field-initializers.
+    Truth(double time_s, const Pose2& true_pose, SamplePlace place = {})
+        : t_s(time_s), pose(true_pose), at(place) {}
   };
   struct Detections {
     double t_s = 0.0;
     std::vector<Detection> detections;
+    SamplePlace at;  // the first of the rows of its time
   };
   struct Imu {
     double t_s = 0.0;
     ImuReading reading;
+    SamplePlace at;
   };
   std::vector<Odometry> odometry;  // each in time order
-  std::vector<StampedPose> truth;
+  std::vector<Truth> truth;
   std::vector<Detections> detections;
-  std::vector<Imu> imu;        // none: the robot has no IMU
+  std::vector<Imu> imu;  // none: the robot has no IMU
+  StreamSource odometry_source, truth_source, detections_source, imu_source;
   std::optional<Pose2> start;  // default: the first true pose in the window
   // The range-bearing sensor's settings; unset ones are taken from the imported detections
   // (every robot's: one camera model), or the sensor's defaults when there are none.
@@ -64,7 +99,16 @@ struct ImportedDataset {
     std::string reason;
   };
   std::vector<Dropped> dropped;
+  /// Every file the reader read: the log must not replace one of them (write_import refuses an
+  /// `out` that is one, before anything is written).
+  std::vector<std::filesystem::path> files;
 };
+
+/// The generated world's name for the dataset in `dir`: `prefix` and the folder's name, whose
+/// characters other than ASCII letters, digits, '-', '_' and '.' become '_'. A folder may be named
+/// anything a file system takes (control characters, bytes that are not UTF-8); the world's name
+/// reaches YAML, JSON, file names and terminals.
+std::string imported_world_name(std::string_view prefix, const std::filesystem::path& dir);
 
 /// Which part of the dataset to import: [from_s, from_s + duration_s] after t0 (the earliest
 /// time stamp of the imported data); the log's times start at t0 + from_s.
@@ -85,8 +129,10 @@ struct ImportSummary {
 };
 
 /// Writes the log through a temporary file renamed at the end: a failed import leaves nothing
-/// (and an older file of that name stays as it was). Throws InputError when the window holds no
-/// data or a robot has no start pose.
+/// (and an older file of that name stays as it was). Throws InputError, before anything is
+/// written, when `out` is one of the dataset's files, the window holds no data, spans more than a
+/// log can (kSimulatedTimeRange; at the line of the first sample beyond), a robot has no start
+/// pose, or a record would not pass a replay's checks (at its sample's line).
 ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                            const std::filesystem::path& out);
 

@@ -26,6 +26,21 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
   const auto fail = [&](const std::string& problem) {
     throw InputError(SourceLocation{file.string()}, "", "header: " + problem);
   };
+  if (!header.is_object()) fail("not a JSON object of named fields");
+  // A field the writer (runner.cpp, log_header) always writes as a string; `optional`: or null.
+  const auto text = [&](const char* key, bool optional = false) -> std::optional<std::string> {
+    const auto field = header.find(key);
+    if (field == header.end()) fail(std::string("lacks the field '") + key + "'");
+    if (optional && field->is_null()) return std::nullopt;
+    if (!field->is_string())
+      fail(std::string("'") + key + "' is not a string" + (optional ? " or null" : ""));
+    return field->get<std::string>();
+  };
+  const auto number = [&](const char* key) -> const json& {
+    const auto field = header.find(key);
+    if (field == header.end()) fail(std::string("lacks the field '") + key + "'");
+    return *field;
+  };
   try {
     // The world is rebuilt from the log alone: the files its text names are the ones the header
     // carries, whatever their paths say; the folders are only the names they are filed under.
@@ -40,34 +55,37 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
       }
     }
     const InputSandbox sandbox(std::move(carried), "the log '" + file.string() + "'");
-    const fs::path world_dir = header.at("world_dir").get<std::string>();
-    world_ = parse_world(YamlNode::load_string(header.at("world_yaml"), header.at("world_file")),
-                         world_dir);
-    world_.source = header.at("world_file").get<std::string>();
-    if (!header.at("scenario_yaml").is_null()) {
+    const fs::path world_dir = *text("world_dir");
+    const std::string world_file = *text("world_file");
+    world_ = parse_world(YamlNode::load_string(*text("world_yaml"), world_file), world_dir);
+    world_.source = world_file;
+    if (const std::optional<std::string> scenario_yaml = text("scenario_yaml", true)) {
       // Logs before scenario_dir filed a scenario's files under the world's folder.
-      const json scenario_dir = header.value("scenario_dir", json(nullptr));
-      scenario_ = parse_scenario(
-          YamlNode::load_string(header.at("scenario_yaml"), header.at("scenario_file")),
-          scenario_dir.is_null() ? world_dir : fs::path(scenario_dir.get<std::string>()));
-      scenario_.source = header.at("scenario_file").get<std::string>();
+      std::optional<std::string> scenario_dir;
+      if (header.contains("scenario_dir")) scenario_dir = text("scenario_dir", true);
+      const std::optional<std::string> scenario_file = text("scenario_file", true);
+      if (!scenario_file) fail("'scenario_file' is null beside a scenario_yaml");
+      scenario_ = parse_scenario(YamlNode::load_string(*scenario_yaml, *scenario_file),
+                                 scenario_dir ? fs::path(*scenario_dir) : world_dir);
+      scenario_.source = *scenario_file;
     } else if (world_.scenario) {
       scenario_ = *world_.scenario;
       scenario_.source = world_.source;
     }
     // Numbers as the writer wrote them (runner.cpp, log_header): converting others would be
     // undefined (a negative or fractional seed) or meaningless.
-    const json& duration = header.at("duration_s");
+    const json& duration = number("duration_s");
     if (!duration.is_number() || !(duration.get<double>() > 0.0) ||
         !std::isfinite(duration.get<double>())) {
       fail("duration_s is not a positive number of seconds");
     }
     scenario_.duration_s = duration.get<double>();
-    const json& seed = header.at("seed");
+    const json& seed = number("seed");
     if (!seed.is_number_unsigned()) fail("seed is not an unsigned integer");
     seed_ = seed.get<std::uint64_t>();
   } catch (const json::exception& e) {
-    fail(std::string("lacks a field or has one of another type: ") + e.what());
+    // Every field is checked above: this is a field of a kind not foreseen, named by nlohmann.
+    fail(std::string("a field of another type: ") + e.what());
   }
   bind_scenario(scenario_, world_);
   // The world the recording ran in: the variation its seed drew, as recorded (a log without one

@@ -24,11 +24,21 @@ constexpr double kCreateWheelRadiusM = 0.036;
 
 using Layout = TextTable::Layout;
 
+/// A stream's source (its times are column 0, "time"), and the file among those the import read.
+StreamSource source_of(const TextTable& table, std::vector<fs::path>& files_read) {
+  files_read.push_back(table.file());
+  return {table.file().string(), table.column_name(0)};
+}
+
+SamplePlace place_of(const TextTable& table, const TextTable::Row& row) {
+  return {row.line, table.column_in_line(row, 0)};
+}
+
 }  // namespace
 
 ImportedDataset read_mrclam(const MrclamImportOptions& options) {
   const fs::path& dir = options.dir;
-  if (!fs::is_directory(dir)) {
+  if (dataset_file_type(dir) != fs::file_type::directory) {
     throw InputError(SourceLocation{dir.string()}, "",
                      "not a folder (expected an MRCLAM dataset's folder with Barcodes.dat, "
                      "Landmark_Groundtruth.dat and Robot1_Odometry.dat ...)");
@@ -45,8 +55,10 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
       throw InputError("--robots: robot " + std::to_string(subjects[i]) + " given twice");
   }
 
+  ImportedDataset dataset;
   // barcode -> subject
   const TextTable barcodes(dir / "Barcodes.dat", Layout::kWhitespace, {"subject", "barcode"});
+  dataset.files.push_back(barcodes.file());
   std::map<long long, int> subject_of;
   std::set<long long> subjects_seen;
   for (const auto& row : barcodes.rows()) {
@@ -57,8 +69,7 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
       barcodes.fail(row, 1, "barcode listed twice");
   }
 
-  ImportedDataset dataset;
-  dataset.name = "mrclam_" + fs::absolute(dir).lexically_normal().filename().string();
+  dataset.name = imported_world_name("mrclam_", dir);
   dataset.t0_key = "t0_unix_s";
   dataset.source = {{"format", "mrclam"},
                     {"path", fs::absolute(dir).lexically_normal().string()},
@@ -66,6 +77,7 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
 
   const TextTable landmarks(dir / "Landmark_Groundtruth.dat", Layout::kWhitespace,
                             {"subject", "x", "y", "x_sigma", "y_sigma"});
+  dataset.files.push_back(landmarks.file());
   std::set<int> landmark_ids;
   for (const auto& row : landmarks.rows()) {
     const int subject = static_cast<int>(landmarks.whole(row, 0, 1, 1000000));
@@ -92,11 +104,13 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
 
     const TextTable odometry(dir / (prefix + "Odometry.dat"), Layout::kWhitespace,
                              {"time", "forward_velocity", "angular_velocity"});
-    odometry.check_non_decreasing(0);
+    odometry.check_times(0, kDatasetTimeRange);
+    robot.odometry_source = source_of(odometry, dataset.files);
     robot.odometry.reserve(odometry.rows().size());
     for (const auto& row : odometry.rows()) {
       ImportedRobot::Odometry o;
       o.t_s = odometry.number(row, 0);
+      o.at = place_of(odometry, row);
       o.reading.fields = kOdometryVelocity;  // MRCLAM logs the commanded velocity only
       o.reading.v_mps = odometry.number(row, 1, kReadingSpeedRange);
       o.reading.omega_radps = odometry.number(row, 2, kReadingTurnRateRange);
@@ -105,18 +119,21 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
 
     const TextTable truth(dir / (prefix + "Groundtruth.dat"), Layout::kWhitespace,
                           {"time", "x", "y", "orientation"});
-    truth.check_non_decreasing(0);
+    truth.check_times(0, kDatasetTimeRange);
+    robot.truth_source = source_of(truth, dataset.files);
     robot.truth.reserve(truth.rows().size());
     for (const auto& row : truth.rows()) {
       robot.truth.push_back({truth.number(row, 0),
                              {truth.number(row, 1, kWorldCoordinateRange),
                               truth.number(row, 2, kWorldCoordinateRange),
-                              wrap_angle(truth.number(row, 3, kHeadingRange))}});
+                              wrap_angle(truth.number(row, 3, kHeadingRange))},
+                             place_of(truth, row)});
     }
 
     const TextTable measurements(dir / (prefix + "Measurement.dat"), Layout::kWhitespace,
                                  {"time", "subject", "range", "bearing"});
-    measurements.check_non_decreasing(0);
+    measurements.check_times(0, kDatasetTimeRange);
+    robot.detections_source = source_of(measurements, dataset.files);
     for (const auto& row : measurements.rows()) {
       const double t_s = measurements.number(row, 0);
       const long long barcode = measurements.whole(row, 1, 0, 1000000);
@@ -156,7 +173,7 @@ ImportedDataset read_mrclam(const MrclamImportOptions& options) {
       // The dataset's identification is the best truth there is (no simulator knows better).
       d.truth_id = d.id;
       if (robot.detections.empty() || robot.detections.back().t_s != t_s)
-        robot.detections.push_back({t_s, {}});
+        robot.detections.push_back({t_s, {}, place_of(measurements, row)});
       robot.detections.back().detections.push_back(d);
     }
     dataset.robots.push_back(std::move(robot));

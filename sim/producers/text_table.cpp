@@ -2,6 +2,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <limits>
+#include <system_error>
 
 #include "sim/common/files.hpp"
 #include "sim/common/format.hpp"
@@ -24,11 +26,37 @@ std::string_view trim(std::string_view text) {
   return text;
 }
 
+/// What to say of a path the system could not look up.
+std::string lookup_problem(const std::error_code& error) {
+  if (error == std::errc::too_many_symbolic_link_levels) {
+    return "a symbolic link loop (too many levels of symbolic links): the link, or one on its "
+           "way, leads back to itself";
+  }
+  return "cannot be looked up: " + error.message();
+}
+
+/// The file's text. A path the system cannot look up (a symbolic link loop) is said to be that:
+/// read_input_file would call it missing.
+std::string read_table_text(const std::filesystem::path& file) {
+  std::error_code error;
+  if (!input_file_exists(file, error) && error)
+    throw InputError(SourceLocation{file.string()}, "", lookup_problem(error));
+  return read_input_file(file, kMaxTableBytes);
+}
+
 }  // namespace
+
+std::filesystem::file_type dataset_file_type(const std::filesystem::path& path) {
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(path, error);
+  if (error && status.type() != std::filesystem::file_type::not_found)
+    throw InputError(SourceLocation{path.string()}, "", lookup_problem(error));
+  return status.type();
+}
 
 TextTable::TextTable(const std::filesystem::path& file, Layout layout,
                      std::vector<std::string> names, std::vector<std::string> optional)
-    : file_(file), text_(read_input_file(file, kMaxTableBytes)), names_(std::move(names)) {
+    : file_(file), text_(read_table_text(file)), names_(std::move(names)) {
   const std::string_view text = text_;
   bool header_seen = layout != Layout::kCsv;
   int line = 0;
@@ -118,17 +146,21 @@ int TextTable::column(std::string_view name) const {
   return -1;
 }
 
-void TextTable::fail(const Row& row, int column, const std::string& problem) const {
+std::string TextTable::column_name(int column) const {
   const bool named = column >= 0 && static_cast<std::size_t>(column) < names_.size();
-  // The field's 1-based character column in its line.
-  const int col =
-      column >= 0 && static_cast<std::size_t>(column) < row.count
-          ? static_cast<int>(fields_[row.first + static_cast<std::size_t>(column)].offset -
-                             row.line_start) +
-                1
-          : 0;
-  throw InputError(SourceLocation{file_.string(), row.line, col},
-                   named ? names_[static_cast<std::size_t>(column)] : "", problem);
+  return named ? names_[static_cast<std::size_t>(column)] : "";
+}
+
+int TextTable::column_in_line(const Row& row, int column) const {
+  if (column < 0 || static_cast<std::size_t>(column) >= row.count) return 0;
+  return static_cast<int>(fields_[row.first + static_cast<std::size_t>(column)].offset -
+                          row.line_start) +
+         1;
+}
+
+void TextTable::fail(const Row& row, int column, const std::string& problem) const {
+  throw InputError(SourceLocation{file_.string(), row.line, column_in_line(row, column)},
+                   column_name(column), problem);
 }
 
 void TextTable::need(const Row& row, int column) const {
@@ -181,10 +213,21 @@ long long TextTable::whole(const Row& row, int column, long long lo, long long h
 }
 
 void TextTable::check_non_decreasing(int column) const {
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  check_times(column, Range{-kInfinity, kInfinity, "s"});
+}
+
+void TextTable::check_times(int column, const Range& range) const {
   double previous = -std::numeric_limits<double>::infinity();
   int previous_line = 0;
   for (const Row& row : rows_) {
     const double t = number(row, column);
+    if (const std::string problem = out_of_range(t, range); !problem.empty()) {
+      fail(row, column,
+           problem +
+               " (a dataset's times are seconds, absolute such as Unix times or relative; "
+               "docs/real_data.md)");
+    }
     if (t < previous) {
       fail(row, column,
            "time " + short_number(t) + " is before the previous line's (" + short_number(previous) +
@@ -195,25 +238,34 @@ void TextTable::check_non_decreasing(int column) const {
   }
 }
 
+TextTable tum_table(const std::filesystem::path& file) {
+  return TextTable(file, TextTable::Layout::kWhitespace,
+                   {"t", "x", "y", "z", "qx", "qy", "qz", "qw"});
+}
+
+StampedPose tum_pose(const TextTable& table, const TextTable::Row& row) {
+  const double qx = table.number(row, 4), qy = table.number(row, 5);
+  const double qz = table.number(row, 6), qw = table.number(row, 7);
+  if (!(std::abs(std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw) - 1.0) < 1e-3))
+    table.fail(row, 7, "the quaternion (qx qy qz qw) is not of unit length");
+  const double t_s = table.number(row, 0);
+  // The yaw of the rotation (z up): its heading in the plane.
+  const double yaw = std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
+  return {t_s,
+          {table.number(row, 1, kWorldCoordinateRange), table.number(row, 2, kWorldCoordinateRange),
+           yaw}};
+}
+
 std::vector<StampedPose> read_tum(const std::filesystem::path& file, bool strictly_increasing) {
-  const TextTable table(file, TextTable::Layout::kWhitespace,
-                        {"t", "x", "y", "z", "qx", "qy", "qz", "qw"});
+  const TextTable table = tum_table(file);
   table.check_non_decreasing(0);
   std::vector<StampedPose> poses;
   poses.reserve(table.rows().size());
   for (const auto& row : table.rows()) {
-    const double qx = table.number(row, 4), qy = table.number(row, 5);
-    const double qz = table.number(row, 6), qw = table.number(row, 7);
-    if (!(std::abs(std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw) - 1.0) < 1e-3))
-      table.fail(row, 7, "the quaternion (qx qy qz qw) is not of unit length");
-    const double t_s = table.number(row, 0);
-    if (strictly_increasing && !poses.empty() && !(t_s > poses.back().t_s))
+    const StampedPose pose = tum_pose(table, row);
+    if (strictly_increasing && !poses.empty() && !(pose.t_s > poses.back().t_s))
       table.fail(row, 0, "the time repeats the previous line's (times must increase)");
-    // The yaw of the rotation (z up): its heading in the plane.
-    const double yaw = std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
-    poses.push_back({t_s,
-                     {table.number(row, 1, kWorldCoordinateRange),
-                      table.number(row, 2, kWorldCoordinateRange), yaw}});
+    poses.push_back(pose);
   }
   return poses;
 }

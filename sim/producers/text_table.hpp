@@ -34,7 +34,8 @@ class TextTable {
 
   /// Reads the file. `names` are the columns' names for messages (kWhitespace), or the columns a
   /// kCsv header must name (more may follow in `optional`). Throws InputError naming the file
-  /// when it cannot be read, is empty of data, or a header lacks a required column.
+  /// when it cannot be read (saying so of a symbolic link loop, which is not a missing file), is
+  /// empty of data, or a header lacks a required column.
   TextTable(const std::filesystem::path& file, Layout layout, std::vector<std::string> names,
             std::vector<std::string> optional = {});
 
@@ -52,10 +53,18 @@ class TextTable {
   long long whole(const Row& row, int column, long long lo, long long hi) const;
   /// The field's text ("" when the row is too short and the column optional).
   std::string_view text(const Row& row, int column) const;
+  /// The name of column `column` ("" when it has none).
+  std::string column_name(int column) const;
+  /// The 1-based character column in its line of the row's field `column` (0 when the row lacks
+  /// it): where a message points.
+  int column_in_line(const Row& row, int column) const;
   /// Throws InputError at the row (and the column, when >= 0).
   [[noreturn]] void fail(const Row& row, int column, const std::string& problem) const;
   /// Checks that column `column` never decreases from row to row (times).
   void check_non_decreasing(int column) const;
+  /// The same, and that every row's time is within `range`, in one pass: the first bad row is
+  /// named, whichever its fault.
+  void check_times(int column, const Range& range) const;
 
  private:
   void need(const Row& row, int column) const;
@@ -73,6 +82,19 @@ class TextTable {
   std::vector<Row> rows_;
   std::vector<Field> fields_;
 };
+
+/// What a dataset's file or folder is: file_type::not_found when there is none. Throws InputError
+/// naming it when the system cannot tell (a symbolic link loop, a folder on its way that cannot be
+/// searched): taking that for "no such file", or letting std::filesystem throw, would send the
+/// user looking for the wrong problem.
+std::filesystem::file_type dataset_file_type(const std::filesystem::path& path);
+
+/// A TUM trajectory file as a table: columns t x y z qx qy qz qw, whitespace-separated, '#'
+/// comments (for a reader that needs each pose's line).
+TextTable tum_table(const std::filesystem::path& file);
+/// A row of tum_table's as a planar pose (z ignored; the heading is the quaternion's yaw).
+/// Throws InputError at the line and column of a bad value or a quaternion not of unit length.
+StampedPose tum_pose(const TextTable& table, const TextTable::Row& row);
 
 /// A TUM trajectory file (`t x y z qx qy qz qw` per line, '#' comments; z ignored): planar poses,
 /// times never decreasing (increasing with `strictly_increasing`). Throws InputError at the line

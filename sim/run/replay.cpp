@@ -1,6 +1,7 @@
 #include "sim/run/replay.hpp"
 
 #include <chrono>
+#include <optional>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
@@ -16,32 +17,92 @@ using json = nlohmann::ordered_json;
 
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt) {
   LogSource source(options.log_file, options.robots);
+  const bool video = options.video != nullptr;
+  const std::optional<fs::path> video_file =
+      video ? options.video_options.video_file : std::optional<fs::path>();
+  const std::optional<fs::path> frames_dir =
+      video ? options.video_options.frames_dir : std::optional<fs::path>();
   // The log (and the localizers' files) must survive what the replay writes: --overwrite keeps
   // them, an output never replaces them.
   std::vector<fs::path> read = session_input_files(options);
   read.push_back(options.log_file);
-  if (options.video != nullptr && options.video_options.video_file)
-    RunFolder::check_outputs({{"--video", *options.video_options.video_file}}, read);
+  if (video_file) RunFolder::check_outputs({{"--video", *video_file}}, read);
+  std::vector<RunFolder::Output> outputs;
+  if (video_file) outputs.push_back({"--video", *video_file, false});
+  if (frames_dir) outputs.push_back({"--frames", *frames_dir, true});
+  RunFolder::check_apart(options.out_dir, outputs);
   RunFolder::check(options.out_dir, options.overwrite, read);
   const std::uint64_t seed = options.seed.value_or(source.seed());
   Session session(options, source.world(), source.scenario(), seed, interrupt);
+
+  // run.json as known before the replay: written first into the folder (status "running"), and
+  // rewritten at the end with how it ended. Its resolved configuration is built once.
+  const json& header = source.header();
+  json config = {{"world", to_json(source.world())}, {"scenario", to_json(source.scenario())}};
+  const auto describe = [&](const RunEnd* end) {
+    json run;
+    run["locsim_version"] = locsim_version();
+    run["status"] = end != nullptr ? end->status : "running";
+    if (end != nullptr && !end->error.empty()) run["error"] = end->error;
+    if (end != nullptr && !end->removed.empty()) run["removed_files"] = end->removed;
+    run["source"] = "replay";
+    run["log_file"] = options.log_file.string();
+    run["recorded_with"] = header.value("locsim_version", "");
+    run["seed"] = seed;  // the localizers' (--seed), by default the log's
+    run["recorded_seed"] = source.seed();
+    if (!options.robots.empty()) run["replayed_robots"] = options.robots;
+    run["world_file"] = header.value("world_file", "");
+    run["scenario_file"] = source.scenario().source.string();
+    if (options.params_file) run["params_file"] = options.params_file->string();
+    return run;
+  };
+  // Where each robot's files are, as a run says it (tools/report.py reads it).
+  const auto robots = [&] {
+    json list = json::array();
+    for (std::size_t i = 0; i < source.world().robots.size(); ++i) {
+      list.push_back({{"name", source.world().robots[i].name},
+                      {"folder", RunFolder::robot_folder(source.world(), i).string()}});
+    }
+    return list;
+  };
+  std::string run_text;
+  {
+    json run = describe(nullptr);
+    run["robots"] = robots();
+    if (session.has_localizers()) {
+      json localizers = json::array();
+      for (const LocalizerInfo& l : session.host().localizers())
+        localizers.push_back({{"robot", l.robot_name}, {"label", l.label}});
+      run["localizers"] = localizers;
+    }
+    run["config"] = std::move(config);
+    run_text = run.dump(2) + '\n';
+    config = std::move(run["config"]);
+  }
   // The video is opened before the folder is made, as a run's: one that cannot be written (exit
   // 4) leaves no folder.
   std::optional<FrameCapture> capture;
-  if (options.video != nullptr) {
+  if (video)
     capture.emplace(*options.video, options.video_options, source.world(), &session.host());
-  }
   std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
-  for (const auto& file : {options.video_options.video_file, options.video_options.frames_dir}) {
-    if (file && options.video != nullptr) keep.push_back(*file);
+  for (const auto& file : {video_file, frames_dir}) {
+    if (file) keep.push_back(*file);
   }
-  session.open(options.out_dir, keep);
+  try {
+    session.open(options.out_dir, run_text);
+  } catch (...) {
+    std::error_code ignored;  // no replay folder: nor the video begun for it
+    if (video_file) fs::remove(*video_file, ignored);
+    throw;
+  }
+  run_text = std::string();  // the folder's run.json has it
   RecordConsumer& input = session.input();
 
   ReplayResult result;
   RunEnd end;
   const auto start = std::chrono::steady_clock::now();
   try {
+    session.start(keep);
     // After the localizers (it snapshots them), so the driver, not the fan-out, tells it first
     // when the time moves on: a frame then holds every record of its time and none later.
     if (capture) session.input().add(*capture);
@@ -69,46 +130,19 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
     end.caught();
   }
   const json localizers = session.finish(result.replayed_s, end);
-  if (options.video != nullptr) {
-    // Closed whatever the status: the frames so far make a valid video of a failed replay too.
-    try {
-      options.video->finish();
-    } catch (...) {
-      end.caught("video: ");
-    }
-  }
-  result.status = end.status;
+  if (video) finish_video(*options.video, video_file, end);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.failed_localizers = session.failed_localizers();
 
-  const json& header = source.header();
-  json run;
-  run["locsim_version"] = locsim_version();
-  run["status"] = end.status;
-  if (!end.error.empty()) run["error"] = end.error;
-  run["source"] = "replay";
-  run["log_file"] = options.log_file.string();
-  run["recorded_with"] = header.value("locsim_version", "");
-  run["seed"] = seed;  // the localizers' (--seed), by default the log's
-  run["recorded_seed"] = source.seed();
-  if (!options.robots.empty()) run["replayed_robots"] = options.robots;
-  run["world_file"] = header.value("world_file", "");
-  run["scenario_file"] = source.scenario().source.string();
-  if (options.params_file) run["params_file"] = options.params_file->string();
+  json run = describe(&end);
   run["simulated_s"] = result.replayed_s;
   run["records"] = result.records;
-  // Where each robot's files are, as a run says it (tools/report.py reads it).
-  json robots = json::array();
-  for (std::size_t i = 0; i < source.world().robots.size(); ++i) {
-    robots.push_back(
-        {{"name", source.world().robots[i].name},
-         {"folder", fs::relative(session.folder().robot_dirs[i], options.out_dir).string()}});
-  }
-  run["robots"] = robots;
+  run["robots"] = robots();
   if (session.has_localizers()) run["localizers"] = localizers;
-  run["config"] = {{"world", to_json(source.world())}, {"scenario", to_json(source.scenario())}};
+  run["config"] = std::move(config);
   run["timing"] = {{"wall_s", result.wall_s}, {"peak_memory_mb", peak_memory_json()}};
-  write_json_atomically(options.out_dir / "run.json", run);
+  session.write_run_json(run, end);
+  result.status = end.status;
   if (end.failure) std::rethrow_exception(end.failure);
   return result;
 }

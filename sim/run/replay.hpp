@@ -38,8 +38,9 @@ struct ReplayResult {
 
 /// Throws InputError (bad log, bad parameters, a bad --out) or PluginError (plugins) before
 /// anything is written (and RenderError for a video that cannot be opened, before the folder is
-/// made); a log found corrupt or truncated part-way writes run.json with status
-/// "failed" and throws InputError.
+/// made). run.json is the folder's first file ("status": "running"), rewritten at the end, as a
+/// run's. A log found corrupt or truncated part-way writes run.json with status "failed" and
+/// throws InputError; a write that fails stops the replay, as a run (runner.hpp).
 ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
 }  // namespace locsim

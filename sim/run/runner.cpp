@@ -110,50 +110,140 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   RunResult result;
   result.out_dir =
       options.out_dir.empty() ? default_out_dir(inputs, options.seed) : options.out_dir;
+  const bool video = options.video != nullptr;
+  const std::optional<fs::path> video_file =
+      video ? options.video_options.video_file : std::optional<fs::path>();
+  const std::optional<fs::path> frames_dir =
+      video ? options.video_options.frames_dir : std::optional<fs::path>();
   // What the run reads must survive what it writes: --overwrite keeps it, an output never
   // replaces it.
   std::vector<fs::path> read = inputs.files;
   for (const fs::path& file : session_input_files(options)) read.push_back(file);
   std::vector<std::pair<std::string, fs::path>> named_outputs;
   if (options.log_file) named_outputs.emplace_back("--log", *options.log_file);
-  if (options.video != nullptr && options.video_options.video_file)
-    named_outputs.emplace_back("--video", *options.video_options.video_file);
+  if (video_file) named_outputs.emplace_back("--video", *video_file);
   RunFolder::check_outputs(named_outputs, read);
+  // The outputs must fit together: `--out D --log D` would make D a file, then fail to make the
+  // folder (exit 1, a 4 KiB log left behind).
+  std::vector<RunFolder::Output> outputs;
+  if (options.log_file) outputs.push_back({"--log", *options.log_file, false});
+  if (video_file) outputs.push_back({"--video", *video_file, false});
+  if (frames_dir) outputs.push_back({"--frames", *frames_dir, true});
+  RunFolder::check_apart(result.out_dir, outputs);
   RunFolder::check(result.out_dir, options.overwrite, read);
-  check_run_output(estimate_run_output(inputs.world, inputs.scenario, options.readings,
-                                       options.log_file.has_value(), options.localizers.size()),
-                   options.max_output_bytes, result.out_dir);
   // The localizers' processes start before the simulation (and any renderer) has threads.
   Session session(options, inputs.world, inputs.scenario, options.seed, interrupt);
+
+  // run.json as known before the run: written first into the folder (status "running"), and
+  // rewritten at the end with how it ended. Its resolved configuration is built once.
+  json config = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};
+  const auto describe = [&](const RunEnd* end) {
+    json run;
+    run["locsim_version"] = locsim_version();
+    run["status"] = end != nullptr ? end->status : "running";
+    if (end != nullptr && !end->error.empty()) run["error"] = end->error;
+    if (end != nullptr && !end->removed.empty()) run["removed_files"] = end->removed;
+    run["seed"] = options.seed;
+    run["world_file"] = options.world_file.string();
+    run["scenario_file"] = inputs.scenario.source.string();
+    if (options.params_file) run["params_file"] = options.params_file->string();
+    return run;
+  };
+  const auto robots_known_at_start = [&] {
+    json robots = json::array();
+    for (std::size_t i = 0; i < inputs.world.robots.size(); ++i) {
+      robots.push_back({{"name", inputs.world.robots[i].name},
+                        {"folder", RunFolder::robot_folder(inputs.world, i).string()}});
+    }
+    return robots;
+  };
+  std::string run_text;
+  {
+    json run = describe(nullptr);
+    run["robots"] = robots_known_at_start();
+    if (session.has_localizers()) {
+      json localizers = json::array();
+      for (const LocalizerInfo& l : session.host().localizers())
+        localizers.push_back({{"robot", l.robot_name}, {"label", l.label}});
+      run["localizers"] = localizers;
+    }
+    run["config"] = std::move(config);
+    run_text = run.dump(2) + '\n';
+    config = std::move(run["config"]);
+  }
+  std::optional<json> header;
+  if (options.log_file) header = log_header(options, inputs);
+  OutputPlan plan;
+  plan.readings = options.readings;
+  plan.localizers = options.localizers.size();
+  plan.log = header.has_value();
+  plan.log_header_bytes = header ? json_text_bytes(*header) : 0.0;
+  plan.run_json_bytes = static_cast<double>(run_text.size());
+  plan.video = video ? &options.video_options : nullptr;
+  OutputPaths paths{result.out_dir, options.log_file, video_file, frames_dir};
+  if (options.overwrite) {
+    // The previous run's files, which --overwrite removes: their room is the new run's.
+    std::error_code error;
+    for (auto entry = fs::recursive_directory_iterator(result.out_dir, error);
+         !error && entry != fs::recursive_directory_iterator(); entry.increment(error)) {
+      std::error_code ignored;
+      if (entry->is_symlink(ignored) || !entry->is_regular_file(ignored)) continue;
+      const std::uintmax_t size = entry->file_size(ignored);
+      if (!ignored) paths.out_dir_freed_bytes += static_cast<double>(size);
+    }
+  }
+  check_run_output(estimate_run_output(inputs.world, inputs.scenario, plan),
+                   options.max_output_bytes, paths);
+
   Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
   sim.use_threads(options.threads > 0 ? options.threads : default_thread_count());
   // The log and the video are opened before the run folder is made: one that cannot be written
   // (exit 1 for the log, 4 for the video, naming the path and the reason) leaves no folder.
   std::unique_ptr<LogWriter> log;
+  fs::path log_made;  // the folders made for the log
   if (options.log_file) {
     // Its folder is made when missing, as the run folder is (`--out NEW --log NEW/run.locsimlog`),
     // and removed again when the log cannot be written.
-    const fs::path made =
-        make_missing_folders(options.log_file->parent_path(),
-                             "cannot write the log " + options.log_file->string() + ": ");
+    log_made = make_missing_folders(options.log_file->parent_path(),
+                                    "cannot write the log " + options.log_file->string() + ": ");
     try {
-      log = std::make_unique<LogWriter>(*options.log_file, log_header(options, inputs));
+      log = std::make_unique<LogWriter>(*options.log_file, *header);
     } catch (...) {
       std::error_code ignored;
-      if (!made.empty()) fs::remove_all(made, ignored);
+      if (!log_made.empty()) fs::remove_all(log_made, ignored);
       throw;
     }
+    header.reset();
   }
+  // When the run cannot start after all, the log begun for it goes too.
+  const auto discard_log = [&] {
+    if (!log) return;
+    log.reset();
+    std::error_code ignored;
+    fs::remove(*options.log_file, ignored);
+    if (!log_made.empty()) fs::remove_all(log_made, ignored);
+  };
   std::optional<FrameCapture> capture;
-  if (options.video != nullptr) {
-    capture.emplace(*options.video, options.video_options, sim, &session.host());
+  try {
+    if (video) capture.emplace(*options.video, options.video_options, sim, &session.host());
+  } catch (...) {
+    discard_log();
+    throw;
   }
   std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
-  for (const auto& file :
-       {options.log_file, options.video_options.video_file, options.video_options.frames_dir}) {
+  for (const auto& file : {options.log_file, video_file, frames_dir}) {
     if (file) keep.push_back(*file);
   }
-  session.open(result.out_dir, keep);
+  try {
+    session.open(result.out_dir, run_text);
+  } catch (...) {
+    // No run folder: nor the log and the video begun for it.
+    discard_log();
+    std::error_code ignored;
+    if (video_file) fs::remove(*video_file, ignored);
+    throw;
+  }
+  run_text = std::string();  // the folder's run.json has it
   SimulationSource source(sim);
   RecordConsumer& input = session.input();
   const auto steps_per_s = std::max<std::int64_t>(1, std::llround(sim.world_def().physics.step_hz));
@@ -163,6 +253,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   bool progress_shown = false;
   RunEnd end;
   try {
+    session.start(keep);
     if (log) session.input().add(*log);
     if (capture) session.input().add(*capture);
     source.emit(input);
@@ -198,18 +289,12 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   }
   if (progress_shown) std::fprintf(stderr, "\n");
   const json localizers = session.finish(sim.time_s(), end);
-  if (options.video != nullptr) {
-    // Closed whatever the status: the frames so far make a valid video of a failed run too.
-    try {
-      options.video->finish();
-    } catch (...) {
-      end.caught("video: ");
-    }
-  }
+  if (video) finish_video(*options.video, video_file, end);
   if (log) {
+    // A log without its end record reads as truncated (replay refuses it), rightly: it is kept.
     try {
       log->flush();
-      if (end.completed()) log->finish();  // else it reads as truncated, rightly
+      if (end.completed()) log->finish();
     } catch (...) {
       end.caught();
     }
@@ -221,14 +306,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   result.state_hash = sim.state_hash();
   result.failed_localizers = session.failed_localizers();
 
-  json run;
-  run["locsim_version"] = locsim_version();
-  run["status"] = end.status;
-  if (!end.error.empty()) run["error"] = end.error;
-  run["seed"] = options.seed;
-  run["world_file"] = options.world_file.string();
-  run["scenario_file"] = inputs.scenario.source.string();
-  if (options.params_file) run["params_file"] = options.params_file->string();
+  json run = describe(&end);
   run["simulated_s"] = result.simulated_s;
   run["steps"] = sim.step_index();
   char hash[24];
@@ -238,20 +316,19 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   for (std::size_t i = 0; i < sim.robot_count(); ++i) {
     const RobotStats& stats = sim.stats(i);
     const Pose2 pose = sim.robot(i).pose();
-    robots.push_back(
-        {{"name", sim.robot(i).name()},
-         {"folder", fs::relative(session.folder().robot_dirs[i], result.out_dir).string()},
-         {"final_pose", {{"x", pose.x}, {"y", pose.y}, {"theta", pose.theta}}},
-         {"ground_distance_m", stats.ground_distance_m},
-         {"wheel_distance_left_m", stats.wheel_distance_left_m},
-         {"wheel_distance_right_m", stats.wheel_distance_right_m},
-         {"slip_time_s", stats.slip_time_s},
-         {"collisions", stats.collisions},
-         {"kidnaps", stats.kidnaps}});
+    robots.push_back({{"name", sim.robot(i).name()},
+                      {"folder", RunFolder::robot_folder(inputs.world, i).string()},
+                      {"final_pose", {{"x", pose.x}, {"y", pose.y}, {"theta", pose.theta}}},
+                      {"ground_distance_m", stats.ground_distance_m},
+                      {"wheel_distance_left_m", stats.wheel_distance_left_m},
+                      {"wheel_distance_right_m", stats.wheel_distance_right_m},
+                      {"slip_time_s", stats.slip_time_s},
+                      {"collisions", stats.collisions},
+                      {"kidnaps", stats.kidnaps}});
   }
   run["robots"] = robots;
   if (session.has_localizers()) run["localizers"] = localizers;
-  run["config"] = {{"world", to_json(inputs.world)}, {"scenario", to_json(inputs.scenario)}};
+  run["config"] = std::move(config);
   // Wall-clock figures vary from run to run; they are kept last, in this one block, so that
   // everything else in the run folder is byte-identical for the same inputs and seed.
   run["timing"] = {
@@ -259,7 +336,8 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
       {"real_time_factor", result.wall_s > 0.0 ? result.simulated_s / result.wall_s : 0.0},
       {"realtime_paced", options.realtime},
       {"peak_memory_mb", peak_memory_json()}};
-  write_json_atomically(result.out_dir / "run.json", run);
+  session.write_run_json(run, end);
+  result.status = end.status;
   if (end.failure) std::rethrow_exception(end.failure);
   return result;
 }

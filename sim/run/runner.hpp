@@ -58,10 +58,14 @@ RunInputs load_run_inputs(const std::filesystem::path& world_file,
                           const std::optional<std::filesystem::path>& scenario_file,
                           std::optional<double> duration_s);
 
-/// Runs to the end (or until `*interrupt` turns true). Bad input throws InputError, plugins that
-/// cannot be loaded or created PluginError, before any file is written; a failure during the run
-/// writes run.json with status "failed" and rethrows. A localizer that fails does not fail the
-/// run: it is in `failed_localizers` and metrics.json.
+/// Runs to the end (or until `*interrupt` turns true). Bad input throws InputError (outputs that
+/// cannot all be made, `--out D --log D`, too; and a run estimated past max_output_bytes),
+/// plugins that cannot be loaded or created PluginError, too little free disk space for the
+/// estimate std::runtime_error, all before any file is written. run.json is the folder's first
+/// file ("status": "running"), rewritten at the end. A failure during the run (the first write
+/// that fails stops it) removes the files it cut, writes run.json with status "failed", the
+/// error and the "removed_files", and rethrows it (naming the file and the system's reason). A
+/// localizer that fails does not fail the run: it is in `failed_localizers` and metrics.json.
 RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
 /// The version string recorded in every run.

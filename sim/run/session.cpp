@@ -1,8 +1,15 @@
 #include "sim/run/session.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/resource.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <string_view>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/world/occupancy.hpp"
 #include "sim/world/physics_world.hpp"
 
@@ -48,9 +55,21 @@ std::vector<std::filesystem::path> session_input_files(const SessionOptions& opt
   return files;
 }
 
-void Session::open(const std::filesystem::path& out_dir,
-                   const std::vector<std::filesystem::path>& keep) {
-  folder_ = RunFolder::create(out_dir, world_, options_.overwrite, keep);
+Session::~Session() {
+  if (run_json_lock_ >= 0) ::close(run_json_lock_);  // releases the lock
+}
+
+void Session::open(const std::filesystem::path& out_dir, const std::string& run_json) {
+  folder_ = RunFolder::make(out_dir, world_, run_json);
+  // The localizers' processes were forked before: they do not hold it.
+  run_json_lock_ = ::open((out_dir / "run.json").c_str(), O_RDONLY | O_CLOEXEC);
+  if (run_json_lock_ >= 0) ::flock(run_json_lock_, LOCK_EX | LOCK_NB);
+  const std::size_t status = run_json.find("\"status\": \"running\"");
+  running_at_ = status == std::string::npos ? status : status + 10;  // past `"status": `
+}
+
+void Session::start(const std::vector<std::filesystem::path>& keep) {
+  folder_.prepare(options_.overwrite, keep);
   recorder_ =
       std::make_unique<RunRecorder>(folder_, world_, host_->localizers(), options_.readings);
   host_->add_output(*scorer_);
@@ -87,19 +106,71 @@ nlohmann::ordered_json Session::finish(double t_end_s, RunEnd& end) {
     end.caught();
     host_->abort();
   }
-  // Each output on its own: a file that cannot be written costs the others nothing.
+  // Each output on its own: a file that cannot be written costs the others nothing. The
+  // recorder's files first: those a failed write cut are removed (on a full disk that frees their
+  // room) before metrics.json is written.
   nlohmann::ordered_json localizers = nlohmann::ordered_json::array();
-  try {
-    if (!host_->localizers().empty()) localizers = scorer_->write(folder_.robot_dirs, finals);
-  } catch (...) {
-    end.caught();
-  }
+  if (!recorder_) return localizers;  // the run failed before its files were opened
   try {
     recorder_->close();
   } catch (...) {
     end.caught();
   }
+  for (std::string& file : recorder_->remove_cut()) end.removed.push_back(std::move(file));
+  try {
+    if (!host_->localizers().empty()) localizers = scorer_->write(folder_.robot_dirs, finals);
+  } catch (...) {
+    end.caught();
+  }
   return localizers;
+}
+
+namespace {
+
+/// Turns the "running" at byte `at` of run.json into "failed" (with a space after it, as JSON
+/// allows), writing over the same bytes. False when the file does not say "running" there or
+/// cannot be written.
+bool mark_failed_in_place(const std::filesystem::path& file, std::size_t at) {
+  if (at == std::string::npos) return false;
+  std::fstream io(file, std::ios::in | std::ios::out | std::ios::binary);
+  char was[9] = {};
+  io.seekg(static_cast<std::streamoff>(at));
+  io.read(was, sizeof was);
+  if (!io || std::string_view(was, sizeof was) != "\"running\"") return false;
+  io.seekp(static_cast<std::streamoff>(at));
+  io.write("\"failed\" ", sizeof was);
+  io.flush();
+  return static_cast<bool>(io);
+}
+
+}  // namespace
+
+void Session::write_run_json(const nlohmann::ordered_json& run, RunEnd& end) {
+  const std::filesystem::path file = folder_.root / "run.json";
+  try {
+    write_json_atomically(file, run);
+  } catch (...) {
+    end.caught();
+    mark_failed_in_place(file, running_at_);
+  }
+}
+
+void finish_video(FrameSink& sink, const std::optional<std::filesystem::path>& video_file,
+                  RunEnd& end) {
+  try {
+    sink.finish();
+  } catch (const std::exception& e) {
+    end.caught("video: ");
+    std::error_code ignored;
+    if (video_file &&
+        std::string_view(e.what()).find("video '" + video_file->string() + "'") !=
+            std::string_view::npos &&
+        std::filesystem::remove(*video_file, ignored)) {
+      end.removed.push_back(video_file->string());
+    }
+  } catch (...) {
+    end.caught("video: ");
+  }
 }
 
 nlohmann::ordered_json peak_memory_json() {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/consumers/frame_state.hpp"
 #include "sim/consumers/run_recorder.hpp"
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/metrics/scorer.hpp"
@@ -44,6 +45,9 @@ struct RunEnd {
   std::string status = "completed";
   std::string error;
   std::exception_ptr failure;
+  /// The files a failed write cut, removed (relative to the run folder; an output outside it,
+  /// --video, as given): run.json lists them as "removed_files".
+  std::vector<std::string> removed;
   bool completed() const { return status == "completed"; }
   /// In a catch block: Interrupted makes it interrupted, anything else failed (the first failure
   /// is the one kept).
@@ -56,11 +60,19 @@ class Session {
   /// every localizer (InputError, PluginError); writes nothing.
   Session(const SessionOptions& options, const WorldDef& world, const ScenarioDef& scenario,
           std::uint64_t seed, const std::atomic<bool>* interrupt);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
 
-  /// Makes the run folder (checked beforehand with RunFolder::check; with overwrite, emptied but
-  /// for `keep`, the driver's own outputs that lie in it) and opens its files.
-  void open(const std::filesystem::path& out_dir,
-            const std::vector<std::filesystem::path>& keep = {});
+  /// Makes the run folder (checked beforehand with RunFolder::check) and writes `run_json` into it
+  /// first: run.json as known before the run, with "status": "running" (RunFolder::make), held
+  /// locked until the session ends (held_by_a_run). Throws when it cannot, leaving nothing of the
+  /// folder it made (a previous run's folder as it was).
+  void open(const std::filesystem::path& out_dir, const std::string& run_json);
+  /// Readies the folder (with overwrite, emptied but for run.json and `keep`, the driver's own
+  /// outputs and inputs that lie in it) and opens its files. What fails here fails the run: the
+  /// drivers call it where they catch the run's failures, so that run.json says it.
+  void start(const std::vector<std::filesystem::path>& keep = {});
   /// Where the producer's records go: host, scorer, recorder, then what the driver adds.
   RecordFanout& input() { return fanout_; }
   /// Flushes input() (the files' buffers to the system, the records gathered for the localizers'
@@ -81,9 +93,16 @@ class Session {
 
   /// Ends the stream at `t_end_s`. Unless `end` is interrupted, every localizer first takes in
   /// every record (Ctrl-C meanwhile makes it interrupted); else they are stopped where they are.
-  /// Writes metrics.json and closes the files (a failure there goes into `end`); returns run.json's
-  /// "localizers" block.
+  /// Closes the files, removes those a failed write cut (into `end.removed`: a cut .tum or CSV
+  /// would read as a whole, shorter one), then writes metrics.json (whole or not at all: the
+  /// localizers' scores up to the end are kept when the run fails). A failure goes into `end`.
+  /// Returns run.json's "localizers" block.
   nlohmann::ordered_json finish(double t_end_s, RunEnd& end);
+  /// Rewrites run.json as the run ended (`run`, its status and error from `end`). When that fails
+  /// (a full disk has no room for the new file beside the old one), the failure goes into `end`
+  /// and the run.json written by open() gets "failed" in place of "running" (the same bytes, so
+  /// no more room), so that the folder does not read as a run still going on.
+  void write_run_json(const nlohmann::ordered_json& run, RunEnd& end);
   /// Labels of the localizers that failed.
   std::vector<std::string> failed_localizers() const { return scorer_->failed(); }
 
@@ -94,9 +113,18 @@ class Session {
   std::unique_ptr<Scorer> scorer_;
   std::unique_ptr<RunRecorder> recorder_;
   RunFolder folder_;
+  std::size_t running_at_ = std::string::npos;  // where run.json says "running" [byte]
+  int run_json_lock_ = -1;                      // run.json as open() wrote it, locked
   RecordFanout fanout_;
   std::chrono::steady_clock::time_point flushed_ = std::chrono::steady_clock::now();
 };
+
+/// Closes the video and the frames (FrameSink::finish) whatever the run's status: the frames so
+/// far make a valid video of a failed run too. A failure goes into `end`; when it is the video's
+/// own (its message names `video_file`: a frame or its index that could not be written), the
+/// video may not play (an MP4 without its index) and is removed (into `end.removed`).
+void finish_video(FrameSink& sink, const std::optional<std::filesystem::path>& video_file,
+                  RunEnd& end);
 
 /// The files a session's localizers read: --params, plugins given by path, their sources (a
 /// Python filter's file). The drivers keep them from --overwrite and from being written over.

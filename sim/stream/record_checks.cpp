@@ -1,9 +1,13 @@
 #include "sim/stream/record_checks.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <string_view>
 #include <type_traits>
 #include <variant>
 
+#include "sim/common/errors.hpp"
 #include "sim/common/format.hpp"
 
 namespace locsim {
@@ -31,6 +35,29 @@ std::string check_detections(const std::vector<Detection>& detections) {
                                 check("a detection's bearing", d.bearing_rad, kHeadingRange)}) {
       if (!problem.empty()) return problem;
     }
+  }
+  return "";
+}
+
+/// An event as a simulation writes one (Simulation::log): a kind it knows, and a robot and
+/// details that are one short line of text (events.csv holds them; a terminal may show them).
+std::string check_event(const SimEvent& event) {
+  static constexpr std::array<std::string_view, 9> kKinds{
+      "collision", "end",          "friction",       "kidnap",       "push",
+      "put_down",  "sensor_fault", "obstacle_start", "obstacle_stop"};
+  if (std::find(kKinds.begin(), kKinds.end(), event.kind) == kKinds.end())
+    return "an event of unknown kind " + quote_input(event.kind, 40);
+  for (const auto& [what, text] : {std::pair{"robot", &event.robot}, {"details", &event.details}}) {
+    if (text->size() > kMaxEventTextBytes) {
+      return std::string("an event's ") + what + " of " + std::to_string(text->size()) +
+             " bytes (at most " + std::to_string(kMaxEventTextBytes) + ")";
+    }
+    const bool control = std::any_of(text->begin(), text->end(), [](char c) {
+      return static_cast<unsigned char>(c) < 0x20 || c == 0x7f;
+    });
+    if (control)
+      return std::string("an event's ") + what + " " + quote_input(*text, 40) +
+             " holds control characters";
   }
   return "";
 }
@@ -113,6 +140,7 @@ std::string record_value_problem(const Record& record) {
     case Record::Type::kGroundTruth:
       return check_pose("a true pose", record.pose);
     case Record::Type::kEvent:
+      return check_event(record.event);
     case Record::Type::kEnd:
       break;
   }

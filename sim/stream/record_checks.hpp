@@ -24,6 +24,9 @@ inline constexpr Range kReadingRangeRange{0.0, 1e5, "m"};
 /// A PTZ camera's zoom factor. [-]
 inline constexpr Range kZoomRange{0.0, 1e4, ""};
 
+/// The longest robot name or details text an event may carry (a simulation's are < 200). [bytes]
+inline constexpr std::size_t kMaxEventTextBytes = 4096;
+
 /// The time a record carries (a reading's, an event's, a true pose's). [s]
 double record_time_s(const Record& record);
 

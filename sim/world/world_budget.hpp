@@ -27,10 +27,12 @@ inline constexpr std::uint64_t kMapPixelBytes = 4;
 /// A rendered camera's pixel: the GL colour and depth buffers, the read-back image and the
 /// segmentation's colour planes and labels. [bytes]
 inline constexpr std::uint64_t kRenderedPixelBytes = 32;
-/// A point of a mover's path: the definition's, the walker's segment table, the resolved
-/// configuration's JSON, and the YAML list it was read from (a path shared by YAML aliases is
-/// counted for every mover that names it: each gets its own copy). [bytes]
-inline constexpr std::uint64_t kPathPointBytes = 64;
+/// A point of a mover's path: the definition's, the walker's segment table, the YAML list it was
+/// read from, and run.json's copy of the world (a JSON tree, then its text: most of it). A path
+/// shared by YAML aliases is counted for every mover that names it: each gets its own copy. A
+/// run's peak measured ~395 bytes a point, run.json's tree being built at the start and again at
+/// the end (Limits.AMoversPathCostsARunNoMoreThanTheBudgetCounts holds it under this). [bytes]
+inline constexpr std::uint64_t kPathPointBytes = 512;
 /// A beam of a robot's laser: its angle and direction, the moving bodies it may reach, the scan's
 /// range, the readings' CSV text, the log's and the localizers' copies of a scan. [bytes]
 inline constexpr std::uint64_t kLaserBeamBytes = 256;

@@ -69,13 +69,15 @@ void catch_sigint() {
 
 constexpr const char* kExitCodes = R"(Exit codes:
   0    success
-  1    failure not caused by the input (I/O error, internal error)
+  1    failure not caused by the input (I/O error, a full disk, too little free space for the
+       run's estimated files, internal error); run.json says "failed" and why, cut files removed
   2    bad input: command line, world, scenario or map file (the message names file:line:col and key),
        or a localizer parameter the plugin does not declare or accept
   3    a localizer plugin not found, not a locsim plugin, of another ABI version, with unresolved
        symbols, or whose create call failed (the message says which and where it looked)
   4    --video/--frames: the renderer cannot be loaded, no GL context, or a video or frame file
-       cannot be opened or written (frames written before stay; the video is closed and plays)
+       cannot be opened or written (frames written before stay; the video is closed and plays,
+       unless its own writing failed: then it is removed)
   5    run or replay completed, but a localizer failed (crashed, hung past --plugin-timeout,
        ran out of --plugin-memory, broke locsim's protocol, returned an error or NaN): every
        other localizer's files and metrics are written, and
@@ -338,7 +340,11 @@ int new_plugin(const std::string& name, const std::filesystem::path& dir) {
   const bool valid = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
   }) && !(name[0] >= '0' && name[0] <= '9');
-  if (!valid) throw locsim::InputError("new-plugin: name '" + name + "' must be [a-z_][a-z0-9_]*");
+  // A C identifier, and short enough for the file name (255 bytes) with room to spare.
+  if (!valid || name.size() > 64) {
+    throw locsim::InputError("new-plugin: name " + locsim::quote_input(name) +
+                             " must be [a-z_][a-z0-9_]*, at most 64 characters");
+  }
   if (std::filesystem::exists(dir) && !std::filesystem::is_empty(dir)) {
     throw locsim::InputError("new-plugin: folder '" + dir.string() + "' exists and is not empty");
   }
@@ -349,11 +355,16 @@ int new_plugin(const std::string& name, const std::filesystem::path& dir) {
     }
     return text;
   };
-  locsim::check_output_folder(dir, "new-plugin");
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path made = locsim::make_output_folder(dir, "new-plugin");
   const std::string cmake = fill(locsim::cli::kTemplateCMakeLists),
                     source = fill(locsim::cli::kTemplateSource);
-  locsim::write_files({{dir / "CMakeLists.txt", cmake}, {dir / (name + ".cpp"), source}});
+  try {
+    locsim::write_files({{dir / "CMakeLists.txt", cmake}, {dir / (name + ".cpp"), source}});
+  } catch (...) {
+    std::error_code ignored;
+    if (!made.empty()) std::filesystem::remove_all(made, ignored);
+    throw;
+  }
   std::printf(
       "wrote %s/CMakeLists.txt and %s/%s.cpp\nbuild: cmake -S %s -B %s/build "
       "-DCMAKE_PREFIX_PATH=<locsim prefix> && cmake --build %s/build\n",
@@ -459,8 +470,9 @@ int main(int argc, char** argv) {
                   "`locsim replay` (its folder is made when missing, as --out's is)");
   double max_output_gib = static_cast<double>(locsim::kDefaultMaxOutputBytes) / (1 << 30);
   run->add_option("--max-output-gib", max_output_gib,
-                  "Refuse a run whose files (readings, log, estimates) are estimated to exceed "
-                  "this many GiB, or the disk's free space; it is refused before it starts")
+                  "Refuse (exit 2) a run whose files (readings, log, video, estimates) are "
+                  "estimated to exceed this many GiB; one they would not fit on the disk is "
+                  "refused too (exit 1). Both before it starts")
       ->check(CLI::Range(0.001, 1e6))
       ->capture_default_str();
   VideoCli run_video;
@@ -510,8 +522,9 @@ int main(int argc, char** argv) {
     command->add_flag("!--no-readings", session.readings,
                       "Do not write readings/ (one CSV per sensor)");
     command->add_flag("--overwrite", session.overwrite,
-                      "Empty the --out folder first if it holds a run (run.json); any other "
-                      "non-empty folder is refused");
+                      "Empty the --out folder first if it holds a run (run.json: completed, "
+                      "failed or killed; not one still going on); any other non-empty folder "
+                      "is refused");
     command
         ->add_option("--converged-within-m", session.convergence.position_m,
                      "Convergence: position error at most this [m]")
@@ -785,8 +798,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? locsim::kExitOk : locsim::kExitBadInput;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line with the prefix every other error has, so a script's grep finds it.
+    std::fprintf(stderr, "locsim: error: %s (see --help)\n", locsim::printable(e.what()).c_str());
+    return locsim::kExitBadInput;
   }
 
   try {
@@ -804,11 +819,19 @@ int main(int argc, char** argv) {
     }
     if (*import_cmd) {
       if (*import_duration) import_window.duration_s = import_duration_s;
-      if (std::filesystem::is_directory(import_out)) {
+      if (import_out.empty()) throw locsim::InputError("--out: the path is empty");
+      std::error_code out_error;
+      const std::filesystem::file_status out_status =
+          std::filesystem::status(import_out, out_error);
+      if (out_error && out_status.type() != std::filesystem::file_type::not_found) {
+        throw locsim::InputError("--out: " + import_out +
+                                 " cannot be looked up: " + out_error.message());
+      }
+      if (std::filesystem::is_directory(out_status)) {
         throw locsim::InputError("--out: " + import_out + " is a folder; name the log file");
       }
       locsim::check_output_folder(std::filesystem::path(import_out).parent_path(), "--out");
-      if (std::filesystem::exists(import_out) && !import_overwrite) {
+      if (std::filesystem::exists(out_status) && !import_overwrite) {
         throw locsim::InputError("--out: " + import_out +
                                  " exists (pass --overwrite to replace it)");
       }
@@ -847,6 +870,7 @@ int main(int argc, char** argv) {
     if (*calibrate_cmd) {
       calibration.robots = robot_names(calibrate_robots);
       const std::filesystem::path out(calibrate_out);
+      if (out.empty()) throw locsim::InputError("--out: the path is empty");
       locsim::check_output_folder(out, "--out");
       for (const char* name : {"calibration.yaml", "calibration.json"}) {
         if (std::filesystem::exists(out / name) && !calibrate_overwrite) {
@@ -856,7 +880,7 @@ int main(int argc, char** argv) {
       }
       std::vector<std::filesystem::path> logs(calibrate_logs.begin(), calibrate_logs.end());
       const locsim::Calibration result = locsim::calibrate(logs, calibration);
-      std::filesystem::create_directories(out);
+      locsim::make_output_folder(out, "--out");
       // The pair together: a failed write leaves neither half of a new pair beside an old one.
       const std::string json_text = result.to_json().dump(2) + '\n', yaml_text = result.to_yaml();
       locsim::write_files(
@@ -884,6 +908,7 @@ int main(int argc, char** argv) {
       generate_def.beacons = !generate_no_beacons;
       generate_def.landing = *locsim::landing_from_name(generate_landing);  // CLI checked it
       const std::filesystem::path out(generate_out);
+      if (out.empty()) throw locsim::InputError("--out: the path is empty");
       locsim::check_output_folder(out, "--out");
       // Every world first, then the files: a knob that fails fails before anything is written.
       std::vector<std::pair<std::filesystem::path, locsim::GeneratedWorld>> worlds;
@@ -897,7 +922,7 @@ int main(int argc, char** argv) {
         worlds.emplace_back(file, locsim::generate_world(generate_def));
         if (seed == last) break;
       }
-      std::filesystem::create_directories(out);
+      locsim::make_output_folder(out, "--out");
       for (const auto& [file, world] : worlds) {
         locsim::write_file(file, world.yaml);
         if (!generate_quiet) {
@@ -977,6 +1002,8 @@ int main(int argc, char** argv) {
     options.convergence.heading_rad = locsim::deg_to_rad(converged_deg);
     options.isolate = isolation == "process";
     options.world_file = world_file;
+    if (run->count("--log") > 0 && log_file.empty())
+      throw locsim::InputError("--log: the path is empty");
     if (!log_file.empty()) {
       // Made by the run when missing (as --out is), after the inputs are checked.
       locsim::check_output_folder(std::filesystem::path(log_file).parent_path(), "--log");
