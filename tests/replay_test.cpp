@@ -6,6 +6,7 @@
 #include <sys/resource.h>
 #include <zlib.h>
 
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -212,13 +213,20 @@ TEST(Replay, HeaderFieldsOfAnotherTypeOrRangeAreRefused) {
               std::string::npos)
         << seed;
   }
-  for (const double duration_s : {-5.0, 0.0, std::numeric_limits<double>::infinity()}) {
+  // Inside a scenario's range of durations, as a world file's (1e308 s replayed before).
+  for (const double duration_s : {-5.0, 0.0, 1e308, std::numeric_limits<double>::infinity()}) {
     auto header = small_header();
     header["duration_s"] = duration_s;
-    EXPECT_NE(error_for("duration", header).find("header: duration_s is not a positive number"),
+    const std::string error = error_for("duration", header);
+    EXPECT_NE(error.find(std::isfinite(duration_s) ? "header: duration_s: "
+                                                   : "header: duration_s is not a number"),
               std::string::npos)
-        << duration_s;
+        << duration_s << ": " << error;
   }
+  auto not_ours = small_header();
+  not_ours["format"] = "nope";
+  EXPECT_NE(error_for("format", not_ours).find("header: 'format' is not \"locsim-log\""),
+            std::string::npos);
 }
 
 TEST(Replay, RecordsTheWorldCannotHaveProducedAreRefused) {

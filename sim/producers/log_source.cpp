@@ -27,6 +27,7 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
     throw InputError(SourceLocation{file.string()}, "", "header: " + problem);
   };
   if (!header.is_object()) fail("not a JSON object of named fields");
+  if (header.value("format", json()) != "locsim-log") fail("'format' is not \"locsim-log\"");
   // A field the writer (runner.cpp, log_header) always writes as a string; `optional`: or null.
   const auto text = [&](const char* key, bool optional = false) -> std::optional<std::string> {
     const auto field = header.find(key);
@@ -75,9 +76,11 @@ LogSource::LogSource(const fs::path& file, const std::vector<std::string>& robot
     // Numbers as the writer wrote them (runner.cpp, log_header): converting others would be
     // undefined (a negative or fractional seed) or meaningless.
     const json& duration = number("duration_s");
-    if (!duration.is_number() || !(duration.get<double>() > 0.0) ||
-        !std::isfinite(duration.get<double>())) {
-      fail("duration_s is not a positive number of seconds");
+    if (!duration.is_number()) fail("duration_s is not a number of seconds");
+    if (const std::string problem =
+            out_of_range(duration.get<double>(), ScenarioDef::kDurationRange);
+        !problem.empty()) {
+      fail("duration_s: " + problem);
     }
     scenario_.duration_s = duration.get<double>();
     const json& seed = number("seed");

@@ -57,28 +57,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
     return run;
   };
   // Where each robot's files are, as a run says it (tools/report.py reads it).
-  const auto robots = [&] {
-    json list = json::array();
-    for (std::size_t i = 0; i < source.world().robots.size(); ++i) {
-      list.push_back({{"name", source.world().robots[i].name},
-                      {"folder", RunFolder::robot_folder(source.world(), i).string()}});
-    }
-    return list;
-  };
-  std::string run_text;
-  {
-    json run = describe(nullptr);
-    run["robots"] = robots();
-    if (session.has_localizers()) {
-      json localizers = json::array();
-      for (const LocalizerInfo& l : session.host().localizers())
-        localizers.push_back({{"robot", l.robot_name}, {"label", l.label}});
-      run["localizers"] = localizers;
-    }
-    run["config"] = std::move(config);
-    run_text = run.dump(2) + '\n';
-    config = std::move(run["config"]);
-  }
+  std::string run_text = starting_run_json(describe(nullptr), source.world(), session, config);
   // The video is opened before the folder is made, as a run's: one that cannot be written (exit
   // 4) leaves no folder.
   std::optional<FrameCapture> capture;
@@ -137,7 +116,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   json run = describe(&end);
   run["simulated_s"] = result.replayed_s;
   run["records"] = result.records;
-  run["robots"] = robots();
+  run["robots"] = robots_json(source.world());
   if (session.has_localizers()) run["localizers"] = localizers;
   run["config"] = std::move(config);
   run["timing"] = {{"wall_s", result.wall_s}, {"peak_memory_mb", peak_memory_json()}};

@@ -149,28 +149,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
     if (options.params_file) run["params_file"] = options.params_file->string();
     return run;
   };
-  const auto robots_known_at_start = [&] {
-    json robots = json::array();
-    for (std::size_t i = 0; i < inputs.world.robots.size(); ++i) {
-      robots.push_back({{"name", inputs.world.robots[i].name},
-                        {"folder", RunFolder::robot_folder(inputs.world, i).string()}});
-    }
-    return robots;
-  };
-  std::string run_text;
-  {
-    json run = describe(nullptr);
-    run["robots"] = robots_known_at_start();
-    if (session.has_localizers()) {
-      json localizers = json::array();
-      for (const LocalizerInfo& l : session.host().localizers())
-        localizers.push_back({{"robot", l.robot_name}, {"label", l.label}});
-      run["localizers"] = localizers;
-    }
-    run["config"] = std::move(config);
-    run_text = run.dump(2) + '\n';
-    config = std::move(run["config"]);
-  }
+  std::string run_text = starting_run_json(describe(nullptr), inputs.world, session, config);
   std::optional<json> header;
   if (options.log_file) header = log_header(options, inputs);
   OutputPlan plan;

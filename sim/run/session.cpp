@@ -182,4 +182,29 @@ nlohmann::ordered_json peak_memory_json() {
           {"largest_localizer", static_cast<double>(children.ru_maxrss) / 1024.0}};
 }
 
+nlohmann::ordered_json robots_json(const WorldDef& world) {
+  nlohmann::ordered_json robots = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < world.robots.size(); ++i) {
+    robots.push_back(
+        {{"name", world.robots[i].name}, {"folder", RunFolder::robot_folder(world, i).string()}});
+  }
+  return robots;
+}
+
+std::string starting_run_json(nlohmann::ordered_json run, const WorldDef& world, Session& session,
+                              nlohmann::ordered_json& config) {
+  using Json = nlohmann::ordered_json;
+  run["robots"] = robots_json(world);
+  if (session.has_localizers()) {
+    Json localizers = Json::array();
+    for (const LocalizerInfo& l : session.host().localizers())
+      localizers.push_back({{"robot", l.robot_name}, {"label", l.label}});
+    run["localizers"] = std::move(localizers);
+  }
+  run["config"] = std::move(config);
+  std::string text = run.dump(2) + '\n';
+  config = std::move(run["config"]);
+  return text;
+}
+
 }  // namespace locsim

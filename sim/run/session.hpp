@@ -135,4 +135,13 @@ std::vector<std::filesystem::path> session_input_files(const SessionOptions& opt
 /// has ended ("largest_localizer"), for run.json's wall-clock block.
 nlohmann::ordered_json peak_memory_json();
 
+/// run.json's "robots" as known before a run: each robot's name and folder.
+nlohmann::ordered_json robots_json(const WorldDef& world);
+
+/// run.json's text as known before a run (Session::open writes it): `run` (the driver's
+/// description, "status": "running") with the robots and their folders, the localizers and
+/// `config`, which is moved in and back out (a world's configuration can be large).
+std::string starting_run_json(nlohmann::ordered_json run, const WorldDef& world, Session& session,
+                              nlohmann::ordered_json& config);
+
 }  // namespace locsim

@@ -92,8 +92,11 @@ LogReader::LogReader(const std::filesystem::path& file) : file_(file), in_(file,
   offset_ = sizeof(kMagic) + 4 + 4 + length + 4;
   try {
     header_ = nlohmann::ordered_json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    fail(std::string("unreadable header: ") + e.what());
+  } catch (const nlohmann::json::parse_error& e) {
+    // Where, not nlohmann's text: that quotes the header's bytes (anything a stranger wrote).
+    fail("the header is not valid JSON (at its byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::exception&) {
+    fail("the header is not valid JSON");
   }
 }
 
