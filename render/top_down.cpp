@@ -14,7 +14,8 @@ namespace locsim::render {
 
 namespace {
 
-constexpr int kPanelWidthPx = 300;  // legend and errors, right of the map
+constexpr int kPanelWidthPx = 300;         // legend and errors, right of the map
+constexpr int kCameraInsetHeightPx = 150;  // the camera view in the panel, at most
 constexpr double kMarginM = 0.3;
 
 void color(const Rgb& c, float alpha = 1.0f) {
@@ -585,7 +586,8 @@ void TopDownRenderer::compose(const FrameState& frame, const std::uint8_t* rgba,
   }
 }
 
-int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
+TopDownRenderer::Panel TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image,
+                                                bool camera_view) const {
   const Palette& p = palette_;
   const int font = cv::FONT_HERSHEY_SIMPLEX;
   const auto text = [&](const std::string& s, cv::Point at, double size, const cv::Scalar& c,
@@ -616,7 +618,8 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
   }
 
   // The side panel: legend and each filter's error now.
-  if (!panel) return -1;
+  Panel out;
+  if (!panel) return out;
   const int x = view_.map_width_px + 16;
   int y = 34;
   text(world_.name, {x, y}, 0.6, grey, 1);
@@ -659,8 +662,23 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
     text(status, {x + 36, y}, 0.5, l.failed ? bgr(p.kidnap) : grey);
     y += 30;
   }
+  // What the robot sees comes before the key to the map's symbols: at most kCameraInsetHeightPx
+  // high, so that with the main job's three filters most of the key still fits under it.
+  if (camera_view && !frame.robots.empty() && frame.robots[0].camera) {
+    const CameraShot& shot = frame.robots[0].camera->shot;
+    const int shot_w = static_cast<int>(shot.width_px), shot_h = static_cast<int>(shot.height_px);
+    const int width = std::min(
+        {image.cols - x - 16, 3 * shot_w / 2, kCameraInsetHeightPx * shot_w / std::max(shot_h, 1)});
+    const int height = width * shot_h / std::max(shot_w, 1);
+    const int top = y + 14;  // its caption's line above it
+    if (width >= 64 && top + height + 8 <= image.rows) {
+      out.camera = cv::Rect(x, top, width, height);
+      y = top + height + 30;
+    }
+  }
   y += 6;
   const auto marker = [&](const std::string& label, auto draw) {
+    if (y + 6 > image.rows) return;  // no room left in the panel
     draw(cv::Point(x + 13, y - 5));
     text(label, {x + 36, y}, 0.5, grey);
     y += 24;
@@ -743,21 +761,14 @@ int TopDownRenderer::overlay(const FrameState& frame, cv::Mat& image) const {
         cv::ellipse(image, c, {11, 6}, 0, 0, 360, grey, 1, cv::LINE_AA);
       });
   }
-  return y;
+  return out;
 }
 
 void TopDownRenderer::inset_camera(const FrameState& frame, const cv::Mat& camera_bgr,
-                                   int legend_end_y, cv::Mat& image) const {
-  if (frame.robots.empty() || !frame.robots[0].camera || camera_bgr.empty() || legend_end_y < 0)
-    return;
+                                   const cv::Rect& place, cv::Mat& image) const {
+  if (frame.robots.empty() || !frame.robots[0].camera || camera_bgr.empty()) return;
   const FrameRobot::Camera& camera = *frame.robots[0].camera;
-  // As wide as the panel allows, the camera's aspect kept; at the panel's bottom, under the
-  // legend, or not at all when they would overlap.
-  const int x = view_.map_width_px + 16;
-  const int width = std::min(image.cols - x - 16, 3 * camera_bgr.cols / 2);
-  const int height = width * camera_bgr.rows / camera_bgr.cols;
-  const int top = image.rows - height - 16;
-  if (width < 64 || top - 26 < legend_end_y) return;
+  const int x = place.x, top = place.y, width = place.width, height = place.height;
   cv::Mat scaled;
   cv::resize(camera_bgr, scaled, {width, height}, 0, 0, cv::INTER_NEAREST);
   scaled.copyTo(image(cv::Rect(x, top, width, height)));

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,12 +61,17 @@ class TopDownRenderer {
   /// The frame's image (BGR): the static world with the trails, the particle clouds, and over them
   /// the drawn layer (RGBA, premultiplied, rows from the top, as the context returns it).
   void compose(const FrameState& frame, const std::uint8_t* rgba, cv::Mat& bgr) const;
-  /// Text, legend and labels onto the composed image (BGR). Returns the row under the legend
-  /// (-1: no side panel).
-  int overlay(const FrameState& frame, cv::Mat& bgr) const;
-  /// The first robot's camera view (BGR, its own resolution) at the side panel's bottom, when it
-  /// fits under the legend, with a tick over each detection's bearing.
-  void inset_camera(const FrameState& frame, const cv::Mat& camera_bgr, int legend_end_y,
+  /// Where overlay() left room for the first robot's camera view (empty: none).
+  struct Panel {
+    std::optional<cv::Rect> camera;
+  };
+  /// Text, legend and labels onto the composed image (BGR). With `camera_view`, room for the
+  /// first robot's camera view (when it has a camera) under the filters' errors, before the key
+  /// to the map's symbols, whose lines give way when the panel is short of room.
+  Panel overlay(const FrameState& frame, cv::Mat& bgr, bool camera_view = false) const;
+  /// The first robot's camera view (BGR, its own resolution) scaled into `place` (overlay's),
+  /// with a caption and a tick over each detection's bearing.
+  void inset_camera(const FrameState& frame, const cv::Mat& camera_bgr, const cv::Rect& place,
                     cv::Mat& bgr) const;
 
   const View& view() const { return view_; }

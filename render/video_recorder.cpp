@@ -58,8 +58,8 @@ void VideoRecorder::frame(const FrameState& frame) {
   renderer_->draw(frame);
   cv::Mat& bgr = bgr_;  // the worker gets copies: this one is reused
   renderer_->compose(frame, context_->finish_frame(), bgr);
-  const int legend_end_y = renderer_->overlay(frame, bgr);
-  if (options_.camera_view && !frame.robots.empty() && frame.robots[0].camera) {
+  const TopDownRenderer::Panel panel = renderer_->overlay(frame, bgr, options_.camera_view);
+  if (panel.camera) {
     const CameraShot& shot = frame.robots[0].camera->shot;
     if (!camera_context_) {
       camera_context_ = make_gl_context(options_.backend, shot.width_px, shot.height_px);
@@ -75,7 +75,7 @@ void VideoRecorder::frame(const FrameState& frame) {
     const cv::Mat rgba(shot.height_px, shot.width_px, CV_8UC4,
                        const_cast<std::uint8_t*>(camera_context_->finish_frame()));
     cv::cvtColor(rgba, camera_bgr_, cv::COLOR_RGBA2BGR);
-    renderer_->inset_camera(frame, camera_bgr_, legend_end_y, bgr);
+    renderer_->inset_camera(frame, camera_bgr_, *panel.camera, bgr);
   }
   Queued item;
   {

@@ -16,6 +16,7 @@
 
 #include "sim/common/errors.hpp"
 #include "sim/common/random.hpp"
+#include "sim/plugin_host/plugin_library.hpp"
 #include "sim/producers/import_log.hpp"
 #include "sim/run/runner.hpp"
 #include "tests/noisy_world.hpp"
@@ -263,6 +264,84 @@ TEST(Calibrate, CommandLineWritesAParameterFileAndSensorSettingsAndRefusesBadInp
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.output.find("none.locsimlog"), std::string::npos) << missing.output;
   EXPECT_FALSE(fs::exists(dir / "x/calibration.yaml"));
+}
+
+TEST(Calibrate, ItsParameterFileSetsEveryBuiltInFilterPythonOnesIncludedWithoutAWarning) {
+  // Range noise that grows with the range and is nothing at zero (MRCLAM's kind): the fit's
+  // value at zero range is about nothing, below what a filter declaring a floor above calibrate's
+  // would accept, as the Python examples did.
+  const fs::path dir = testing::temp_dir("calibrate_every_filter");
+  std::string world = testing::noisy_world(0.0);
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"sigma_range_m: 0.05", "sigma_range_m: 0"}, {"range_bias_m: 0.1", "range_bias_m: 0"}}) {
+    ASSERT_NE(world.find(from), std::string::npos) << from;
+    world.replace(world.find(from), from.size(), to);
+  }
+  // Beacons too, which the beacon filters need to start (the robot has no receiver: they only
+  // have to take the file).
+  world +=
+      "beacons:\n  - {id: 1, position: [0.1, 0.1], height_m: 2.5}\n"
+      "  - {id: 2, position: [9.9, 0.1], height_m: 2.5}\n"
+      "  - {id: 3, position: [9.9, 7.9], height_m: 2.5}\n"
+      "  - {id: 4, position: [0.1, 7.9], height_m: 2.5}\n";
+  std::ofstream(dir / "world.yaml") << world;
+  const auto record =
+      testing::locsim("run " + (dir / "world.yaml").string() + " --no-readings -q --out " +
+                      (dir / "long").string() + " --log " + (dir / "long.locsimlog").string());
+  ASSERT_EQ(record.exit_code, 0) << record.output;
+  const auto cal = testing::locsim("calibrate " + (dir / "long.locsimlog").string() + " -q --out " +
+                                   (dir / "cal").string());
+  ASSERT_EQ(cal.exit_code, 0) << cal.output;
+  const YAML::Node yaml = YAML::LoadFile((dir / "cal/calibration.yaml").string());
+  EXPECT_LT(yaml["localizer_params"]["sigma_range_m"].as<double>(), 0.01);
+
+  // Every plugin of the build and every Python filter shipped, on a short log of the same world.
+  const auto shortlog = testing::locsim(
+      "run " + (dir / "world.yaml").string() + " --no-readings -q --duration 3 --out " +
+      (dir / "short").string() + " --log " + (dir / "short.locsimlog").string());
+  ASSERT_EQ(shortlog.exit_code, 0) << shortlog.output;
+  const fs::path built_in = fs::path(LOCSIM_BINARY).parent_path() / "plugins";
+  std::string localizers;
+  std::vector<std::string> labels;
+  for (const fs::path& file : list_plugin_files()) {
+    if (file.parent_path() != built_in || file.filename() == "locsim_python.so") continue;
+    const std::string name = PluginLibrary(file).table().name;
+    localizers += " --localizer " + name;
+    labels.push_back(name);
+  }
+  for (const fs::path& script : list_source_files()) {
+    localizers += " --localizer python:" + script.stem().string();
+    labels.push_back(script.stem().string());
+  }
+  ASSERT_GE(labels.size(), 15u) << localizers;
+  const auto replay = testing::locsim("replay " + (dir / "short.locsimlog").string() + " --out " +
+                                      (dir / "replay").string() + " --params " +
+                                      (dir / "cal/calibration.yaml").string() + localizers + " -q");
+  ASSERT_EQ(replay.exit_code, 0) << replay.output;
+  // Each key is some filter's: nothing to warn about, with or without -q.
+  EXPECT_EQ(replay.output, "");
+  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "replay/metrics.json"));
+  ASSERT_EQ(metrics.at("localizers").size(), labels.size());
+  const YAML::Node p = yaml["localizer_params"];
+  for (const auto& localizer : metrics.at("localizers")) {
+    const std::string label = localizer.at("label");
+    EXPECT_EQ(localizer.at("status"), "ok") << label;
+    if (label == "landmark_pf" || label == "landmark_ekf") {  // the Python filters take it too
+      const auto& params = localizer.at("params");
+      EXPECT_DOUBLE_EQ(params.at("sigma_range_m").get<double>(), p["sigma_range_m"].as<double>());
+      EXPECT_DOUBLE_EQ(params.at("sigma_range_per_m").get<double>(),
+                       p["sigma_range_per_m"].as<double>());
+      EXPECT_DOUBLE_EQ(params.at("sigma_bearing_deg").get<double>(),
+                       p["sigma_bearing_deg"].as<double>());
+      EXPECT_DOUBLE_EQ(params.at("k_left").get<double>(), p["k_left"].as<double>());
+      if (label == "landmark_pf") {
+        EXPECT_EQ(params.at("motion_model"), p["motion_model"].as<std::string>());
+        EXPECT_DOUBLE_EQ(params.at("motion_floor_m").get<double>(),
+                         p["motion_floor_m"].as<double>());
+        EXPECT_DOUBLE_EQ(params.at("alpha1").get<double>(), p["alpha1"].as<double>());
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "locsim/localizer.h"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -245,6 +246,29 @@ TEST(Cli, ValidateChecksWithoutRunning) {
       stuck.output.find("stuck.yaml:4:5: 'robots[0].start': robot 'robot0' starts in collision"),
       std::string::npos)
       << stuck.output;
+}
+
+TEST(Cli, PluginsShowsEachPluginsAbiVersion) {
+  // The tests' plugin folder first: it holds one built for ABI version 1, and the plugins that
+  // fail to load (each listed as failed, so the listing exits with 3).
+  const Outcome o =
+      testing::run_command("LOCSIM_PLUGIN_PATH=" + std::string(LOCSIM_TEST_PLUGIN_DIR) + " " +
+                           LOCSIM_BINARY + " plugins");
+  EXPECT_EQ(o.exit_code, 3) << o.output;
+  const std::string current = "(ABI version " + std::to_string(LOCSIM_LOCALIZER_ABI_VERSION) + ")";
+  EXPECT_NE(o.output.find("\ntest_abi1  bad  (ABI version 1)\n"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("\ntest_noop  a test plugin  " + current + "\n"), std::string::npos)
+      << o.output;
+  // The build's own plugins, after the tests' folder.
+  const std::size_t odometry = o.output.find("\nodometry  ");
+  ASSERT_NE(odometry, std::string::npos) << o.output;
+  const std::string line =
+      o.output.substr(odometry + 1, o.output.find('\n', odometry + 1) - odometry - 1);
+  EXPECT_TRUE(line.ends_with("  " + current)) << line;
+  EXPECT_NE(
+      o.output.find("(failed) " + std::string(LOCSIM_TEST_PLUGIN_DIR) + "/locsim_test_bad_abi.so"),
+      std::string::npos)
+      << o.output;
 }
 
 TEST(Cli, RunRendersAVideoWithNoDisplayAndReportsBadVideoOptions) {

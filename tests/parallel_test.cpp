@@ -68,5 +68,81 @@ TEST(ParallelLoop, RethrowsTheLowestIterationsErrorAfterRunningAll) {
   }
 }
 
+TEST(LoopWayChooser, KeepsTheFasterWayAndProbesTheOtherEverLessOften) {
+  LoopWayChooser chooser;
+  // Each way takes a fixed time per loop; `ways` records the way of each loop.
+  std::int64_t shared_ns = 100, inline_ns = 40;
+  std::vector<bool> ways;
+  const auto run = [&](int loops) {
+    for (int i = 0; i < loops; ++i) {
+      ways.push_back(chooser.shared());
+      chooser.took(chooser.shared() ? shared_ns : inline_ns);
+    }
+  };
+  // Runs of one way: (shared, length), in order.
+  const auto runs_of = [](const std::vector<bool>& w) {
+    std::vector<std::pair<bool, int>> out;
+    for (const bool way : w) {
+      if (out.empty() || out.back().first != way) out.push_back({way, 0});
+      ++out.back().second;
+    }
+    return out;
+  };
+  constexpr int kBlock = LoopWayChooser::kBlock, kProbe = LoopWayChooser::kProbe;
+  run(200 * kBlock);
+  auto runs = runs_of(ways);
+  ASSERT_GE(runs.size(), 4u);
+  // On the caller's thread first, which never loses to one thread; then a probe shared out; then
+  // on the caller's thread, with probes of kProbe shared loops ever further apart (the choice
+  // holds).
+  EXPECT_EQ(runs[0], std::make_pair(false, kBlock));
+  int last_gap = 0;
+  for (std::size_t r = 1; r + 1 < runs.size(); r += 2) {
+    EXPECT_EQ(runs[r], std::make_pair(true, kProbe)) << r;
+    EXPECT_FALSE(runs[r + 1].first);
+    if (r + 2 < runs.size()) {  // a whole gap between two probes
+      EXPECT_GE(runs[r + 1].second, last_gap) << r;
+      last_gap = runs[r + 1].second;
+    }
+  }
+  EXPECT_GE(last_gap, 4 * LoopWayChooser::kProbeEvery * kBlock);  // doubled at least twice
+  EXPECT_LE((runs.size() - 1) / 2, 5u);  // 16 + 32 + 64 + 128 blocks: the probes cost little
+
+  // The load goes away: sharing is faster, found at the next probe and kept from then on, with
+  // probes of the other way.
+  shared_ns = 20;
+  ways.clear();
+  run(2000 * kBlock);
+  runs = runs_of(ways);
+  std::size_t switched = 0;
+  while (switched < runs.size() && !(runs[switched].first && runs[switched].second > kProbe))
+    ++switched;
+  ASSERT_LT(switched, runs.size()) << "never shared again";
+  for (std::size_t r = switched + 1; r < runs.size(); ++r) {
+    if (!runs[r].first) {
+      EXPECT_EQ(runs[r].second, kProbe) << r;
+    }
+  }
+}
+
+TEST(LoopWayChooser, AProbeFarSlowerThanTheChoiceEndsAtItsFirstCountedLoop) {
+  // A shared loop that waits milliseconds for a core (a busy machine): each probe costs two
+  // loops (the first after the change is not counted), not kProbe.
+  LoopWayChooser chooser;
+  std::vector<bool> ways;
+  for (int i = 0; i < 100 * LoopWayChooser::kBlock; ++i) {
+    ways.push_back(chooser.shared());
+    chooser.took(chooser.shared() ? 1'000'000 : 40'000);
+  }
+  int shared = 0, run = 0;
+  for (const bool way : ways) {
+    run = way ? run + 1 : 0;
+    shared += way ? 1 : 0;
+    EXPECT_LE(run, 2);
+  }
+  EXPECT_GE(shared, 2);
+  EXPECT_LE(shared, 8);  // the first probe and three or so more, ever further apart
+}
+
 }  // namespace
 }  // namespace locsim

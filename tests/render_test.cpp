@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
 
@@ -553,6 +554,44 @@ TEST(Render, AReplayDrawsADetectionUntilTheSensorsNextReadingIsDue) {
     EXPECT_NEAR(sink.kept[k].robots[0].pose.y, 1.5 + 0.01 * static_cast<double>(k), 1e-12) << k;
   }
   EXPECT_FALSE(sink.kept[0].robots[0].odometry.has_value());  // no odometry reading yet
+}
+
+TEST(Render, TheMainJobsVideoShowsThePtzCamerasViewBesideThreeFilters) {
+  // The demo with the main job's three localizers: the side panel's legend is long, and the
+  // camera view goes under the filters' errors (the key to the symbols gives way to it).
+  const fs::path dir = testing::temp_dir("camera_inset");
+  const std::string common = "run " + testing::kDemo +
+                             " --duration 2 -q --no-readings --video-fps 5 --localizer odometry "
+                             "--localizer ekf_landmarks --localizer ultrasonic_amcl";
+  const auto with = testing::locsim(common + " --out " + (dir / "a").string() + " --frames " +
+                                    (dir / "with").string());
+  ASSERT_EQ(with.exit_code, 0) << with.output;
+  const auto without = testing::locsim(common + " --no-camera-view --out " +
+                                       (dir / "b").string() + " --frames " +
+                                       (dir / "without").string());
+  ASSERT_EQ(without.exit_code, 0) << without.output;
+  const auto last_png = [](const fs::path& folder) {
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(folder)) files.push_back(entry.path());
+    std::sort(files.begin(), files.end());
+    return cv::imread(files.back().string());
+  };
+  const cv::Mat a = last_png(dir / "with"), b = last_png(dir / "without");
+  ASSERT_FALSE(a.empty());
+  ASSERT_EQ(a.size(), b.size());
+  // The pixels that differ: the camera view (at least 150 x 100 of them, the picture being
+  // mostly floor, walls and landmarks, never one flat colour) and the symbols' key it moved,
+  // all in the side panel right of the map.
+  cv::Mat gray_a, gray_b, changed;
+  cv::cvtColor(a, gray_a, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(b, gray_b, cv::COLOR_BGR2GRAY);
+  cv::compare(gray_a, gray_b, changed, cv::CMP_NE);
+  EXPECT_GT(cv::countNonZero(changed), 150 * 100);
+  const cv::Rect box = cv::boundingRect(changed);
+  EXPECT_GT(box.x, a.cols - 300) << "the view is in the 300-px side panel";
+  EXPECT_GE(box.width, 150);
+  EXPECT_GE(box.height, 100);
+  EXPECT_LE(box.y + box.height, a.rows);
 }
 
 TEST(Render, BadBackendAndSizeAreReportedClearly) {

@@ -20,6 +20,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/producers/simulation.hpp"
 #include "sim/run/runner.hpp"
+#include "sim/sensors/models.hpp"
 #include "sim/world/variation.hpp"
 
 namespace py = pybind11;
@@ -65,8 +66,9 @@ py::dict detections(const std::vector<Detection>& list) {
   return fields;
 }
 
-/// One reading as a dict: t_s, robot, sensor (its YAML key), then the sensor's fields.
-py::dict to_python(const Reading& r) {
+/// One reading as a dict: t_s, robot, sensor (its YAML key), then the sensor's fields; a laser
+/// scan with what a plugin's on_laser gets beside its ranges (`world`: the robots' laser defs).
+py::dict to_python(const Reading& r, const WorldDef& world) {
   py::dict out;
   out["t_s"] = r.t_s, out["robot"] = r.robot, out["sensor"] = std::string(sensor_name(r.kind));
   std::visit(
@@ -100,6 +102,15 @@ py::dict to_python(const Reading& r) {
           out["truth_status"] = status;
         } else if constexpr (std::is_same_v<T, LaserScan>) {
           out["ranges_m"] = py::array_t<float>(data.ranges_m.size(), data.ranges_m.data());
+          const LaserDef& laser = *world.robots.at(static_cast<std::size_t>(r.robot)).sensors.laser;
+          py::array_t<double> angles(data.ranges_m.size());
+          for (std::size_t b = 0; b < data.ranges_m.size(); ++b) {
+            angles.mutable_at(b) =
+                laser_beam_angle(static_cast<int>(b), laser.beams, laser.fov_rad);
+          }
+          out["angles_rad"] = angles;  // in the sensor frame, as on_laser's
+          out["range_min_m"] = laser.min_range_m, out["range_max_m"] = laser.max_range_m;
+          out["mount"] = pose_array(laser.common.mount);  // the sensor's pose on the robot
         }
       },
       r.data);
@@ -167,7 +178,7 @@ class World {
 
   py::list readings() {
     py::list out;
-    for (const Reading& r : sim_->take_readings()) out.append(to_python(r));
+    for (const Reading& r : sim_->take_readings()) out.append(to_python(r, sim_->world_def()));
     return out;
   }
 

@@ -8,8 +8,9 @@ the project's statistics, drive the `locsim` binary (run, replay, sweep, report)
     >>> s = locsim.load_sweep("runs/suite")
     >>> s.results.groupby("config").position_rms_m.apply(locsim.mean_ci)
 
-Everything here reads the folders' documented formats (README, docs/experiments.md); nothing
-needs the C++ build except `locsim.run`, `replay`, `sweep` and `report`, which call the binary.
+Everything here reads the folders' documented formats (docs/run_folder.md, docs/experiments.md);
+nothing needs the C++ build except `locsim.run`, `replay`, `sweep` and `report`, which call the
+binary.
 numpy is needed throughout, pandas only by the functions that return DataFrames. docs/python.md
 has the whole interface.
 """
@@ -36,8 +37,9 @@ _find_debian_numpy()
 
 from .cli import LocsimError, binary, replay, report, run, sweep  # noqa: E402
 from .io import read_events, read_tum, wrap_angle  # noqa: E402
-from .models import (OdometryNoise, add_motion_floor, advance_by_velocity, between,  # noqa: E402
-                     compose, decompose, diff_drive_motion, landmark_log_likelihood, landmark_log_match, motion_spread,
+from .models import (K_LEFT, K_RIGHT, DetectionNoise, OdometryNoise, add_motion_floor,  # noqa: E402
+                     advance_by_velocity, between, compose, decompose, detection_noise_params, diff_drive_motion,
+                     landmark_log_likelihood, landmark_log_match, motion_noise_params, motion_spread,
                      numeric_jacobian, predict_by_wheels, range_bearing, sample_motion,
                      sample_wheel_motion, sinc, wheel_travel_from_increment)
 from .particles import (circular_mean, effective_sample_size, free_space_poses,  # noqa: E402
@@ -49,12 +51,12 @@ from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
 from .sweep_folder import Sweep, load_sweep  # noqa: E402
 from .world import World  # noqa: E402
 
-__all__ = ["Aggregate", "Init", "Localizer", "LocsimError", "OdometryNoise", "Param", "Run", "Sweep",
-           "World", "add_motion_floor", "advance_by_velocity", "aggregate", "between", "binary",
-           "circular_mean", "compose", "decompose", "diff_drive_motion",
+__all__ = ["Aggregate", "DetectionNoise", "Init", "K_LEFT", "K_RIGHT", "Localizer", "LocsimError", "OdometryNoise",
+           "Param", "Run", "Sweep", "World", "add_motion_floor", "advance_by_velocity", "aggregate", "between",
+           "binary", "circular_mean", "compose", "decompose", "detection_noise_params", "diff_drive_motion",
            "effective_sample_size", "error_arrays", "free_space_poses",
            "landmark_log_likelihood", "landmark_log_match", "load_run", "load_sweep",
-           "low_variance_resample", "mean_and_covariance", "mean_ci", "motion_spread",
+           "low_variance_resample", "mean_and_covariance", "mean_ci", "motion_noise_params", "motion_spread",
            "normalize", "numeric_jacobian", "param", "predict_by_wheels", "range_bearing",
            "read_events", "read_tum", "replay", "report", "roulette_resample", "run",
            "sample_motion", "sample_wheel_motion", "sinc", "sweep", "t975", "weights_from_log",

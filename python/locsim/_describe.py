@@ -13,9 +13,12 @@ reads one fact per line, tab-separated:
     param<TAB>NAME<TAB>int|double|bool|string<TAB>DEFAULT<TAB>MIN<TAB>MAX<TAB>DOC
 
 A problem exits 1 with 'FILE:LINE: message' on stderr. The file must define exactly one class
-derived from locsim.Localizer; its `name` and `params` must be literals (docs/python.md).
+derived from locsim.Localizer; its `name` and `params` must be literals (docs/python.md): `params`
+a list of locsim.param(...) calls, to which the SDK's lists may be added
+(`[...] + locsim.detection_noise_params() + locsim.motion_noise_params()`, from noise_params.py).
 """
 import ast
+import importlib.util
 import math
 import os
 import re
@@ -79,31 +82,67 @@ def read_param(call):
     type_node = given["type"]
     if not (isinstance(type_node, ast.Name) and type_node.id in TYPES):
         raise Problem(call.lineno, f"parameter {name!r}: its type must be int, float, bool or str")
-    kind = TYPES[type_node.id]
     default = literal(given["default"], f"parameter {name!r}'s default")
     low = literal(given["min"], f"parameter {name!r}'s min") if "min" in given else None
     high = literal(given["max"], f"parameter {name!r}'s max") if "max" in given else None
     doc = literal(given["doc"], f"parameter {name!r}'s doc") if "doc" in given else ""
+    return param_line(name, type_node.id, default, low, high, doc, call.lineno)
+
+
+def param_line(name, type_name, default, low, high, doc, line):
+    """(name, the fact line) of one parameter, checked as locsim.param checks it."""
+    kind = TYPES[type_name]
     if kind == "bool":
         if not isinstance(default, bool):
-            raise Problem(call.lineno, f"parameter {name!r}: default must be True or False")
+            raise Problem(line, f"parameter {name!r}: default must be True or False")
         text = "1" if default else "0"
     elif kind == "string":
         if not isinstance(default, str):
-            raise Problem(call.lineno, f"parameter {name!r}: default must be a string")
+            raise Problem(line, f"parameter {name!r}: default must be a string")
         text = flat(default)
     else:
-        text = number(default, kind, f"parameter {name!r}'s default", call.lineno)
+        text = number(default, kind, f"parameter {name!r}'s default", line)
     bounds = []
     for bound, label in ((low, "min"), (high, "max")):
         if bound is None or kind in ("bool", "string"):
             bounds.append("")
         else:
-            bounds.append(number(bound, kind, f"parameter {name!r}'s {label}", call.lineno))
+            bounds.append(number(bound, kind, f"parameter {name!r}'s {label}", line))
     if kind in ("int", "double"):
         if low is not None and default < low or high is not None and default > high:
-            raise Problem(call.lineno, f"parameter {name!r}: default {default} outside [{low}, {high}]")
+            raise Problem(line, f"parameter {name!r}: default {default} outside [{low}, {high}]")
     return name, "\t".join(["param", name, kind, text, bounds[0], bounds[1], flat(doc)])
+
+
+def sdk_module():
+    """noise_params.py, read from beside this file (run with -I: not on sys.path)."""
+    spec = importlib.util.spec_from_file_location(
+        "locsim_noise_params", os.path.join(os.path.dirname(os.path.abspath(__file__)), "noise_params.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def param_entries(node):
+    """The nodes of a `params` value: a list (or tuple) of locsim.param calls, or such lists and
+    the SDK's list calls added together. Each entry: a call node, or (a row, its line)."""
+    if isinstance(node, (ast.List, ast.Tuple)):
+        return list(node.elts)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        return param_entries(node.left) + param_entries(node.right)
+    if isinstance(node, ast.Call) and not node.args:
+        called = node.func.attr if isinstance(node.func, ast.Attribute) else \
+            node.func.id if isinstance(node.func, ast.Name) else None
+        module = sdk_module()
+        if called in module.LISTS:
+            defaults = {k.arg: literal(k.value, f"{called}'s {k.arg}") for k in node.keywords}
+            try:
+                rows = module.with_defaults(module.LISTS[called], defaults)
+            except ValueError as error:
+                raise Problem(node.lineno, f"{called}: {error}") from None
+            return [(row, node.lineno) for row in rows]
+    raise Problem(node.lineno, "params must be a list of locsim.param(...) calls (to which "
+                               "locsim.detection_noise_params() and locsim.motion_noise_params() may be added)")
 
 
 def describe(path):
@@ -136,13 +175,16 @@ def describe(path):
                 if not isinstance(name, str) or not NAME.match(name):
                     raise Problem(statement.lineno, f"name {name!r} must be [a-z0-9_]+")
             elif target.id == "params":
-                if not isinstance(statement.value, (ast.List, ast.Tuple)):
-                    raise Problem(statement.lineno, "params must be a list of locsim.param(...) calls")
                 seen = set()
-                for call in statement.value.elts:
-                    param_name, line = read_param(call)
+                for entry in param_entries(statement.value):
+                    if isinstance(entry, tuple):  # a row of the SDK's lists
+                        (name_, type_, default, low, high, doc_), lineno = entry
+                        param_name, line = param_line(name_, type_.__name__, default, low, high, doc_, lineno)
+                    else:
+                        param_name, line = read_param(entry)
+                        lineno = entry.lineno
                     if param_name in seen:
-                        raise Problem(call.lineno, f"parameter {param_name!r} declared twice")
+                        raise Problem(lineno, f"parameter {param_name!r} declared twice")
                     seen.add(param_name)
                     params.append(line)
     if "estimate" not in handlers:

@@ -9,7 +9,7 @@ import os
 import shutil
 import subprocess
 
-# README "Exit codes": what each of the binary's exit codes means.
+# docs/run_folder.md "Exit codes": what each of the binary's exit codes means.
 EXIT_CODES = {1: "failure not caused by the input", 2: "bad input", 3: "localizer plugin not found, "
               "not loadable or its create failed", 4: "video or frames cannot be rendered or written",
               5: "a localizer failed (the others' results are written)", 130: "interrupted"}

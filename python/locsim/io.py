@@ -1,5 +1,5 @@
-"""Readers of the files locsim writes, one per format (README "A run folder holds", docs/sensors.md
-"Readings files", docs/experiments.md "A sweep folder").
+"""Readers of the files locsim writes, one per format (docs/run_folder.md "What a run folder
+holds", docs/sensors.md "Readings files", docs/experiments.md "A sweep folder").
 
 Poses come back as numpy arrays of rows (t_s, x_m, y_m, theta_rad); tables as pandas DataFrames
 with the files' own column names. Timestamps are written with 4 decimals, so `time_key` (t in

@@ -14,6 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .io import wrap_angle
+from . import noise_params
+from .noise_params import K_LEFT, K_RIGHT  # noqa: F401  (locsim.K_LEFT)
+from .plugin import param
 
 
 def _pose(x):
@@ -108,8 +111,6 @@ def wheel_travel_from_increment(delta, wheel_base_m):
     return ds - 0.5 * wheel_base_m * turn, ds + 0.5 * wheel_base_m * turn
 
 
-# Paper 002's wheel noise, the C++ SDK's defaults (models.hpp, LOCSIM_WHEEL_NOISE_PARAMS) [m^1/2].
-K_LEFT, K_RIGHT = 0.0013, 0.0012
 
 
 def predict_by_wheels(x, P, d_left_m, d_right_m, wheel_base_m, k_left=K_LEFT, k_right=K_RIGHT,
@@ -138,6 +139,24 @@ class OdometryNoise:
     # to x and y [m] and to the heading [rad]. 0: none, and no random draws for it.
     floor_position_m: float = 0.0
     floor_heading_rad: float = 0.0
+
+
+    @classmethod
+    def from_params(cls, params):
+        """From a filter's parameters as motion_noise_params() declares them (the floor's heading
+        in degrees, as the C++ SDK's and `locsim calibrate`'s)."""
+        return cls(params["alpha1"], params["alpha2"], params["alpha3"], params["alpha4"],
+                   bool(params["variance_form"]), params["motion_floor_m"],
+                   math.radians(params["motion_floor_deg"]))
+
+
+def motion_noise_params(**defaults):
+    """The motion model's parameters as the C++ landmark particle filters declare them (names,
+    defaults, ranges: noise_params.py), so that one parameter file (the one `locsim calibrate`
+    writes) sets a Python filter as it sets the built-in ones: motion_model `odometry`
+    (alpha1..alpha4, variance_form) or `wheels` (k_left, k_right), and the floor every step has
+    whatever its motion. A filter's `params` may add the call: `[...] + locsim.motion_noise_params()`."""
+    return [param(*row) for row in noise_params.with_defaults(noise_params.MOTION_NOISE, defaults)]
 
 
 def decompose(from_pose, to_pose):
@@ -221,6 +240,36 @@ def range_bearing(x, landmark, jacobian=False):
         return z
     H = np.array([[-dx / r, -dy / r, 0.0], [dy / q, -dx / q, -1.0]])
     return z, H
+
+
+@dataclass
+class DetectionNoise:
+    """How noisy a PTZ or range-bearing detection is at the range it measured (the C++ SDK's
+    DetectionNoise; the defaults fit locsim's PTZ camera at 160 x 120):
+        sigma_range(r) = sigma_range_m + (sigma_range_per_m + sigma_range_per_m2 r) r."""
+
+    sigma_range_m: float = 0.02        # at zero range [m]
+    sigma_range_per_m: float = 0.0     # growth with the range [m/m]
+    sigma_range_per_m2: float = 0.015  # growth with the range's square [1/m]
+    sigma_bearing_rad: float = 0.026   # bearing [rad]
+
+    @classmethod
+    def from_params(cls, params):
+        """From a filter's parameters as detection_noise_params() declares them."""
+        return cls(params["sigma_range_m"], params["sigma_range_per_m"], params["sigma_range_per_m2"],
+                   math.radians(params["sigma_bearing_deg"]))
+
+    def sigma_range(self, range_m):
+        return self.sigma_range_m + (self.sigma_range_per_m + self.sigma_range_per_m2 * range_m) * range_m
+
+
+def detection_noise_params(**defaults):
+    """The detection noise's parameters as ekf_landmarks and the landmark particle filters declare
+    them (names, defaults, ranges, the bearing in degrees: noise_params.py), so that
+    `locsim calibrate`'s file sets a Python filter as it sets the built-in ones. A filter's `params`
+    may add the call: `[...] + locsim.detection_noise_params()`, with defaults of its own as
+    keywords (`sigma_bearing_deg=5.0`)."""
+    return [param(*row) for row in noise_params.with_defaults(noise_params.DETECTION_NOISE, defaults)]
 
 
 def landmark_log_match(particles, range_m, bearing_rad, landmarks, sigma_range_m, sigma_bearing_rad):

@@ -3,6 +3,7 @@
     s = locsim.load_sweep("runs/suite")
     s.results                       # results.csv: one row per run (config, seed, world, metrics)
     s.summary                       # summary.csv: one row per configuration, with 95 % CIs
+    s.segments()                    # segments.csv: one row per run and segment between kidnaps
     s.errors("amcl")                # every amcl run's error series, with config, seed and world
     for row, run in s.runs(): ...   # each run's row of results.csv and its Run folder
 
@@ -43,6 +44,45 @@ class Sweep:
         if self._summary is None:
             self._summary = io.read_csv(os.path.join(self.path, "summary.csv"))
         return self._summary
+
+    def segments(self, config=None):
+        """segments.csv: one row per run and segment between kidnaps (DataFrame, tidy): segment 0
+        runs from the start to the first kidnap, segment k from the k-th kidnap on, with its
+        position and heading RMS, recovery, tracking RMS and consistency (NEES, the 95 % ellipse's
+        share), and whether the scorer judged the kidnap recoverable. Those of `config` (all if
+        None). A sweep written before segments.csv existed has its rows rebuilt from results.jsonl."""
+        path = os.path.join(self.path, "segments.csv")
+        if os.path.exists(path):
+            frame = io.read_csv(path)
+        else:
+            frame = self._segments_from_records()
+        if config is not None:
+            frame = frame[frame["config"] == config].reset_index(drop=True)
+        return frame
+
+    def _segments_from_records(self):
+        import pandas as pd
+
+        rows = []
+        for record in sorted(self.records().values(), key=lambda r: r.get("index", 0)):
+            metrics = record.get("metrics") or {}
+            for k, s in enumerate(metrics.get("segments", [])):
+                consistency = s.get("consistency") or {}
+                rows.append({"index": record.get("index"), "id": record.get("id"), "config": record.get("config"),
+                             "seed": record.get("seed"), "world": record.get("world"), "segment": k,
+                             "from_s": s.get("from_s"), "to_s": s.get("to_s"), "samples": s.get("samples"),
+                             "carried_m": s.get("carried_m"), "turned_deg": s.get("turned_deg"),
+                             "recoverable": s.get("recoverable"), "recovery_s": s.get("recovery_s"),
+                             "recovery_steps": s.get("recovery_steps"),
+                             "position_rms_m": (s.get("position_error_m") or {}).get("rms"),
+                             "heading_rms_deg": (s.get("heading_error_deg") or {}).get("rms"),
+                             "tracking_position_rms_m": (s.get("tracking") or {}).get("position_rms_m"),
+                             "nees_mean": consistency.get("nees_mean"), "nees_median": consistency.get("nees_median"),
+                             "inside_95_ellipse": consistency.get("inside_95_ellipse")})
+        columns = ["index", "id", "config", "seed", "world", "segment", "from_s", "to_s", "samples", "carried_m",
+                   "turned_deg", "recoverable", "recovery_s", "recovery_steps", "position_rms_m", "heading_rms_deg",
+                   "tracking_position_rms_m", "nees_mean", "nees_median", "inside_95_ellipse"]
+        return pd.DataFrame(rows, columns=columns)
 
     def summary_by_family(self):
         """summary_by_family.csv of a suite of worlds (DataFrame)."""

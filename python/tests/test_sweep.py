@@ -266,3 +266,53 @@ def test_report_on_a_run_that_did_not_finish(small_run, tmp_path):
     assert result.returncode == 0 and result.stderr == "", result.stderr
     assert "Interrupted (Ctrl-C)" in (run / "report.md").read_text()
     assert locsim.load_run(run).status == "interrupted"
+
+
+def test_segments_are_a_tidy_table_of_each_runs_segments(tmp_path, source_dir):
+    """Sweep.segments(): one row per run and segment between kidnaps, the scorer's figures as
+    columns (segments.csv); the same rows rebuilt from results.jsonl for a sweep without the file;
+    summary.csv's kidnap counts are those of the segments the scorer judged recoverable."""
+    experiment = tmp_path / "kidnaps.yaml"
+    experiment.write_text(f"""name: kidnaps
+world: {os.path.join(source_dir, "worlds", "demo", "demo.yaml")}
+duration_s: 44
+seeds: {{from: 1, to: 2}}
+localizers:
+  - plugin: odometry
+  - plugin: ekf_landmarks
+    label: ekf
+""")
+    s = locsim.sweep(experiment, tmp_path / "out", jobs=2)
+    segments = s.segments()
+    records = sorted(s.records().values(), key=lambda r: r["index"])
+    assert len(segments) == sum(len(r["metrics"]["segments"]) for r in records) == 4 * 3
+    assert list(segments.segment) == [0, 1, 2] * 4  # two kidnaps, at 20 s and 40 s
+    assert (segments[segments.segment == 0].from_s == 0).all()
+    assert segments[segments.segment == 0].recoverable.isna().all()
+    assert set(segments[segments.segment > 0].recoverable) <= {True, False}
+    for row in segments.to_dict("records"):
+        record = next(r for r in records if r["id"] == row["id"])
+        segment = record["metrics"]["segments"][row["segment"]]
+        assert row["position_rms_m"] == pytest.approx(segment["position_error_m"]["rms"], abs=1e-6)
+        assert (row["recovery_s"] != row["recovery_s"]) == (segment["recovery_s"] is None)  # NaN: never
+    assert len(s.segments("ekf")) == 6 and set(s.segments("ekf").config) == {"ekf"}
+    first = segments[segments.segment == 0].set_index("id")  # results.csv's first_segment_ columns
+    for row in s.results.to_dict("records"):
+        assert row["first_segment_position_rms_m"] == pytest.approx(first.loc[row["id"], "position_rms_m"], abs=1e-6)
+        assert (row["first_segment_nees_median"] == pytest.approx(first.loc[row["id"], "nees_median"], abs=1e-4)
+                or row["first_segment_nees_median"] != row["first_segment_nees_median"])  # NaN: no covariance
+
+    os.remove(os.path.join(s.path, "segments.csv"))  # a sweep of an older locsim
+    rebuilt = locsim.load_sweep(s.path).segments()
+    assert list(rebuilt.columns) == list(segments.columns)
+    assert list(rebuilt.id) == list(segments.id) and list(rebuilt.segment) == list(segments.segment)
+    assert rebuilt.position_rms_m.to_numpy() == pytest.approx(segments.position_rms_m.to_numpy(), abs=1e-6)
+
+    for config in s.configs:
+        rows = segments[(segments.config == config) & (segments.segment > 0)]
+        criterion = records[0]["metrics"]["convergence"]  # a carry within it tests nothing
+        moved = rows[(rows.carried_m > criterion["position_m"]) | (rows.turned_deg > criterion["heading_deg"])]
+        recoverable = moved[moved.recoverable == True]  # noqa: E712  (a column of objects)
+        summary = s.summary[s.summary.config == config].iloc[0]
+        assert summary.kidnaps_recoverable == len(recoverable)
+        assert summary.kidnaps_recovered == recoverable.recovery_s.notna().sum()

@@ -25,7 +25,7 @@ def test_stepped_to_the_end_it_is_the_runs_world(tmp_path):
     np.testing.assert_allclose(w.truth()[0], last[1:], atol=2e-6)
 
 
-def test_readings_events_and_time():
+def test_readings_events_and_time(tmp_path):
     w = locsim.World(DEMO, seed=2)
     assert w.robots and w.name and w.dt_s > 0 and w.time_s == 0.0
     assert w.run_until(1.0) == round(1.0 / w.dt_s)
@@ -37,6 +37,13 @@ def test_readings_events_and_time():
     assert [r["t_s"] for r in readings] == sorted(r["t_s"] for r in readings)
     laser = [r for r in readings if r["sensor"] == "laser"][-1]
     assert laser["ranges_m"].dtype == np.float32 and laser["ranges_m"].size > 100
+    # What on_laser gets beside the ranges, and a run's readings("laser") and sensors.json say.
+    run = locsim.run(DEMO, tmp_path / "run", duration=0.2, seed=2)
+    described = run.sensors()["laser"]
+    np.testing.assert_array_equal(laser["angles_rad"], described["beam_angles_rad"])
+    assert laser["range_min_m"] == described["min_range_m"] and laser["range_max_m"] == described["max_range_m"]
+    mount = described["mount"]
+    np.testing.assert_allclose(laser["mount"], [mount["x"], mount["y"], mount["theta"]], atol=1e-12)
     cameras = [r for r in readings if r["sensor"] in ("ptz_camera", "omni_camera") and len(r["detections"])]
     assert cameras and set(cameras[0]["detections"].dtype.names) == {"id", "range_m", "bearing_rad", "target",
                                                                        "truth_id"}

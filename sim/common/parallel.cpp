@@ -101,4 +101,48 @@ void ParallelLoop::for_each(std::size_t n, const std::function<void(std::size_t)
   if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
 }
 
+void LoopWayChooser::took(std::int64_t ns) {
+  ++loops_;
+  shared_loops_ += shared_ ? 1 : 0;
+  block_ns_[static_cast<std::size_t>(in_block_)] = ns;
+  const std::int64_t other_ns = latest_ns_[shared_ ? 0 : 1];
+  const bool counted = in_block_ > 0 || !way_changed_;
+  if (probing_ && counted && other_ns >= 0 && ns > kAbortRatio * other_ns) {
+    latest_ns_[shared_ ? 1 : 0] = ns;  // far slower: the probe has said enough, and the next
+    probe_every_ = std::max(probe_every_, kProbeEveryMax / 8);  // waits long (doubled below)
+  } else {
+    if (++in_block_ < (probing_ ? kProbe : kBlock)) return;
+    const auto first = block_ns_.begin() + (way_changed_ ? 1 : 0),
+               end = block_ns_.begin() + in_block_;
+    const auto middle = first + (end - first) / 2;
+    std::nth_element(first, middle, end);
+    latest_ns_[shared_ ? 1 : 0] = *middle;
+  }
+  in_block_ = 0;
+  const bool was_shared = shared_;
+  decide();
+  way_changed_ = shared_ != was_shared;
+}
+
+void LoopWayChooser::decide() {
+  if (latest_ns_[1] < 0) {  // after the first block (on the caller's thread): a probe shared out
+    probing_ = true;
+    shared_ = true;
+    return;
+  }
+  const bool faster_shared = latest_ns_[1] <= latest_ns_[0];
+  if (probing_) {
+    probing_ = false;
+    // The probe found the choice still right: probe half as often; else from the start again.
+    probe_every_ =
+        faster_shared == !shared_ ? std::min(2 * probe_every_, kProbeEveryMax) : kProbeEvery;
+    blocks_until_probe_ = probe_every_;
+  } else if (--blocks_until_probe_ <= 0) {
+    probing_ = true;
+    shared_ = !faster_shared;  // the other way, for kProbe loops
+    return;
+  }
+  shared_ = faster_shared;
+}
+
 }  // namespace locsim

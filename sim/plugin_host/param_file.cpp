@@ -1,6 +1,7 @@
 #include "sim/plugin_host/param_file.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 
 #include "sim/common/yaml_node.hpp"
@@ -71,13 +72,33 @@ ParamFile load_param_file(const std::filesystem::path& file) {
 std::vector<std::string> param_file_warnings(const ParamFile& file,
                                              const std::vector<const locsim_localizer*>& tables) {
   std::vector<std::string> warnings;
+  // A file written for several filters (calibrate's) holds each one's keys: a key this run's
+  // localizers do not declare is only worth a warning when no plugin found declares it either
+  // (a misspelt name). The other plugins are loaded only when such a key is there.
+  std::optional<std::set<std::string>> declared_elsewhere;
+  const auto declared_by_another_plugin = [&](const std::string& key) {
+    if (!declared_elsewhere) {
+      declared_elsewhere.emplace();
+      for (const std::filesystem::path& plugin : list_plugin_files()) {
+        try {
+          const PluginLibrary library(plugin);
+          const locsim_localizer& t = library.table();
+          for (std::size_t i = 0; i < t.param_count; ++i)
+            declared_elsewhere->insert(t.params[i].name);
+        } catch (const PluginError&) {
+          // A plugin that does not load declares nothing; `locsim plugins` says why.
+        }
+      }
+    }
+    return declared_elsewhere->count(key) > 0;
+  };
   for (const ParamFileValue& value : file.common) {
     const bool used = std::any_of(tables.begin(), tables.end(), [&](const locsim_localizer* t) {
       return declares(*t, value.key);
     });
-    if (!used) {
-      warnings.push_back(at(value.place) + " is declared by none of the localizers (" +
-                         names_of(tables) + "): ignored");
+    if (!used && !declared_by_another_plugin(value.key)) {
+      warnings.push_back(at(value.place) + " is declared by no plugin found (this run's: " +
+                         names_of(tables) + "; `locsim plugins` lists them all): ignored");
     }
   }
   for (const ParamFileSection& section : file.sections) {

@@ -1,9 +1,11 @@
 #include "sim/producers/simulation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <iterator>
+#include <limits>
 #include <optional>
 
 #include "sim/common/errors.hpp"
@@ -106,10 +108,24 @@ void Simulation::refresh_moving_prisms() {
 
 void Simulation::use_threads(int threads) {
   parallel_.reset();
+  choosers_.clear();
+  choose_way_ = false;
+  if (threads == 0) {
+    threads = default_thread_count();
+    choose_way_ = true;
+  }
   if (threads > 1 && robots_.size() > 1 && !renders_images_) {
     parallel_ = std::make_unique<ParallelLoop>(std::min(threads, static_cast<int>(robots_.size())));
     robot_readings_.resize(robots_.size());
   }
+}
+
+double Simulation::shared_share() const {
+  std::int64_t loops = 0, shared = 0;
+  for (const auto& [kind, chooser] : choosers_)
+    loops += chooser.loops(), shared += chooser.shared_loops();
+  if (loops == 0) return std::numeric_limits<double>::quiet_NaN();
+  return static_cast<double>(shared) / static_cast<double>(loops);
 }
 
 void Simulation::run_robot_sensors(std::size_t i, bool physics_stepped, std::vector<Reading>& out) {
@@ -140,14 +156,34 @@ void Simulation::run_sensors(bool physics_stepped) {
       run_robot_sensors(i, physics_stepped, readings_);
     return;
   }
-  // Each robot's sensors read the world and write only their own state and readings.
-  parallel_->for_each(robots_.size(), [&](std::size_t i) {
-    robot_readings_[i].clear();
-    run_robot_sensors(i, physics_stepped, robot_readings_[i]);
-  });
-  for (std::vector<Reading>& own : robot_readings_) {
-    std::move(own.begin(), own.end(), std::back_inserter(readings_));
-    own.clear();
+  LoopWayChooser* chooser = nullptr;
+  if (choose_way_) {
+    std::uint64_t kind = 0;
+    for (std::size_t k = 0; k < sample_strides_.size() && k < 64; ++k)
+      kind |= step_index_ % sample_strides_[k] == 0 ? std::uint64_t{1} << k : 0;
+    chooser = &choosers_[kind];
+  }
+  const bool shared = chooser == nullptr || chooser->shared();
+  const auto start = chooser != nullptr ? std::chrono::steady_clock::now()
+                                        : std::chrono::steady_clock::time_point();
+  if (!shared) {
+    for (std::size_t i = 0; i < robots_.size(); ++i)
+      run_robot_sensors(i, physics_stepped, readings_);
+  } else {
+    // Each robot's sensors read the world and write only their own state and readings.
+    parallel_->for_each(robots_.size(), [&](std::size_t i) {
+      robot_readings_[i].clear();
+      run_robot_sensors(i, physics_stepped, robot_readings_[i]);
+    });
+    for (std::vector<Reading>& own : robot_readings_) {
+      std::move(own.begin(), own.end(), std::back_inserter(readings_));
+      own.clear();
+    }
+  }
+  if (chooser != nullptr) {
+    chooser->took(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::steady_clock::now() - start)
+                      .count());
   }
 }
 

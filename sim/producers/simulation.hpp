@@ -49,9 +49,13 @@ class Simulation {
   void step();
   bool done() const { return done_; }
   /// Samples the sensors of different robots on `threads` threads (the caller's included) from
-  /// the next step on: the same readings, in the same order, for any count. A world with one
-  /// robot, or a camera that renders its images (one GL context), stays on the caller's thread.
+  /// the next step on: the same readings, in the same order, for any count. 0: one per core,
+  /// each sensor round shared out or run on the caller's thread alone, whichever has lately been
+  /// faster (LoopWayChooser: on a busy machine, one thread can be). A world with one robot, or a
+  /// camera that renders its images (one GL context), stays on the caller's thread.
   void use_threads(int threads);
+  /// With use_threads(0): the share of the sensor rounds shared out so far (NaN: none timed).
+  double shared_share() const;
 
   std::int64_t step_index() const { return step_index_; }
   double time_s() const { return static_cast<double>(step_index_) * dt_s_; }
@@ -136,6 +140,11 @@ class Simulation {
   // Sensors on several threads (use_threads): each robot's readings of a step, merged in robot
   // order; the sample periods of every sensor, to wake the threads only on steps that sample.
   std::unique_ptr<ParallelLoop> parallel_;
+  // use_threads(0): each kind of sensor round (which sensor rates sample in it, a bit per
+  // sample_strides_ entry) shared out when that has been faster for that kind: a round of
+  // encoders alone costs less than waking a thread, one with laser scans gains from sharing.
+  bool choose_way_ = false;
+  std::map<std::uint64_t, LoopWayChooser> choosers_;
   std::vector<std::vector<Reading>> robot_readings_;
   std::vector<std::int64_t> sample_strides_;
 };

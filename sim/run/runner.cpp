@@ -175,7 +175,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
                    options.max_output_bytes, paths);
 
   Simulation sim(inputs.world, inputs.scenario, options.seed, options.make_landmark_imager);
-  sim.use_threads(options.threads > 0 ? options.threads : default_thread_count());
+  sim.use_threads(options.threads);  // 0: one per core, shared out when that is faster
   // The log and the video are opened before the run folder is made: one that cannot be written
   // (exit 1 for the log, 4 for the video, naming the path and the reason) leaves no folder.
   std::unique_ptr<LogWriter> log;

@@ -23,8 +23,6 @@ endfunction()
 
 function(locsim_add_localizer name)
   add_library(${name} MODULE ${ARGN})
-  # Every localizer target, for a target that builds them all (locsim's main_job).
-  set_property(GLOBAL APPEND PROPERTY LOCSIM_LOCALIZER_TARGETS ${name})
   locsim_localizer_compile_settings(${name})
   set_target_properties(${name} PROPERTIES
     PREFIX ""

@@ -274,7 +274,8 @@ typedef struct locsim_localizer {
 
   /* Since version 3. The kinds of reading the filter uses, LOCSIM_READING_BIT(kind) or-ed; 0: not
    * said (taken as every kind). The host still delivers every reading; the scorer counts a
-   * kidnap as recoverable by what these sensors showed after the landing (docs/metrics.md). */
+   * kidnap as recoverable by what these sensors showed after the landing (docs/experiments.md,
+   * "recoverable"). */
   uint32_t readings;
 } locsim_localizer;
 

@@ -351,6 +351,13 @@ class OdometryTracker {
   std::optional<std::pair<double, double>> velocity_;
 };
 
+/// SDK 1's wheel-travel helper, removed in SDK 2: a plugin rebuilt against this SDK is told what
+/// replaces it, not just that the name is unknown (docs/plugins.md, "ABI versions").
+using WheelTravel [[deprecated(
+    "locsim::sdk::WheelTravel was removed in SDK 2: use locsim::sdk::OdometryTracker (its "
+    "update() gives each odometry reading's wheel travel, from the ticks or, where the source "
+    "has none, from the pose; docs/plugins.md, ABI versions)")]] = OdometryTracker;
+
 /// The robot pose in the world from two landmarks a, b at known world positions and their
 /// positions pa, pb in the robot frame: position from the ranges |pa|, |pb| (intersection of
 /// the two circles, on the side where b lies as seen from the robot: the sign of pa x pb), the

@@ -1,6 +1,6 @@
 // The particle-filter skeleton that every particle filter of locsim is built on (mcl, srl, asrl,
 // augmented_mcl; amcl and ultrasonic_amcl's AMCL; fastslam, fastslam_afsa, pso_pf), and that a
-// plugin author's filter can be built on too (docs/plugins.md#a-particle-filter). As nav2 AMCL's
+// plugin author's filter can be built on too (docs/plugins.md, "A particle filter"). As nav2 AMCL's
 // pf/: one small core with the models plugged in. The core owns the particles (poses and
 // weights), the filter's random stream and the odometry not yet applied, and does what every
 // particle filter does alike:
