@@ -12,7 +12,10 @@
 #include <locsim/models.hpp>
 #include <locsim/particles.hpp>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/random.hpp"
@@ -58,6 +61,7 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
   ASSERT_EQ(c.cameras.size(), 1u);
   const DetectionCalibration& rb = c.cameras[0];
   EXPECT_EQ(rb.camera, "range_bearing");
+  EXPECT_EQ(rb.range_model, "distance");  // the world's sensor reports distances
   expect_within(rb.range_spread_m.at_zero, 0.05, "sigma_range_m");
   expect_within(rb.range_spread_m.per_unit, 0.02, "sigma_range_per_m");
   expect_within(rb.range_bias_m.at_zero, 0.1, "range_bias_m");
@@ -75,6 +79,75 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));
+
+/// The noisy world with its range-bearing sensor's `range_model` given, MRCLAM's order of range
+/// bias (5 cm + 2 % of the range) and small independent noise without false detections, so that
+/// the fitted lines are tight: 120 s recorded.
+fs::path record_range_model_run(const fs::path& dir, const std::string& range_model) {
+  std::string world = testing::noisy_world(0.0);
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"sigma_range_m: 0.05", "sigma_range_m: 0.01"},
+           {"sigma_range_per_m: 0.02", "sigma_range_per_m: 0.01"},
+           {"range_bias_m: 0.1", "range_bias_m: 0.05"},
+           {"range_bias_per_m: -0.05",
+            "range_bias_per_m: 0.02\n        range_model: " + range_model},
+           {"false_detections: 0.3", "false_detections: 0"}}) {
+    const auto at = world.find(from);
+    if (at == std::string::npos) throw std::logic_error("noisy_world has no '" + from + "'");
+    world.replace(at, from.size(), to);
+  }
+  std::ofstream(dir / "world.yaml") << world;
+  RunOptions options;
+  options.world_file = dir / "world.yaml";
+  options.seed = 5;
+  options.duration_s = 120.0;
+  options.out_dir = dir / "run";
+  options.readings = false;
+  options.log_file = dir / "recorded.locsimlog";
+  run_simulation(options);
+  return *options.log_file;
+}
+
+TEST(Calibrate, ADepthCameraIsFittedAsOneAndItsSensorSettingsSayDepth) {
+  const fs::path dir = testing::temp_dir("calibrate_depth");
+  const Calibration c = calibrate({record_range_model_run(dir, "depth")}, {});
+  ASSERT_EQ(c.cameras.size(), 1u);
+  const DetectionCalibration& rb = c.cameras[0];
+  ASSERT_TRUE(rb.distance_model && rb.depth_model);
+  EXPECT_EQ(rb.range_model, "depth");
+  // The depth model's bias line is the configured one: measured = 0.05 + (1 + 0.02) x.
+  EXPECT_NEAR(rb.depth_model->bias_m.at_zero, 0.05, 0.02);
+  EXPECT_NEAR(rb.depth_model->bias_m.per_unit, 0.02, 0.01);
+  // About it only the noise is left (0.01 + 0.01 x, x below 7 m); about the distance line, the
+  // cosine too.
+  EXPECT_LT(rb.depth_model->residual_rms_m, 0.08);
+  EXPECT_LT(rb.depth_model->residual_rms_m, rb.distance_model->residual_rms_m);
+
+  // A world made from the calibration reproduces the errors: depth, with the depth lines.
+  const YAML::Node sensor = YAML::Load(c.to_yaml())["sensors"]["range_bearing"];
+  EXPECT_EQ(sensor["range_model"].as<std::string>(), "depth");
+  EXPECT_NEAR(sensor["range_bias_m"].as<double>(), rb.depth_model->bias_m.at_zero, 1e-3);
+  EXPECT_NEAR(sensor["range_bias_per_m"].as<double>(), rb.depth_model->bias_m.per_unit, 1e-3);
+  EXPECT_NEAR(sensor["sigma_range_per_m"].as<double>(), rb.depth_model->spread_m.per_unit, 1e-3);
+  const nlohmann::json json = nlohmann::json::parse(c.to_json().dump());
+  EXPECT_EQ(json.at("cameras").at(0).at("range_models").at("chosen"), "depth");
+  testing::expect_contains(describe(c), "range model: depth");
+}
+
+TEST(Calibrate, ADistanceCameraKeepsTheDistanceModel) {
+  const fs::path dir = testing::temp_dir("calibrate_distance");
+  const Calibration c = calibrate({record_range_model_run(dir, "distance")}, {});
+  ASSERT_EQ(c.cameras.size(), 1u);
+  const DetectionCalibration& rb = c.cameras[0];
+  ASSERT_TRUE(rb.distance_model && rb.depth_model);
+  EXPECT_EQ(rb.range_model, "distance");
+  EXPECT_NEAR(rb.range_bias_m.at_zero, 0.05, 0.02);
+  EXPECT_NEAR(rb.range_bias_m.per_unit, 0.02, 0.01);
+  EXPECT_LT(rb.distance_model->residual_rms_m, rb.depth_model->residual_rms_m);
+  const YAML::Node sensor = YAML::Load(c.to_yaml())["sensors"]["range_bearing"];
+  EXPECT_EQ(sensor["range_model"].as<std::string>(), "distance");
+  EXPECT_NEAR(sensor["range_bias_m"].as<double>(), rb.range_bias_m.at_zero, 1e-3);
+}
 
 TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
   // The noisy world's detections (errors correlated over 0.5 s, 0.3 false ones per reading) make

@@ -49,6 +49,14 @@ const Malformed kMalformedWorlds[] = {
     {"nan", "robots:\n  - start: {x: .nan, y: 0}\n",
      "'robots[0].start.x': expected a finite number"},
     {"missing_start", "robots:\n  - name: r\n", "'robots[0]': missing required key 'start'"},
+    {"response_key", "robots:\n  - start: {x: 0, y: 0}\n    command_response: {dead_time: 0.1}\n",
+     "test.yaml:3:24: 'robots[0].command_response.dead_time': unknown key; did you mean "
+     "'dead_time_s'?"},
+    {"response_gain", "robots:\n  - start: {x: 0, y: 0}\n    command_response: {gain_v: 0}\n",
+     "'robots[0].command_response.gain_v': 0 is outside [0.01, 100]"},
+    {"encoders_measure",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      encoders: {measures: motors}\n",
+     "'robots[0].sensors.encoders.measures': must be wheels or command, not 'motors'"},
     {"theta_twice", "robots:\n  - start: {x: 0, y: 0, theta: 1, theta_deg: 5}\n",
      "'robots[0].start.theta_deg': give either 'theta' [rad] or 'theta_deg' [deg], not both"},
     {"point_not_pair", "walls:\n  - points: [[0, 0], [1]]\nrobots:\n  - start: {x: 5, y: 5}\n",
@@ -103,6 +111,16 @@ const Malformed kMalformedWorlds[] = {
     {"sensor_rate", "robots:\n  - start: {x: 0, y: 0}\n    sensors: {imu: {rate_hz: 30}}\n",
      "test.yaml:3:30: 'robots[0].sensors.imu.rate_hz': rate 30 Hz must divide the physics rate "
      "(200 Hz)"},
+    {"range_model_unknown",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      range_bearing: {range_model: "
+     "sideways}\n",
+     "test.yaml:4:36: 'robots[0].sensors.range_bearing.range_model': must be distance or depth, "
+     "not 'sideways'"},
+    {"range_model_depth_all_round",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      range_bearing: {fov_deg: 270, "
+     "range_model: depth}\n",
+     "'robots[0].sensors.range_bearing.range_model': depth needs a field of view below 180 deg, "
+     "not 270 deg"},
     {"laser_mixture",
      "robots:\n  - start: {x: 0, y: 0}\n    sensors: {laser: {p_max: 0.7, p_random: 0.5}}\n",
      "p_short + p_max + p_random exceeds 1"},
@@ -296,6 +314,19 @@ robots:
   EXPECT_EQ(world.movers[0].footprint.kind, FootprintDef::Kind::kBox);
   EXPECT_DOUBLE_EQ(world.robots[0].start.theta, std::numbers::pi / 2);
   EXPECT_DOUBLE_EQ(world.robots[0].wheel_radius_left_m, world.robots[0].wheel_radius_m);
+}
+
+TEST(WorldLoader, ARangeBearingSensorReportsDistanceUnlessToldDepth) {
+  const auto model = [](const std::string& sensor) {
+    const WorldDef world = testing::world_from_yaml(
+        "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      range_bearing: " + sensor + "\n");
+    return world.robots.at(0).sensors.range_bearing.value().range_model;
+  };
+  using Model = RangeBearingDef::RangeModel;
+  EXPECT_EQ(model("{}"), Model::kDistance);
+  EXPECT_EQ(model("{range_model: distance}"), Model::kDistance);
+  EXPECT_EQ(model("{range_model: depth}"), Model::kDepth);
+  EXPECT_EQ(model("{range_model: depth, fov_deg: 179}"), Model::kDepth);
 }
 
 TEST(WorldLoader, DemoWorldLoadsAndValidates) {

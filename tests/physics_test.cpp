@@ -124,6 +124,29 @@ TEST(DiffDrive, TurnInPlaceMatchesKinematicsOnHighFriction) {
   EXPECT_LT(robot.pose().position().norm(), 1e-3);  // turned on the spot
 }
 
+TEST(DiffDrive, ACommandResponseDelaysLagsAndScalesTheMotion) {
+  // A ramp fast enough not to hide the response; dead time 0.2 s, lag 0.3 s, 90 % of the speed.
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - name: r
+    max_wheel_accel_radps2: 1000
+    command_response: {dead_time_s: 0.2, time_constant_v_s: 0.3, gain_v: 0.9, gain_omega: 0.8}
+    start: {x: 0, y: 0, theta: 0}
+)");
+  drive_for(sim, 0.18, 0.4, 0.0);
+  EXPECT_LT(sim.robot(0).velocity_mps().norm(), 1e-6);  // nothing before the dead time
+  drive_for(sim, 0.32, 0.4, 0.0);                       // one time constant after it
+  EXPECT_NEAR(sim.robot(0).velocity_mps().norm(), 0.9 * 0.4 * (1.0 - std::exp(-1.0)), 0.02);
+  drive_for(sim, 3.0, 0.4, 0.0);  // settled: the gain
+  EXPECT_NEAR(sim.robot(0).velocity_mps().norm(), 0.9 * 0.4, 0.005);
+  // The turn rate has no lag of its own: after the dead time it follows at once, scaled.
+  drive_for(sim, 0.5, 0.0, 0.5);
+  drive_for(sim, 1.0, 0.0, 0.5);
+  EXPECT_NEAR(sim.robot(0).yaw_rate_radps(), 0.8 * 0.5, 0.01);
+  EXPECT_DOUBLE_EQ(sim.robot(0).given_omega_radps(), 0.5);
+}
+
 TEST(DiffDrive, UnequalWheelRadiiCurveAStraightCommand) {
   Simulation sim = make_sim(R"(
 floor: {friction: 1.0}

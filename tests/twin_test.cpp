@@ -162,6 +162,19 @@ TEST(TrajectoryDrive, FollowsTimedPosesWithinCentimetresInlineOrFromATumFile) {
   testing::expect_contains(repeated, "times must increase");
 }
 
+/// Runs `world` with `seed` into `out_dir` (no readings/) and records `log`; returns `log`.
+fs::path record(const fs::path& world, std::uint64_t seed, const fs::path& out_dir,
+                const fs::path& log) {
+  RunOptions options;
+  options.world_file = world;
+  options.seed = seed;
+  options.out_dir = out_dir;
+  options.readings = false;
+  options.log_file = log;
+  run_simulation(options);
+  return log;
+}
+
 struct LogCounts {
   double duration_s = 0.0;
   std::size_t landmark_detections = 0;
@@ -186,13 +199,7 @@ LogCounts count(const fs::path& log) {
 TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
   const fs::path dir = testing::temp_dir("twin");
   std::ofstream(dir / "world.yaml") << testing::noisy_world(0.0);
-  RunOptions options;
-  options.world_file = dir / "world.yaml";
-  options.seed = 5;
-  options.out_dir = dir / "run";
-  options.readings = false;
-  options.log_file = dir / "recorded.locsimlog";
-  run_simulation(options);
+  record(dir / "world.yaml", 5, dir / "run", dir / "recorded.locsimlog");
   const Calibration original = calibrate({dir / "recorded.locsimlog"}, {});
   // Independent detection noise is measured as such: at most a correlation of 0.05 between
   // detections a sensor period (0.1 s) apart.
@@ -220,17 +227,13 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
             calibrated["encoders"]["k_left"].as<std::string>());
   EXPECT_EQ(sensors["range_bearing"]["sigma_range_per_m"].as<std::string>(),
             calibrated["range_bearing"]["sigma_range_per_m"].as<std::string>());
+  // A word is copied as well as a number.
+  EXPECT_EQ(sensors["range_bearing"]["range_model"].as<std::string>(), "distance");
   EXPECT_EQ(world["landmarks"].size(), 8u);
   EXPECT_EQ(world["walls"].size(), 1u);
 
   // Run the twin on another seed: the same path, as many detections, the same noise measured.
-  RunOptions twin_run;
-  twin_run.world_file = dir / "twin" / "twin.yaml";
-  twin_run.seed = 9;
-  twin_run.out_dir = dir / "twin_run";
-  twin_run.readings = false;
-  twin_run.log_file = dir / "twin.locsimlog";
-  run_simulation(twin_run);
+  record(dir / "twin" / "twin.yaml", 9, dir / "twin_run", dir / "twin.locsimlog");
   const LogCounts recorded = count(dir / "recorded.locsimlog");
   const LogCounts simulated = count(dir / "twin.locsimlog");
   const auto [worst_m, worst_rad] = worst_distance(simulated.truth, recorded.truth);
@@ -248,6 +251,94 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
               0.2 * original.cameras[0].range_spread_m.per_unit);
   EXPECT_NEAR(again.cameras[0].bearing_spread_rad, original.cameras[0].bearing_spread_rad,
               0.2 * original.cameras[0].bearing_spread_rad);
+}
+
+/// The noisy world with a base that reports its command (50 Hz velocities, as MRCLAM's robots
+/// log them) and follows it through a response.
+std::string commanded_world() {
+  std::string world = testing::noisy_world(0.0);
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = world.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    world.replace(at, from.size(), to);
+  };
+  replace("    wheel_radius_m: 0.05\n",
+          "    wheel_radius_m: 0.05\n    max_wheel_accel_radps2: 200\n"
+          "    command_response: {dead_time_s: 0.1, time_constant_v_s: 0.25, "
+          "time_constant_omega_s: 0.15, gain_v: 0.93, gain_omega: 0.96}\n");
+  replace("encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}",
+          "encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02, measures: command, reports: "
+          "[velocity]}");
+  return world;
+}
+
+void expect_response(const CommandResponseFit& fit, const char* what) {
+  SCOPED_TRACE(what);
+  EXPECT_TRUE(fit.leads);
+  EXPECT_NEAR(fit.gain_v, 0.93, 0.02);
+  EXPECT_NEAR(fit.gain_omega, 0.96, 0.02);
+  // The dead time and a lag trade against each other a little; their sum is the delay a
+  // smooth command sees. Within 15 %, and each within two grid steps of 20 ms... or a lag step.
+  EXPECT_NEAR(fit.dead_time_s + fit.time_constant_v_s, 0.35, 0.15 * 0.35);
+  EXPECT_NEAR(fit.dead_time_s + fit.time_constant_omega_s, 0.25, 0.15 * 0.25);
+  EXPECT_NEAR(fit.dead_time_s, 0.1, 0.04);
+  // What the response does not explain is the wheel noise, k 0.01 and 0.02.
+  ASSERT_TRUE(fit.k_left && fit.k_right);
+  EXPECT_NEAR(*fit.k_left, 0.01, 0.25 * 0.01);
+  EXPECT_NEAR(*fit.k_right, 0.02, 0.25 * 0.02);
+}
+
+TEST(Twin, ABaseThatReportsItsCommandIsCalibratedWithItsLagAndTwinnedWithIt) {
+  const fs::path dir = testing::temp_dir("twin_command");
+  std::ofstream(dir / "world.yaml") << commanded_world();
+  record(dir / "world.yaml", 5, dir / "run", dir / "recorded.locsimlog");
+  const Calibration original = calibrate({dir / "recorded.locsimlog"}, {});
+  ASSERT_TRUE(original.motion && original.motion->command);
+  expect_response(*original.motion->command, "the recorded log");
+  const std::string yaml = original.to_yaml();
+  EXPECT_NE(yaml.find("command_response: {dead_time_s: "), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("encoders: {measures: command, k_left: "), std::string::npos) << yaml;
+  write_file(dir / "calibration.yaml", yaml);
+  // `locsim report` of the calibration says what was measured.
+  fs::create_directories(dir / "cal");
+  write_file(dir / "cal" / "calibration.json", original.to_json().dump());
+  const auto report = testing::locsim("report " + (dir / "cal").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const std::string text = testing::read_file(dir / "cal" / "report.md");
+  EXPECT_NE(text.find("Command response ("), std::string::npos) << text;
+  EXPECT_NE(text.find("the odometry leads the motion"), std::string::npos) << text;
+
+  TwinOptions twin_options;
+  twin_options.log = dir / "recorded.locsimlog";
+  twin_options.calibration = dir / "calibration.yaml";
+  write_twin(twin_options, dir / "twin" / "twin.yaml", false);
+  const YAML::Node world = YAML::LoadFile((dir / "twin" / "twin.yaml").string());
+  EXPECT_EQ(world["robots"][0]["sensors"]["encoders"]["measures"].as<std::string>(), "command");
+  EXPECT_TRUE(world["robots"][0]["command_response"]["dead_time_s"]);
+
+  // The twin's robot follows the recorded path through its lag (the drive leads it), and its
+  // log calibrates to the same response.
+  record(dir / "twin" / "twin.yaml", 9, dir / "twin_run", dir / "twin.locsimlog");
+  const auto [worst_m, worst_rad] =
+      worst_distance(count(dir / "twin.locsimlog").truth, count(dir / "recorded.locsimlog").truth);
+  EXPECT_LT(worst_m, 0.1);
+  EXPECT_LT(worst_rad, deg_to_rad(10.0));
+  const Calibration again = calibrate({dir / "twin.locsimlog"}, {});
+  ASSERT_TRUE(again.motion && again.motion->command);
+  expect_response(*again.motion->command, "the twin's log");
+
+  // A base whose odometry counts its wheels (and reports their velocity) does not lead its
+  // motion: no response is written.
+  std::string plain = testing::noisy_world(0.0);
+  const std::string encoders = "k_right: 0.02}";
+  plain.replace(plain.find(encoders), encoders.size(),
+                "k_right: 0.02, reports: [ticks, pose, velocity]}");
+  std::ofstream(dir / "plain.yaml") << plain;
+  record(dir / "plain.yaml", 5, dir / "plain_run", dir / "plain.locsimlog");
+  const Calibration wheels = calibrate({dir / "plain.locsimlog"}, {});
+  ASSERT_TRUE(wheels.motion && wheels.motion->command);
+  EXPECT_FALSE(wheels.motion->command->leads);
+  EXPECT_EQ(wheels.to_yaml().find("command_response"), std::string::npos);
 }
 
 TEST(Twin, CommandLineIsDeterministicAndRefusesBadInput) {

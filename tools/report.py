@@ -655,6 +655,17 @@ def calibration_lines(cal, out_dir):
             v = motion["velocity_model"]
             lines += ["", f"Velocity model (Thrun table 5.3, {v['intervals']} intervals): variance of v = "
                       f"{v['alpha1']:.4g} v² + {v['alpha2']:.4g} ω², of ω = {v['alpha3']:.4g} v² + {v['alpha4']:.4g} ω²."]
+        if "command_response" in motion:
+            c = motion["command_response"]
+            share, gain_only = c["residual_variance_share"], c["gain_only_residual_variance_share"]
+            verdict = ("the odometry leads the motion: the twin's robots get this response"
+                       if c["leads"] else "the odometry does not lead the motion: nothing written")
+            lines += ["", f"Command response ({c['seconds']:.0f} s of reported velocity with a true one): dead time "
+                      f"{c['dead_time_s']:.3g} s, time constants {c['time_constant_v_s']:.3g} s (v) and "
+                      f"{c['time_constant_omega_s']:.3g} s (ω), gains {c['gain_v']:.4g} (v) and {c['gain_omega']:.4g} (ω). "
+                      f"It leaves {share['v']:.3g} (v) and {share['omega']:.3g} (ω) of the error variance about the "
+                      f"reported velocity, a gain alone {gain_only['v']:.3g} and {gain_only['omega']:.3g}; {verdict}"
+                      + (f"; beyond it the motion adds k {c['k_left']:.4g}, {c['k_right']:.4g} m^1/2." if "k_left" in c else ".")]
     for camera in cal.get("cameras", []):
         name = escaped(camera["camera"])
         rb, rs, rr = camera["range_bias"], camera["range_spread"], camera["range_rms"]
@@ -666,6 +677,13 @@ def calibration_lines(cal, out_dir):
                   "", f"Range bias {rb['m']:.4g} m + {rb['per_m']:.4g} r, spread {rs['m']:.4g} m + {rs['per_m']:.4g} r "
                   f"(about zero: {rr['m']:.4g} m + {rr['per_m']:.4g} r); bearing bias "
                   f"{math.degrees(camera['bearing_bias_rad']):.3f} deg, spread {math.degrees(camera['bearing_spread_rad']):.3f} deg."]
+        if "range_models" in camera:
+            models = camera["range_models"]
+            depth = models["depth"]
+            lines += ["", f"Range model chosen: {models['chosen']} (residual rms {models['distance']['residual_rms_m']:.4g} m "
+                      f"as distance, {depth['residual_rms_m']:.4g} m as depth x = r cos(bearing)); as depth: bias "
+                      f"{depth['bias']['m']:.4g} m + {depth['bias']['per_m']:.4g} x, spread {depth['spread']['m']:.4g} m "
+                      f"+ {depth['spread']['per_m']:.4g} x."]
         bins = camera["bins"]
         if not bins:
             continue

@@ -50,6 +50,8 @@ json sensors(const SensorsDef& s) {
       if ((d.reports & field) != 0) reports.push_back(odometry_field_name(field));
     }
     out["encoders"]["reports"] = reports;
+    // Only when not the default, so that a world that does not use it writes what it wrote.
+    if (d.measures == EncodersDef::Measures::kCommand) out["encoders"]["measures"] = "command";
   }
   if (s.imu) {
     const ImuDef& d = *s.imu;
@@ -139,6 +141,9 @@ json sensors(const SensorsDef& s) {
                                  {"noise_correlation_s", d.noise_correlation_s},
                                  {"report_ids", d.report_ids},
                                  {"sees_robots", d.sees_robots}});
+    // Only when not the default, so that a world that does not use it writes what it wrote.
+    if (d.range_model == RangeBearingDef::RangeModel::kDepth)
+      out["range_bearing"]["range_model"] = "depth";
   }
   return out;
 }
@@ -256,6 +261,13 @@ json to_json(const WorldDef& w) {
                       {"height_m", r.height_m},
                       {"start", pose(r.start)},
                       {"sensors", sensors(r.sensors)}});
+    if (const CommandResponseDef& c = r.command_response; !c.identity()) {
+      robots.back()["command_response"] = {{"dead_time_s", c.dead_time_s},
+                                           {"time_constant_v_s", c.time_constant_v_s},
+                                           {"time_constant_omega_s", c.time_constant_omega_s},
+                                           {"gain_v", c.gain_v},
+                                           {"gain_omega", c.gain_omega}};
+    }
   }
   out["robots"] = robots;
   // Only when on: a world with `variation: none` writes what it wrote before variation existed.

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -18,6 +19,7 @@
 #include "sim/sensors/scene_rays.hpp"
 #include "sim/sensors/sensor_loader.hpp"
 #include "sim/world/physics_world.hpp"
+#include "sim/world/world_loader.hpp"
 
 namespace locsim {
 
@@ -72,11 +74,20 @@ SensorSettings read_calibration_sensors(const fs::path& file, double step_hz) {
     if (settings.is_null()) continue;  // `imu:`: the sensor on, no setting to merge
     for (const auto& [key, value] : settings.entries()) {
       if (!value.is_scalar()) value.fail("expected a number (a sensor setting of `calibrate`)");
-      // Copied into the twin as text: numbers only (parse_sensors checked each one's range; a
-      // `true` would come out quoted, a string).
-      constexpr double kLargest = std::numeric_limits<double>::max();
-      value.as_double(Range{-kLargest, kLargest, ""});
-      out[sensor].emplace_back(key, value.as_string());
+      // Copied into the twin as text, which is written back as it reads: numbers, and plain
+      // words (`range_model: depth`). parse_sensors has checked each against its key (a number's
+      // range, a word's choices); anything else would need quoting to stay what it is.
+      const std::string text = value.as_string();
+      const bool word = !text.empty() &&
+                        std::isalpha(static_cast<unsigned char>(text.front())) != 0 &&
+                        std::all_of(text.begin(), text.end(), [](char ch) {
+                          return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_';
+                        });
+      if (!word) {
+        constexpr double kLargest = std::numeric_limits<double>::max();
+        value.as_double(Range{-kLargest, kLargest, ""});
+      }
+      out[sensor].emplace_back(key, text);
     }
   }
   return out;
@@ -90,6 +101,18 @@ double setting(const SensorSettings& settings, const std::string& sensor, const 
     if (k == key) return std::stod(v);
   }
   return fallback;
+}
+
+/// The `robot:` section of the calibration file `file` (how the motion follows the command),
+/// checked as a robot's keys are; none when the file has none.
+std::optional<CommandResponseDef> read_calibration_robot(const fs::path& file) {
+  const YamlNode root = YamlNode::load_file(file);
+  const auto robot = root.find("robot");
+  if (!robot || robot->is_null()) return std::nullopt;
+  robot->allow_keys({"command_response"});
+  const auto response = robot->find("command_response");
+  if (!response) return std::nullopt;
+  return parse_command_response(*response);
 }
 
 }  // namespace
@@ -152,6 +175,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   const SensorSettings calibrated =
       options.calibration ? read_calibration_sensors(*options.calibration, world.physics.step_hz)
                           : SensorSettings{};
+  const std::optional<CommandResponseDef> response =
+      options.calibration ? read_calibration_robot(*options.calibration) : std::nullopt;
 
   // The paths, and what a range-bearing camera on them would have in view.
   const PhysicsWorld physics(world);
@@ -252,6 +277,16 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     pose["y"] = seven_digits(start.y);
     pose["theta"] = seven_digits(start.theta);
     robot["start"] = pose;
+    if (response) {
+      YAML::Node r(YAML::NodeType::Map);
+      r.SetStyle(YAML::EmitterStyle::Flow);
+      r["dead_time_s"] = seven_digits(response->dead_time_s);
+      r["time_constant_v_s"] = seven_digits(response->time_constant_v_s);
+      r["time_constant_omega_s"] = seven_digits(response->time_constant_omega_s);
+      r["gain_v"] = seven_digits(response->gain_v);
+      r["gain_omega"] = seven_digits(response->gain_omega);
+      robot["command_response"] = r;
+    }
     YAML::Node sensors = robot["sensors"];
     for (const auto& [sensor, settings] : calibrated) {
       if (!sensors[sensor]) continue;
@@ -303,6 +338,10 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
                      seven_digits(options.pose_rate_hz) + " poses per second).\n";
   if (options.calibration)
     text += "# Sensor noise: the `sensors:` of " + options.calibration->string() + ".\n";
+  if (response)
+    text +=
+        "# Each robot follows its command through the calibration's `command_response`; "
+        "the drive tells it the path's velocity ahead by its lag.\n";
   if (twin.camera && twin.camera->note.empty()) {
     const TwinCamera& c = *twin.camera;
     text += "# range_bearing: rate " + seven_digits(c.rate_hz) + " Hz, miss_probability " +

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <locsim/models.hpp>
@@ -49,7 +50,8 @@ class TruthTrack {
     double max_gap_s = std::numeric_limits<double>::infinity();
     if (!periods.empty()) {
       std::nth_element(periods.begin(), periods.begin() + periods.size() / 2, periods.end());
-      max_gap_s = 5.0 * periods[periods.size() / 2];
+      median_period_s_ = periods[periods.size() / 2];
+      max_gap_s = 5.0 * median_period_s_;
     }
     std::sort(cuts_.begin(), cuts_.end());
     breaks_.assign(t_.size(), 0);
@@ -60,6 +62,7 @@ class TruthTrack {
     }
   }
   bool empty() const { return t_.empty(); }
+  double median_period_s() const { return median_period_s_; }  // 0 before finish()
 
   /// The pose at t, interpolated between its neighbours; none outside the samples or in a break.
   std::optional<sdk::Pose> at(double t_s) const {
@@ -90,6 +93,59 @@ class TruthTrack {
   std::vector<Pose2> pose_;
   std::vector<double> cuts_;
   std::vector<std::size_t> breaks_;  // breaks between samples 0..i
+  double median_period_s_ = 0.0;
+};
+
+/// The truth's velocity at t (along its heading [m/s], and its turn rate [rad/s]) by central
+/// differences over +-h_s, and its pose there; none where the truth is not known on both sides.
+std::optional<std::pair<double, double>> true_velocity(const TruthTrack& truth, double t_s,
+                                                       double h_s, sdk::Pose& pose) {
+  const auto before = truth.at(t_s - h_s), now = truth.at(t_s), after = truth.at(t_s + h_s);
+  if (!before || !now || !after || !truth.continuous(t_s - h_s, t_s + h_s)) return std::nullopt;
+  pose = *now;
+  const double c = std::cos(pose(2)), s = std::sin(pose(2));
+  return std::pair{
+      (c * ((*after)(0) - (*before)(0)) + s * ((*after)(1) - (*before)(1))) / (2.0 * h_s),
+      sdk::wrap((*after)(2) - (*before)(2)) / (2.0 * h_s)};
+}
+
+/// The half-width of those differences: at least one truth period, so that a coarse truth is
+/// differenced across its samples rather than along one interpolated segment. [s]
+double difference_half_width_s(const TruthTrack& truth) {
+  return std::max(0.06, truth.median_period_s());
+}
+
+/// The truth collect_motion compares the odometry against: the true path or, given a command
+/// response, the path the command would have traced (the truth run backwards through the
+/// response: the pose dead_time_s later, moved on by each channel's time constant times its
+/// velocity, so that an interval's increment is the integral of what the command must have
+/// been; the gain is left to the odometry).
+struct TruthView {
+  const TruthTrack& track;
+  const CommandResponseFit* response = nullptr;
+  // The velocities that move the pose on are differences over +-this: wider than the fit's, as
+  // the time constants multiply their noise (a Vicon heading's 0.5 deg over +-0.06 s, times
+  // 0.2 s, would pass for 1 deg of odometry error per interval). [s]
+  static constexpr double kAheadHalfWidthS = 0.12;
+  double ahead_half_width_s() const {
+    return std::max(kAheadHalfWidthS, difference_half_width_s(track));
+  }
+
+  std::optional<sdk::Pose> at(double t_s) const {
+    if (response == nullptr) return track.at(t_s);
+    sdk::Pose now;
+    const auto velocity =
+        true_velocity(track, t_s + response->dead_time_s, ahead_half_width_s(), now);
+    if (!velocity) return std::nullopt;
+    const double ahead_m = response->time_constant_v_s * velocity->first;
+    return sdk::Pose(now(0) + ahead_m * std::cos(now(2)), now(1) + ahead_m * std::sin(now(2)),
+                     sdk::wrap(now(2) + response->time_constant_omega_s * velocity->second));
+  }
+  bool continuous(double a_s, double b_s) const {
+    if (response == nullptr) return track.continuous(a_s, b_s);
+    const double h_s = ahead_half_width_s();
+    return track.continuous(a_s + response->dead_time_s - h_s, b_s + response->dead_time_s + h_s);
+  }
 };
 
 const std::vector<Detection>* detections_of(const ReadingData& data) {
@@ -112,7 +168,8 @@ struct MotionSample {
 };
 
 struct Residual {
-  double range_m = 0.0;  // true
+  double range_m = 0.0;      // true
+  double bearing_rad = 0.0;  // true, from the robot's x axis
   double range_error_m = 0.0;
   double bearing_error_rad = 0.0;
   std::size_t landmark = 0;  // index in its world
@@ -147,7 +204,7 @@ struct Pooled {
 };
 
 struct RobotLog {
-  const RobotDef* def = nullptr;
+  RobotDef def;  // a copy: the fits run once every log has been read
   TruthTrack truth;
   std::vector<std::pair<double, locsim_odometry>> odometry;
   struct Seen {
@@ -156,6 +213,7 @@ struct RobotLog {
     std::vector<Detection> detections;
   };
   std::vector<Seen> seen;
+  std::vector<double> steps;  // times of the perception steps (perception_steps)
 };
 
 /// The landmark a detection is of: its id's, else the nearest (to where the detection puts it,
@@ -185,13 +243,23 @@ bool counts_as_step(const RobotLog::Seen& seen, const WorldDef& world) {
   return false;
 }
 
-void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled) {
+/// The times of the readings with a detection of a landmark on the map (a landmark particle
+/// filter's steps), increasing.
+std::vector<double> perception_steps(const RobotLog& robot, const WorldDef& world) {
   std::vector<double> steps;
   for (const RobotLog::Seen& seen : robot.seen) {
     if (counts_as_step(seen, world) && (steps.empty() || seen.t_s > steps.back()))
       steps.push_back(seen.t_s);
   }
-  const auto& odometry = robot.odometry;
+  return steps;
+}
+
+/// The odometry's increments between consecutive perception steps against the truth's;
+/// `odometry` is the robot's, or what a model makes of it.
+void collect_motion(const RobotLog& robot,
+                    const std::vector<std::pair<double, locsim_odometry>>& odometry,
+                    const TruthView& truth, std::vector<MotionSample>& out) {
+  const std::vector<double>& steps = robot.steps;
   // The odometry a filter has at time t: the latest reading at or before it.
   const auto latest = [&](double t_s) -> std::optional<std::size_t> {
     const auto it = std::upper_bound(odometry.begin(), odometry.end(), t_s,
@@ -199,13 +267,13 @@ void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled
     if (it == odometry.begin()) return std::nullopt;
     return static_cast<std::size_t>(it - odometry.begin()) - 1;
   };
-  const double wheel_base_m = believed_wheel_base_m(*robot.def);  // what ekf_landmarks is told
+  const double wheel_base_m = believed_wheel_base_m(robot.def);  // what ekf_landmarks is told
   for (std::size_t k = 1; k < steps.size(); ++k) {
     const auto ia = latest(steps[k - 1]), ib = latest(steps[k]);
     if (!ia || !ib || *ib <= *ia) continue;
     const double ta = odometry[*ia].first, tb = odometry[*ib].first;
-    if (!robot.truth.continuous(ta, tb)) continue;
-    const auto true_a = robot.truth.at(ta), true_b = robot.truth.at(tb);
+    if (!truth.continuous(ta, tb)) continue;
+    const auto true_a = truth.at(ta), true_b = truth.at(tb);
     if (!true_a || !true_b) continue;
     const auto pose_of = [](const locsim_odometry& o) {
       return sdk::Pose(o.odom_pose.x, o.odom_pose.y, o.odom_pose.theta);
@@ -251,7 +319,7 @@ void collect_motion(const RobotLog& robot, const WorldDef& world, Pooled& pooled
       s.true_omega_radps = d(2) / s.dt_s;
       s.true_v_mps = chord / sdk::sinc(0.5 * d(2)) / s.dt_s;
     }
-    pooled.motion.push_back(s);
+    out.push_back(s);
   }
 }
 
@@ -280,7 +348,7 @@ namespace {
 
 void collect_detections(const RobotLog& robot, const WorldDef& world, const StaticRaycaster& walls,
                         Pooled& pooled) {
-  const std::optional<RangeBearingDef>& fov_sensor = robot.def->sensors.range_bearing;
+  const std::optional<RangeBearingDef>& fov_sensor = robot.def.sensors.range_bearing;
   const std::size_t track = pooled.tracks++;
   for (const RobotLog::Seen& seen : robot.seen) {
     const auto pose = robot.truth.at(seen.t_s);
@@ -303,7 +371,7 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
       const LandmarkDef& l = world.landmarks[*landmark];
       const Eigen::Vector2d predicted =
           sdk::range_bearing(*pose, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
-      camera.residuals.push_back({predicted(0), d.range_m - predicted(0),
+      camera.residuals.push_back({predicted(0), predicted(1), d.range_m - predicted(0),
                                   sdk::wrap(d.bearing_rad - predicted(1)), *landmark, true,
                                   seen.t_s, track});
     }
@@ -372,6 +440,39 @@ LineFit fit_spread(const std::vector<double>& x, const std::vector<double>& e) {
           rms * std::exp(std::clamp(best.x[1], -30.0, 5.0))};
 }
 
+/// A residual in a range model: x (the true distance, or in depth the true depth r cos(bearing))
+/// and the measured range minus x. The camera's axis is taken as the robot's x axis, as the
+/// residuals are in the robot frame (what the filters see; MRCLAM's cameras look straight ahead).
+struct InModel {
+  double x_m, error_m;
+};
+InModel in_model(const Residual& r, bool depth) {
+  if (!depth) return {r.range_m, r.range_error_m};
+  const double x_m = r.range_m * std::cos(r.bearing_rad);
+  return {x_m, r.range_m + r.range_error_m - x_m};
+}
+
+/// The depth model fitted to the inliers `kept`: as the distance model's lines (least squares
+/// bias line, maximum-likelihood spread about it), in the true depth.
+RangeModelFit fit_depth_model(const std::vector<Residual>& r,
+                              const std::vector<std::size_t>& kept) {
+  std::vector<double> x, e;
+  for (const std::size_t i : kept) {
+    const InModel m = in_model(r[i], true);
+    x.push_back(m.x_m), e.push_back(m.error_m);
+  }
+  RangeModelFit fit;
+  fit.bias_m = fit_line(x, e);
+  double ee = 0.0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    e[k] -= fit.bias_m.at(x[k]);
+    ee += e[k] * e[k];
+  }
+  fit.spread_m = fit_spread(x, e);
+  fit.residual_rms_m = std::sqrt(ee / static_cast<double>(std::max<std::size_t>(1, x.size())));
+  return fit;
+}
+
 /// The landmark particle filters' outlier_likelihood: a detection is false with probability eps
 /// (the false ones among all), and a false one falls anywhere in the measured span of ranges and
 /// bearings. Its mixture with the match (scaled to 1 at a perfect match, a Gaussian of peak
@@ -404,9 +505,14 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
   std::vector<Pair> pairs;
   std::map<std::pair<std::size_t, std::size_t>, std::size_t> last;  // (track, landmark) -> index
   const double sigma_b = std::max(c.bearing_spread_rad, 1e-9);
+  // About the chosen range model, whose noise the sensor's process carries: about the other, the
+  // model's error (which changes as slowly as the view) would pass for correlated noise.
+  const bool depth = c.range_model == "depth";
+  const LineFit& bias = depth ? c.depth_model->bias_m : c.range_bias_m;
+  const LineFit& spread = depth ? c.depth_model->spread_m : c.range_spread_m;
   const auto z_range = [&](const Residual& x) {
-    return (x.range_error_m - c.range_bias_m.at(x.range_m)) /
-           std::max(c.range_spread_m.at(x.range_m), 1e-9);
+    const InModel m = in_model(x, depth);
+    return (m.error_m - bias.at(m.x_m)) / std::max(spread.at(m.x_m), 1e-9);
   };
   for (std::size_t i = 0; i < data.residuals.size(); ++i) {
     const Residual& x = data.residuals[i];
@@ -584,6 +690,22 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
     }
     c.range_spread_m = fit_spread(x, about_bias);
     c.range_rms_m = fit_spread(x, about_zero);
+    if (kind == SensorKind::kRangeBearing) {
+      double ee = 0.0;
+      for (const double e : about_bias) ee += e * e;
+      c.distance_model = RangeModelFit{c.range_bias_m, c.range_spread_m,
+                                       std::sqrt(ee / static_cast<double>(about_bias.size()))};
+      c.depth_model = fit_depth_model(r, kept);
+      // Both are two-parameter lines through the same measured ranges, so neither fits noise
+      // better by having more freedom. Where the bearings are small the two models are nearly
+      // the same and their residuals differ by chance; depth (which the localizers do not
+      // model) is chosen only when it leaves clearly less: under 0.8 of distance's variance
+      // (on MRCLAM's cameras it leaves about 0.12: docs/reports/sim_to_real/measurements.md).
+      constexpr double kDepthVarianceRatio = 0.8;
+      const double distance_variance = std::pow(c.distance_model->residual_rms_m, 2);
+      const double depth_variance = std::pow(c.depth_model->residual_rms_m, 2);
+      if (depth_variance < kDepthVarianceRatio * distance_variance) c.range_model = "depth";
+    }
   }
   outlier_likelihood(data, c);
   noise_correlation(data, c);
@@ -706,16 +828,8 @@ std::optional<OdometryModelFit> fit_velocity_model(const std::vector<MotionSampl
   return out;
 }
 
-MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
-  MotionCalibration m;
-  m.intervals = samples.size();
-  for (const MotionSample& s : samples) {
-    m.mean_interval_s += s.dt_s / static_cast<double>(samples.size());
-    m.mean_travel_m += s.measured.trans / static_cast<double>(samples.size());
-  }
-  m.odometry_std = fit_odometry_model(samples, false);
-  m.odometry_variance = fit_odometry_model(samples, true);
-  m.variance_form = m.odometry_variance.log_likelihood > m.odometry_std.log_likelihood;
+/// The wheel model's k_left, k_right and floor by maximum likelihood (MotionCalibration's).
+void fit_wheel_model(const std::vector<MotionSample>& samples, MotionCalibration& m) {
   const auto wheel_p = [](const MotionSample& s, const std::vector<double>& p) {
     const double kl = bounded_exp(p[0]), kr = bounded_exp(p[1]);
     return Eigen::Matrix3d(kl * kl * s.wheel_p_left + kr * kr * s.wheel_p_right +
@@ -736,8 +850,344 @@ MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
     m.k_mean_nees += s.wheel_error.dot(wheel_p(s, best.x).ldlt().solve(s.wheel_error)) /
                      static_cast<double>(samples.size());
   }
+}
+
+MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
+  MotionCalibration m;
+  m.intervals = samples.size();
+  for (const MotionSample& s : samples) {
+    m.mean_interval_s += s.dt_s / static_cast<double>(samples.size());
+    m.mean_travel_m += s.measured.trans / static_cast<double>(samples.size());
+  }
+  m.odometry_std = fit_odometry_model(samples, false);
+  m.odometry_variance = fit_odometry_model(samples, true);
+  m.variance_form = m.odometry_variance.log_likelihood > m.odometry_std.log_likelihood;
+  fit_wheel_model(samples, m);
   m.velocity = fit_velocity_model(samples, m.velocity_intervals);
   return m;
+}
+
+// ---- the command response --------------------------------------------------------------------
+
+constexpr double kResponseGridS = 0.02;  // the fit's time step: the dead time's resolution [s]
+constexpr double kMaxDeadTimeS = 0.6;
+// Time constants tried [s]: the grid is coarse where the fit is flat.
+constexpr double kResponseTimeConstantsS[] = {0.0,  0.05, 0.1, 0.15, 0.2, 0.25, 0.3,
+                                              0.35, 0.4,  0.5, 0.6,  0.7, 0.85, 1.0};
+// A reading older than this no longer says what the robot is told (a gap in the log). [s]
+constexpr double kStaleReadingS = 1.0;
+// Both sides of the fit are averaged over +-this (a zero-phase filter, which the model commutes
+// with), so that noise in the reported velocity weighs less against the signal. [s]
+constexpr double kFitSmoothingS = 0.3;
+// The lag is kept when it leaves at most this share of what the best zero-phase smoothing of
+// the reported velocity (with a gain) leaves, normalised by each channel's variance and summed:
+// a lag that only smooths noise explains no more than a smoother does, and a wheel odometry,
+// whose velocity is a mean over its last period, lags the truth rather than leads it.
+constexpr double kLeadShare = 0.8;
+
+/// A robot's reported velocity (the latest reading's, held) and its true velocity (central
+/// differences of the truth, then a mean over +-kFitSmoothingS) on a regular grid.
+struct VelocitySeries {
+  double t0_s = 0.0;
+  std::vector<double> reported_v, reported_omega;
+  std::vector<double> true_v, true_omega;
+  std::vector<char> valid;  // a true velocity and a fresh reading over the whole mean
+  // The true velocity is a difference over +-difference_steps: a mean of the velocity over
+  // them, which the model's output gets too before they are compared (else the fit would take
+  // the mean's spread for an earlier start and a longer lag); then both a mean over
+  // +-smoothing_steps.
+  std::size_t difference_steps = 0, smoothing_steps = 0;
+  // The reported values' own noise (a wheel noise added to a reported command): its variance per
+  // reading, from the spread of consecutive readings' differences (robust: a command that steps
+  // now and then has none), and how many grid steps a reading is held. [(m/s)^2], [(rad/s)^2]
+  double noise_variance[2] = {0.0, 0.0};  // v, omega
+  std::size_t hold_steps = 1;
+  /// What a model's output x is compared as.
+  std::vector<double> as_compared(const std::vector<double>& x) const;
+};
+
+/// The centred moving mean of x over +-half steps (shorter at the ends).
+std::vector<double> centred_mean(const std::vector<double>& x, std::size_t half) {
+  if (half == 0) return x;
+  std::vector<double> prefix(x.size() + 1, 0.0);
+  for (std::size_t k = 0; k < x.size(); ++k) prefix[k + 1] = prefix[k] + x[k];
+  std::vector<double> out(x.size());
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const std::size_t from = k >= half ? k - half : 0, to = std::min(x.size(), k + half + 1);
+    out[k] = (prefix[to] - prefix[from]) / static_cast<double>(to - from);
+  }
+  return out;
+}
+
+std::vector<double> VelocitySeries::as_compared(const std::vector<double>& x) const {
+  return centred_mean(centred_mean(x, difference_steps), smoothing_steps);
+}
+
+std::optional<VelocitySeries> velocity_series(const RobotLog& robot) {
+  std::vector<std::pair<double, const locsim_odometry*>> readings;
+  for (const auto& [t_s, o] : robot.odometry) {
+    if ((o.fields & LOCSIM_ODOMETRY_VELOCITY) != 0) readings.emplace_back(t_s, &o);
+  }
+  if (readings.size() < 2) return std::nullopt;
+  const double h_s = difference_half_width_s(robot.truth);
+  VelocitySeries out;
+  out.t0_s = readings.front().first;
+  out.difference_steps = static_cast<std::size_t>(std::lround(h_s / kResponseGridS));
+  out.smoothing_steps = static_cast<std::size_t>(std::lround(kFitSmoothingS / kResponseGridS));
+  const auto steps = static_cast<std::size_t>((readings.back().first - out.t0_s) / kResponseGridS);
+  std::vector<double> valid;
+  std::size_t held = 0;
+  for (std::size_t k = 0; k <= steps; ++k) {
+    const double t_s = out.t0_s + static_cast<double>(k) * kResponseGridS;
+    while (held + 1 < readings.size() && readings[held + 1].first <= t_s) ++held;
+    const locsim_odometry& r = *readings[held].second;
+    out.reported_v.push_back(r.v_mps);
+    out.reported_omega.push_back(r.omega_radps);
+    sdk::Pose pose;
+    const auto velocity = true_velocity(robot.truth, t_s, h_s, pose);
+    const bool fresh = velocity && t_s - readings[held].first < kStaleReadingS;
+    out.true_v.push_back(fresh ? velocity->first : 0.0);
+    out.true_omega.push_back(fresh ? velocity->second : 0.0);
+    valid.push_back(fresh ? 1.0 : 0.0);
+  }
+  std::vector<double> periods;
+  for (std::size_t i = 1; i < readings.size(); ++i)
+    periods.push_back(readings[i].first - readings[i - 1].first);
+  out.hold_steps = std::max<std::size_t>(
+      1, static_cast<std::size_t>(std::lround(median(periods) / kResponseGridS)));
+  for (int c = 0; c < 2; ++c) {
+    std::vector<double> differences;
+    for (std::size_t i = 1; i < readings.size(); ++i) {
+      const locsim_odometry& a = *readings[i - 1].second;
+      const locsim_odometry& b = *readings[i].second;
+      differences.push_back(c == 0 ? b.v_mps - a.v_mps : b.omega_radps - a.omega_radps);
+    }
+    const double middle = median(differences);
+    for (double& d : differences) d = std::abs(d - middle);
+    // A difference of two independent readings has twice their variance.
+    out.noise_variance[c] = std::pow(1.4826 * median(differences), 2) / 2.0;
+  }
+  out.true_v = centred_mean(out.true_v, out.smoothing_steps);
+  out.true_omega = centred_mean(out.true_omega, out.smoothing_steps);
+  // Valid where every sample of the mean is (the mean of the flags is 1).
+  for (const double share : centred_mean(valid, out.smoothing_steps))
+    out.valid.push_back(share > 1.0 - 1e-9 ? 1 : 0);
+  return out;
+}
+
+/// u through a first-order lag of time constant tau_s (exact for a signal held over each step),
+/// from rest at u's first value.
+std::vector<double> lag(const std::vector<double>& u, double tau_s) {
+  std::vector<double> y(u.size());
+  const double a = tau_s > 0.0 ? std::exp(-kResponseGridS / tau_s) : 0.0;
+  double state = u.empty() ? 0.0 : u.front();
+  for (std::size_t k = 0; k < u.size(); ++k) {
+    state = a * state + (1.0 - a) * u[k];
+    y[k] = state;
+  }
+  return y;
+}
+
+/// x delayed by `delay` steps (its first value before the start).
+std::vector<double> delayed(const std::vector<double>& x, std::size_t delay) {
+  std::vector<double> y(x.size());
+  for (std::size_t k = 0; k < x.size(); ++k) y[k] = x[k >= delay ? k - delay : 0];
+  return y;
+}
+
+/// One channel's least squares through the origin: truth y = gain * model output f, where f is
+/// a filter's output of a reported signal with noise of its own. That noise adds `noise` to
+/// f.f (what the filter passes of it), and would pull the gain down and favour filters that
+/// smooth it (a longer lag for a shorter dead time): the sums are of the noise-free f.
+struct ChannelSums {
+  double fy = 0.0, ff = 0.0, yy = 0.0, noise = 0.0;
+  double signal_ff() const { return std::max(ff - noise, 0.1 * ff); }
+  double gain() const { return ff > 0.0 ? fy / signal_ff() : 1.0; }
+  double residual() const { return ff > 0.0 ? std::max(0.0, yy - fy * fy / signal_ff()) : yy; }
+};
+
+/// The variance a filter passes of a reading's unit-variance noise, per grid step: its response
+/// to one reading held `hold` steps, squared and summed, over `hold`.
+template <class Filter>
+double passed_noise(std::size_t hold, std::size_t span, const Filter& filter) {
+  std::vector<double> x(2 * span + hold, 0.0);
+  std::fill(x.begin() + static_cast<std::ptrdiff_t>(span),
+            x.begin() + static_cast<std::ptrdiff_t>(span + hold), 1.0);
+  double energy = 0.0;
+  for (const double y : filter(x)) energy += y * y;
+  return energy / static_cast<double>(hold);
+}
+
+std::optional<CommandResponseFit> fit_command_response(const std::vector<RobotLog>& robots) {
+  std::vector<VelocitySeries> series;
+  std::size_t valid = 0;
+  for (const RobotLog& robot : robots) {
+    if (auto s = velocity_series(robot)) {
+      valid += static_cast<std::size_t>(std::count(s->valid.begin(), s->valid.end(), 1));
+      series.push_back(std::move(*s));
+    }
+  }
+  // Ten seconds of motion at least: the lag is a fraction of a second.
+  if (static_cast<double>(valid) * kResponseGridS < 10.0) return std::nullopt;
+  CommandResponseFit fit;
+  fit.seconds = static_cast<double>(valid) * kResponseGridS;
+  const auto max_delay = static_cast<std::size_t>(std::lround(kMaxDeadTimeS / kResponseGridS));
+  constexpr std::size_t kTaus = std::size(kResponseTimeConstantsS);
+  // Per channel: the sums of each (delay, time constant), and of each zero-phase smoother (a
+  // centred mean as wide as a time constant), over every series. The filters are linear and
+  // time-invariant, so a delay is a shift of the lagged output.
+  std::vector<std::array<ChannelSums, kTaus>> lagged[2];
+  std::array<ChannelSums, kTaus> smoothed[2];
+  double as_is[2] = {0.0, 0.0};
+  for (int c = 0; c < 2; ++c) lagged[c].resize(max_delay + 1);
+  for (const VelocitySeries& s : series) {
+    for (int c = 0; c < 2; ++c) {
+      const std::vector<double>& u = c == 0 ? s.reported_v : s.reported_omega;
+      const std::vector<double>& y = c == 0 ? s.true_v : s.true_omega;
+      // f delayed by `delay` steps (its first value before the start) against y.
+      std::size_t n_valid = 0;
+      for (const char v : s.valid) n_valid += v != 0 ? 1 : 0;
+      // Long enough for the slowest filter's response to fade (lag, means).
+      const auto span = static_cast<std::size_t>(
+          (8.0 * kResponseTimeConstantsS[std::size(kResponseTimeConstantsS) - 1] +
+           2.0 * kFitSmoothingS + 1.0) /
+          kResponseGridS);
+      // The valid samples as weights 1 and 0, so that the sums below run without branches (the
+      // delays make 31 of them per time constant).
+      std::vector<double> weight(y.size()), weighted_y(y.size());
+      double yy = 0.0;
+      for (std::size_t k = 0; k < y.size(); ++k) {
+        weight[k] = s.valid[k] ? 1.0 : 0.0;
+        weighted_y[k] = weight[k] * y[k];
+        yy += weighted_y[k] * y[k];
+      }
+      // f delayed by `delay` steps (its first value before the start) against y.
+      const auto add = [&](ChannelSums& sums, const std::vector<double>& f, std::size_t delay,
+                           double passed) {
+        const std::size_t head = std::min(delay, f.size());
+        double fy = 0.0, ff = 0.0;
+        for (std::size_t k = 0; k < head; ++k)
+          fy += f[0] * weighted_y[k], ff += f[0] * f[0] * weight[k];
+        for (std::size_t k = head; k < f.size(); ++k) {
+          const double x = f[k - delay];
+          fy += x * weighted_y[k], ff += x * x * weight[k];
+        }
+        sums.fy += fy, sums.ff += ff, sums.yy += yy;
+        sums.noise += static_cast<double>(n_valid) * s.noise_variance[c] * passed;
+      };
+      const std::vector<double> u_compared = s.as_compared(u);
+      for (std::size_t k = 0; k < u.size(); ++k) {
+        if (s.valid[k]) as_is[c] += std::pow(y[k] - u_compared[k], 2);
+      }
+      for (std::size_t i = 0; i < kTaus; ++i) {
+        const double tau_s = kResponseTimeConstantsS[i];
+        const auto lagged_filter = [&](const std::vector<double>& x) {
+          return s.as_compared(lag(x, tau_s));
+        };
+        const auto width = static_cast<std::size_t>(std::lround(tau_s / kResponseGridS));
+        const auto smoother = [&](const std::vector<double>& x) {
+          return s.as_compared(centred_mean(x, width));
+        };
+        const std::vector<double> f = lagged_filter(u);
+        const double passed = passed_noise(s.hold_steps, span, lagged_filter);
+        for (std::size_t delay = 0; delay <= max_delay; ++delay)
+          add(lagged[c][delay][i], f, delay, passed);
+        add(smoothed[c][i], smoother(u), 0, passed_noise(s.hold_steps, span, smoother));
+      }
+    }
+  }
+  // Each channel's cost relative to its own variance, so that neither unit dominates.
+  const double scale[2] = {std::max(smoothed[0][0].yy, 1e-300),
+                           std::max(smoothed[1][0].yy, 1e-300)};
+  const auto best_of = [](const std::array<ChannelSums, kTaus>& sums) {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < kTaus; ++i)
+      if (sums[i].residual() < sums[best].residual()) best = i;
+    return best;
+  };
+  double best_cost = std::numeric_limits<double>::infinity();
+  ChannelSums best_sums[2];
+  for (std::size_t delay = 0; delay <= max_delay; ++delay) {
+    const std::size_t v = best_of(lagged[0][delay]), omega = best_of(lagged[1][delay]);
+    const double cost =
+        lagged[0][delay][v].residual() / scale[0] + lagged[1][delay][omega].residual() / scale[1];
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_sums[0] = lagged[0][delay][v], best_sums[1] = lagged[1][delay][omega];
+      fit.dead_time_s = static_cast<double>(delay) * kResponseGridS;
+      fit.time_constant_v_s = kResponseTimeConstantsS[v];
+      fit.time_constant_omega_s = kResponseTimeConstantsS[omega];
+    }
+  }
+  fit.gain_v = best_sums[0].gain();
+  fit.gain_omega = best_sums[1].gain();
+  const auto ratio = [](double a, double b) { return b > 0.0 ? a / b : 0.0; };
+  fit.residual_v = ratio(best_sums[0].residual(), as_is[0]);
+  fit.residual_omega = ratio(best_sums[1].residual(), as_is[1]);
+  fit.residual_gain_only_v = ratio(smoothed[0][0].residual(), as_is[0]);
+  fit.residual_gain_only_omega = ratio(smoothed[1][0].residual(), as_is[1]);
+  const double smoother_cost = smoothed[0][best_of(smoothed[0])].residual() / scale[0] +
+                               smoothed[1][best_of(smoothed[1])].residual() / scale[1];
+  fit.leads = best_cost < kLeadShare * smoother_cost;
+  return fit;
+}
+
+/// The robot's odometry as the fitted response makes of it (what the motion would be if it
+/// followed the response exactly): velocity readings at the same times, the pose integrated on
+/// the fit's grid.
+std::vector<std::pair<double, locsim_odometry>> through_response(const RobotLog& robot,
+                                                                 const CommandResponseFit& fit) {
+  std::vector<std::pair<double, locsim_odometry>> out;
+  const std::optional<VelocitySeries> s = velocity_series(robot);
+  if (!s) return out;
+  const auto delay = static_cast<std::size_t>(std::lround(fit.dead_time_s / kResponseGridS));
+  const std::vector<double> v = delayed(lag(s->reported_v, fit.time_constant_v_s), delay);
+  const std::vector<double> omega =
+      delayed(lag(s->reported_omega, fit.time_constant_omega_s), delay);
+  std::vector<Pose2> poses(v.size());
+  Pose2 pose;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    poses[k] = pose;
+    const double distance_m = fit.gain_v * v[k] * kResponseGridS;
+    const double turn_rad = fit.gain_omega * omega[k] * kResponseGridS;
+    const double mid_rad = pose.theta + 0.5 * turn_rad;
+    pose = {pose.x + distance_m * std::cos(mid_rad), pose.y + distance_m * std::sin(mid_rad),
+            wrap_angle(pose.theta + turn_rad)};
+  }
+  for (const auto& [t_s, o] : robot.odometry) {
+    const double at = std::round((t_s - s->t0_s) / kResponseGridS);
+    if (at < 0.0 || at >= static_cast<double>(v.size())) continue;
+    const auto k = static_cast<std::size_t>(at);
+    locsim_odometry modelled{};
+    modelled.fields = LOCSIM_ODOMETRY_VELOCITY | LOCSIM_ODOMETRY_POSE;
+    modelled.v_mps = fit.gain_v * v[k];
+    modelled.omega_radps = fit.gain_omega * omega[k];
+    modelled.odom_pose = {poses[k].x, poses[k].y, poses[k].theta};
+    out.emplace_back(t_s, modelled);
+  }
+  return out;
+}
+
+/// The command response and, when it leads, the wheel noise of what it leaves, measured where a
+/// simulated base that reports its command adds it: on the command. The odometry times the
+/// gain against the truth run backwards through the response (TruthView) leaves the gain times
+/// that noise, whose variance grows with the gain times the distance: k over sqrt(gain).
+void fit_command(const std::vector<RobotLog>& robots, MotionCalibration& m) {
+  m.command = fit_command_response(robots);
+  if (!m.command || !m.command->leads) return;
+  CommandResponseFit gain_only;
+  gain_only.gain_v = m.command->gain_v;
+  gain_only.gain_omega = m.command->gain_omega;
+  std::vector<MotionSample> samples;
+  for (const RobotLog& robot : robots) {
+    collect_motion(robot, through_response(robot, gain_only), TruthView{robot.truth, &*m.command},
+                   samples);
+  }
+  if (samples.size() < 10) return;
+  MotionCalibration residual;
+  fit_wheel_model(samples, residual);
+  m.command->k_left = residual.k_left / std::sqrt(m.command->gain_v);
+  m.command->k_right = residual.k_right / std::sqrt(m.command->gain_v);
 }
 
 json line_json(const LineFit& line, const char* at_zero, const char* per_unit) {
@@ -766,6 +1216,7 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   if (logs.empty()) throw InputError("calibrate: give at least one log");
   Calibration out;
   Pooled pooled;
+  std::vector<RobotLog> used_robots;  // of every log, for the fits over robots' whole logs
   std::set<std::string> unused(options.robots.begin(), options.robots.end());
   for (const std::filesystem::path& file : logs) {
     LogSource source(file);
@@ -775,7 +1226,7 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
     std::vector<std::string> names;
     for (std::size_t i = 0; i < world.robots.size(); ++i) {
       const RobotDef& def = world.robots[i];
-      robots[i].def = &def;
+      robots[i].def = def;
       if (options.robots.empty() || std::find(options.robots.begin(), options.robots.end(),
                                               def.name) != options.robots.end()) {
         translators[i].emplace(def);
@@ -817,11 +1268,13 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
       RobotLog& robot = robots[i];
       robot.truth.finish();
       if (robot.truth.empty()) {
-        throw InputError(file.string() + ": robot '" + robot.def->name +
+        throw InputError(file.string() + ": robot '" + robot.def.name +
                          "' has no ground truth: calibrating needs the true path");
       }
-      collect_motion(robot, world, pooled);
+      robot.steps = perception_steps(robot, world);
+      collect_motion(robot, robot.odometry, TruthView{robot.truth}, pooled.motion);
       collect_detections(robot, world, walls, pooled);
+      used_robots.push_back(std::move(robot));
     }
     std::string list;
     for (const std::string& name : names) list += (list.empty() ? "" : ", ") + name;
@@ -831,7 +1284,10 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
     throw InputError("calibrate --robots: no robot named '" + *unused.begin() +
                      "' in any of the logs");
   }
-  if (pooled.motion.size() >= 10) out.motion = fit_motion(pooled.motion);
+  if (pooled.motion.size() >= 10) {
+    out.motion = fit_motion(pooled.motion);
+    fit_command(used_robots, *out.motion);
+  }
   for (auto& [kind, data] : pooled.cameras) {
     if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
   }
@@ -866,6 +1322,23 @@ json Calibration::to_json() const {
       j["motion"]["velocity_model"] = model_json(*m.velocity);
       j["motion"]["velocity_model"]["intervals"] = m.velocity_intervals;
     }
+    if (const auto& c = m.command) {
+      j["motion"]["command_response"] = {
+          {"seconds", c->seconds},
+          {"dead_time_s", c->dead_time_s},
+          {"time_constant_v_s", c->time_constant_v_s},
+          {"time_constant_omega_s", c->time_constant_omega_s},
+          {"gain_v", c->gain_v},
+          {"gain_omega", c->gain_omega},
+          {"residual_variance_share", {{"v", c->residual_v}, {"omega", c->residual_omega}}},
+          {"gain_only_residual_variance_share",
+           {{"v", c->residual_gain_only_v}, {"omega", c->residual_gain_only_omega}}},
+          {"leads", c->leads}};
+      if (c->k_left) {
+        j["motion"]["command_response"]["k_left"] = *c->k_left;
+        j["motion"]["command_response"]["k_right"] = *c->k_right;
+      }
+    }
   }
   j["cameras"] = json::array();
   for (const DetectionCalibration& c : cameras) {
@@ -881,6 +1354,16 @@ json Calibration::to_json() const {
                {"bearing_bias_rad", c.bearing_bias_rad},
                {"bearing_spread_rad", c.bearing_spread_rad},
                {"bearing_rms_rad", c.bearing_rms_rad}};
+    if (c.distance_model && c.depth_model) {
+      const auto model = [](const RangeModelFit& f) {
+        return json{{"bias", line_json(f.bias_m, "m", "per_m")},
+                    {"spread", line_json(f.spread_m, "m", "per_m")},
+                    {"residual_rms_m", f.residual_rms_m}};
+      };
+      cj["range_models"] = {{"distance", model(*c.distance_model)},
+                            {"depth", model(*c.depth_model)},
+                            {"chosen", c.range_model}};
+    }
     if (c.miss_probability) {
       cj["visible"] = *c.visible;
       cj["missed"] = *c.missed;
@@ -986,17 +1469,41 @@ std::string Calibration::to_yaml() const {
          " % of them), anywhere in the measured ranges and bearings\n";
     y += "  outlier_likelihood: " + four_digits(*camera->outlier_likelihood) + "\n";
   }
+  const CommandResponseFit* command =
+      motion && motion->command && motion->command->leads && motion->command->k_left
+          ? &*motion->command
+          : nullptr;
+  if (command != nullptr) {
+    y += "robot:  # the robots' motion lags and falls short of the velocity their odometry "
+         "reports (docs/worlds.md)\n";
+    y += "  command_response: {dead_time_s: " + four_digits(command->dead_time_s) +
+         ", time_constant_v_s: " + four_digits(command->time_constant_v_s) +
+         ", time_constant_omega_s: " + four_digits(command->time_constant_omega_s) +
+         ", gain_v: " + four_digits(command->gain_v) +
+         ", gain_omega: " + four_digits(command->gain_omega) + "}\n";
+  }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
-  if (motion) {
+  if (command != nullptr) {
+    // The simulated base reports its command, which the robot follows through the response
+    // above: the noise is what the motion does beyond the response.
+    y += "  encoders: {measures: command, k_left: " + four_digits(*command->k_left) +
+         ", k_right: " + four_digits(*command->k_right) + "}\n";
+  } else if (motion) {
     y += "  encoders: {k_left: " + four_digits(motion->k_left) +
          ", k_right: " + four_digits(motion->k_right) + "}\n";
   }
   for (const DetectionCalibration& c : cameras) {
     if (c.camera != sensor_name(SensorKind::kRangeBearing)) continue;
-    y += "  range_bearing:\n    sigma_range_m: " + four_digits(c.range_spread_m.at_zero) +
-         "\n    sigma_range_per_m: " + four_digits(c.range_spread_m.per_unit) +
-         "\n    range_bias_m: " + four_digits(c.range_bias_m.at_zero) +
-         "\n    range_bias_per_m: " + four_digits(c.range_bias_m.per_unit) +
+    // The chosen range model's lines, so that a world with them makes the errors measured; the
+    // model always, so that it replaces a world's own.
+    const bool depth = c.range_model == "depth" && c.depth_model;
+    const LineFit& bias = depth ? c.depth_model->bias_m : c.range_bias_m;
+    const LineFit& spread = depth ? c.depth_model->spread_m : c.range_spread_m;
+    y += "  range_bearing:\n    range_model: " + std::string(depth ? "depth" : "distance") +
+         "\n    sigma_range_m: " + four_digits(spread.at_zero) +
+         "\n    sigma_range_per_m: " + four_digits(spread.per_unit) +
+         "\n    range_bias_m: " + four_digits(bias.at_zero) +
+         "\n    range_bias_per_m: " + four_digits(bias.per_unit) +
          "\n    sigma_bearing_deg: " + four_digits(rad_to_deg(c.bearing_spread_rad)) +
          "\n    bearing_bias_deg: " + four_digits(rad_to_deg(c.bearing_bias_rad)) + "\n";
     if (c.miss_probability) y += "    miss_probability: " + four_digits(*c.miss_probability) + "\n";
@@ -1021,6 +1528,21 @@ std::string describe(const Calibration& c) {
             " m^1/2 (mean NEES " + four_digits(m.k_mean_nees) + "); error whatever the motion " +
             four_digits(f.floor_position_m) + " m, " +
             four_digits(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
+    if (const auto& r = m.command) {
+      text +=
+          "  the motion against the reported velocity (" + four_digits(r->seconds) +
+          " s): dead time " + four_digits(r->dead_time_s) + " s, lag " +
+          four_digits(r->time_constant_v_s) + " s (v) " + four_digits(r->time_constant_omega_s) +
+          " s (omega), gain " + four_digits(r->gain_v) + " (v) " + four_digits(r->gain_omega) +
+          " (omega); it leaves " + four_digits(r->residual_v) + " (v) " +
+          four_digits(r->residual_omega) + " (omega) of the error variance, a gain alone " +
+          four_digits(r->residual_gain_only_v) + " " + four_digits(r->residual_gain_only_omega) +
+          (r->leads ? (r->k_left ? "; the odometry leads the motion: k beyond the response " +
+                                       four_digits(*r->k_left) + ", " + four_digits(*r->k_right)
+                                 : std::string("; the odometry leads the motion"))
+                    : std::string("; no lead")) +
+          "\n";
+    }
   }
   for (const DetectionCalibration& d : c.cameras) {
     text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +
@@ -1036,6 +1558,19 @@ std::string describe(const Calibration& c) {
                  ? "; errors correlated over " + four_digits(*d.noise_correlation_s) + " s"
                  : std::string()) +
             "\n";
+    if (d.distance_model && d.depth_model) {
+      const RangeModelFit& depth = *d.depth_model;
+      text += "    range model: " + d.range_model + " (residual rms " +
+              four_digits(d.distance_model->residual_rms_m) + " m as distance, " +
+              four_digits(depth.residual_rms_m) + " m as depth)";
+      if (d.range_model == "depth") {
+        text += ": bias " + four_digits(depth.bias_m.at_zero) + " m + " +
+                four_digits(depth.bias_m.per_unit) + " x, spread " +
+                four_digits(depth.spread_m.at_zero) + " m + " +
+                four_digits(depth.spread_m.per_unit) + " x in the depth x";
+      }
+      text += "\n";
+    }
   }
   return text;
 }

@@ -17,8 +17,9 @@
 // - detections: each one's range and bearing against those of its landmark (its id, else the
 //   nearest of its colour) from the true pose. Detections farther than `outlier_sigmas` robust
 //   standard deviations (MAD, per range bin) are false; the rest give the bias and spread as lines
-//   in range; missed: landmarks in a range-bearing sensor's field of view and range, not hidden by
-//   walls, that no inlier reported.
+//   in range (for a range-bearing sensor also in depth, the true range times the cosine of the true
+//   bearing, and the model that explains the ranges better is chosen); missed: landmarks in a
+//   range-bearing sensor's field of view and range, not hidden by walls, that no inlier reported.
 #pragma once
 
 #include <cstddef>
@@ -70,6 +71,15 @@ struct RangeBin {
 /// and nav2's recommended values); written beside the level, which holds only with them.
 inline constexpr double kAugmentedAlphaSlow = 0.001, kAugmentedAlphaFast = 0.1;
 
+/// A range model of the range_bearing sensor (its `range_model`) fitted to the inliers: the
+/// measured range against x, the true distance r (distance) or the true depth r cos(bearing)
+/// (depth, the bearing from the robot's x axis), as the simulated sensor takes them.
+struct RangeModelFit {
+  LineFit bias_m;               // measured range - x against x (range_bias_m, range_bias_per_m)
+  LineFit spread_m;             // standard deviation about the bias line against x (sigma_range_*)
+  double residual_rms_m = 0.0;  // about the bias line
+};
+
 /// One camera kind's detections (range_bearing, ptz_camera, omni_camera).
 struct DetectionCalibration {
   std::string camera;
@@ -82,6 +92,11 @@ struct DetectionCalibration {
   LineFit range_spread_m;            // standard deviation about the bias line
   LineFit range_rms_m;               // about zero: the noise a filter that ignores bias must allow
   double bearing_bias_rad = 0.0, bearing_spread_rad = 0.0, bearing_rms_rad = 0.0;
+  // range_bearing only: both range models (the distance one's lines are range_bias_m and
+  // range_spread_m) and the one chosen, "distance" or "depth"; the sensor settings, and the noise
+  // correlation, are the chosen model's.
+  std::optional<RangeModelFit> distance_model, depth_model;
+  std::string range_model = "distance";
   std::vector<RangeBin> bins;
   // A range_bearing sensor's field of view decides what it should have seen.
   std::optional<std::size_t> visible, missed;
@@ -110,6 +125,26 @@ struct OdometryModelFit {
   double log_likelihood = 0.0;  // per interval [nats]
 };
 
+/// How the robots' motion follows what their odometry reports, when it reports a velocity that
+/// leads the motion (a base that logs its command: the robot's CommandResponseDef), fitted to the
+/// truth's velocity on a 20 ms grid: a dead time shared by both channels, a first-order time
+/// constant and a gain per channel (grid over the dead time and time constants, the gain by least
+/// squares). Kept when the lag explains the truth better than any gain alone does.
+struct CommandResponseFit {
+  double dead_time_s = 0.0;
+  double time_constant_v_s = 0.0, time_constant_omega_s = 0.0;
+  double gain_v = 1.0, gain_omega = 1.0;
+  double seconds = 0.0;  // of odometry with a true velocity [s]
+  // The truth's velocity's residual variance about the model, over its variance about the
+  // reported velocity as it is (gain 1, no lag) and about the best gain without a lag. [-]
+  double residual_v = 0.0, residual_omega = 0.0;
+  double residual_gain_only_v = 0.0, residual_gain_only_omega = 0.0;
+  bool leads = false;  // the lag explains enough more than a gain: the response is written
+  // The wheel model's noise of the odometry passed through the response (what the motion does
+  // beyond it): the noise a simulated base that measures its command adds. [m^1/2]
+  std::optional<double> k_left, k_right;
+};
+
 struct MotionCalibration {
   std::size_t intervals = 0;           // perception-step intervals used
   double mean_interval_s = 0.0;        // their mean length
@@ -125,6 +160,7 @@ struct MotionCalibration {
   double k_mean_nees = 0.0;
   std::optional<OdometryModelFit> velocity;  // only from velocity readings
   std::size_t velocity_intervals = 0;
+  std::optional<CommandResponseFit> command;  // only from velocity readings
 };
 
 struct Calibration {

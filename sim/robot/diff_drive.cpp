@@ -48,6 +48,33 @@ const b2Shape& DiffDriveRobot::shape() const {
 }
 
 void DiffDriveRobot::command(double v_mps, double w_radps) {
+  given_v_mps_ = v_mps;
+  given_w_radps_ = w_radps;
+  // The identity response acts at once, as a robot without one always did.
+  if (def_.command_response.identity()) set_wheel_targets(v_mps, w_radps);
+}
+
+void DiffDriveRobot::advance_response(double dt_s) {
+  const CommandResponseDef& r = def_.command_response;
+  pending_.emplace_back(given_v_mps_, given_w_radps_);
+  // The dead time in whole steps: the physics steps at a fixed rate.
+  const auto delay_steps = static_cast<std::size_t>(std::lround(r.dead_time_s / dt_s));
+  std::pair<double, double> acting{0.0, 0.0};
+  if (pending_.size() > delay_steps) {
+    acting = pending_.front();
+    pending_.pop_front();
+  }
+  // Exact for a command held over the step.
+  const auto share = [dt_s](double tau_s) {
+    return tau_s > 0.0 ? -std::expm1(-dt_s / tau_s) : 1.0;
+  };
+  acting_v_mps_ += share(r.time_constant_v_s) * (r.gain_v * acting.first - acting_v_mps_);
+  acting_w_radps_ +=
+      share(r.time_constant_omega_s) * (r.gain_omega * acting.second - acting_w_radps_);
+  set_wheel_targets(acting_v_mps_, acting_w_radps_);
+}
+
+void DiffDriveRobot::set_wheel_targets(double v_mps, double w_radps) {
   const double half_base = 0.5 * def_.wheel_base_m;
   double left = (v_mps - w_radps * half_base) / def_.wheel_radius_m;
   double right = (v_mps + w_radps * half_base) / def_.wheel_radius_m;
@@ -63,6 +90,8 @@ void DiffDriveRobot::command(double v_mps, double w_radps) {
 }
 
 void DiffDriveRobot::apply_drive(double dt_s, const FloorFriction& floor) {
+  // The base's controller runs on while the robot is carried.
+  if (!def_.command_response.identity()) advance_response(dt_s);
   if (carried_) return;
   const double mass = body_->GetMass();
   const double inertia = body_->GetInertia() - mass * body_->GetLocalCenter().LengthSquared();
@@ -162,6 +191,10 @@ double DiffDriveRobot::yaw_rate_radps() const {
 
 void DiffDriveRobot::lift() {
   carried_ = true;
+  // Nobody commands a robot in the air; it is put down at rest.
+  given_v_mps_ = given_w_radps_ = 0.0;
+  acting_v_mps_ = acting_w_radps_ = 0.0;
+  pending_.clear();
   body_->SetEnabled(false);
   for (WheelState& wheel : wheels_) {
     wheel.speed_radps = 0.0;

@@ -11,6 +11,9 @@
 
 #include <box2d/box2d.h>
 
+#include <deque>
+#include <utility>
+
 #include "sim/robot/robot_def.hpp"
 #include "sim/world/physics_world.hpp"
 
@@ -33,8 +36,13 @@ class DiffDriveRobot {
   const RobotDef& def() const { return def_; }
   const std::string& name() const { return def_.name; }
 
-  /// Body velocity command, converted to wheel speeds with the nominal geometry. [m/s, rad/s]
+  /// Body velocity command, converted to wheel speeds with the nominal geometry, through the
+  /// robot's command_response (dead time, lag, gain; from the next apply_drive on when it is not
+  /// the identity). [m/s, rad/s]
   void command(double v_mps, double w_radps);
+  /// The latest command as given (what a base that logs its command reports). [m/s], [rad/s]
+  double given_v_mps() const { return given_v_mps_; }
+  double given_omega_radps() const { return given_w_radps_; }
   /// Motor and floor forces for the coming step. Call before the world steps.
   void apply_drive(double dt_s, const FloorFriction& floor);
 
@@ -63,7 +71,17 @@ class DiffDriveRobot {
   b2CircleShape circle_;
   b2PolygonShape polygon_;
   WheelState wheels_[2];  // left, right
+  /// Wheel speed targets for a body velocity, scaled alike when one exceeds the motor's limit.
+  void set_wheel_targets(double v_mps, double w_radps);
+  /// One step of the command response: the command given dead_time_s ago, through the lag.
+  void advance_response(double dt_s);
+
   double commanded_radps_[2] = {0.0, 0.0};
+  double given_v_mps_ = 0.0, given_w_radps_ = 0.0;
+  // The command response's state: commands given but not yet acting (oldest first; the robot
+  // was at rest before its first), and the lag's output. [m/s], [rad/s]
+  std::deque<std::pair<double, double>> pending_;
+  double acting_v_mps_ = 0.0, acting_w_radps_ = 0.0;
   bool carried_ = false;
 };
 

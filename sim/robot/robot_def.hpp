@@ -45,6 +45,28 @@ inline double bounding_radius(const FootprintDef& footprint) {
   return 0.0;
 }
 
+/// How the base's motion follows its body-velocity command, before the wheels' speed controllers
+/// (ramp, torque, floor): the command acts after a dead time, through a first-order lag per
+/// channel, scaled by a gain. A real base's controller, bus and motor lag; a base that travels a
+/// few per cent less than it is told (MRCLAM's robots: dead time 0.04-0.14 s, time constants
+/// 0.10-0.40 s, gains 0.90-0.99; docs/reports/sim_to_real). An odometry that reports the command
+/// (EncodersDef::Measures::kCommand) then leads the motion, with errors correlated over the lag.
+/// The defaults pass the command through unchanged.
+struct CommandResponseDef {
+  double dead_time_s = 0.0;  // the base acts on a command this long after it is given [s]
+  static constexpr Range kDeadTimeRange{0.0, 10.0, "s"};
+  double time_constant_v_s = 0.0;      // first-order lag of the forward speed [s]
+  double time_constant_omega_s = 0.0;  // first-order lag of the turn rate [s]
+  static constexpr Range kTimeConstantRange{0.0, 100.0, "s"};
+  double gain_v = 1.0;      // forward speed reached per commanded [-]
+  double gain_omega = 1.0;  // turn rate reached per commanded [-]
+  static constexpr Range kGainRange{0.01, 100.0, ""};
+  bool identity() const {
+    return dead_time_s == 0.0 && time_constant_v_s == 0.0 && time_constant_omega_s == 0.0 &&
+           gain_v == 1.0 && gain_omega == 1.0;
+  }
+};
+
 struct RobotDef {
   std::string name = "robot";
   FootprintDef footprint;
@@ -68,6 +90,7 @@ struct RobotDef {
   static constexpr Range kDriveLoadRange = kProbabilityRange;
   double height_m = 0.4;  // top of the body; blocks ultrasound below it [m]
   static constexpr Range kHeightRange = kBodyHeightRange;
+  CommandResponseDef command_response;  // how the motion follows the command
   Pose2 start;           // initial true pose in the world: kWorldCoordinateRange, any heading
   SensorsDef sensors;    // absent sensors are off
   SourceLocation where;  // of the robot's entry, for messages

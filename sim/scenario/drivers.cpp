@@ -124,21 +124,15 @@ class TrajectoryDriver final : public Driver {
     const std::vector<StampedPose>& samples = def_.trajectory;
     while (next_ < samples.size() && samples[next_].t_s <= t_s) ++next_;
     Pose2 reference = next_ == 0 ? samples.front().pose : samples[next_ - 1].pose;
-    double v_ref = 0.0, w_ref = 0.0;
     if (next_ > 0 && next_ < samples.size()) {
       const StampedPose& a = samples[next_ - 1];
       const StampedPose& b = samples[next_];
-      const double dt_s = b.t_s - a.t_s;
-      const double s = (t_s - a.t_s) / dt_s;
+      const double s = (t_s - a.t_s) / (b.t_s - a.t_s);
       const double turn_rad = wrap_angle(b.pose.theta - a.pose.theta);
-      const Vec2 step_m = b.pose.position() - a.pose.position();
-      const double mid_rad = a.pose.theta + 0.5 * turn_rad;
-      reference = {a.pose.x + s * step_m.x(), a.pose.y + s * step_m.y(),
+      reference = {a.pose.x + s * (b.pose.x - a.pose.x), a.pose.y + s * (b.pose.y - a.pose.y),
                    a.pose.theta + s * turn_rad};
-      // The chord along the mid heading: signed, so that a reversing robot reverses.
-      v_ref = (step_m.x() * std::cos(mid_rad) + step_m.y() * std::sin(mid_rad)) / dt_s;
-      w_ref = turn_rad / dt_s;
     }
+    const auto [v_ref, w_ref] = chord_velocity(t_s);
     const Pose2 pose = robot.pose();
     const double c = std::cos(pose.theta), s = std::sin(pose.theta);
     const double dx = reference.x - pose.x, dy = reference.y - pose.y;
@@ -152,12 +146,40 @@ class TrajectoryDriver final : public Driver {
         std::max(2.0 * kDamping * std::sqrt(w_ref * w_ref + kLateralGainPerM2 * v_ref * v_ref),
                  kMinGainPerS);
     const double sinc = std::abs(e_theta) < 1e-9 ? 1.0 : std::sin(e_theta) / e_theta;
-    const double v = v_ref * std::cos(e_theta) + gain * e_along;
-    const double w = w_ref + kLateralGainPerM2 * v_ref * sinc * e_across + gain * e_theta;
+    double v_ahead = v_ref, w_ahead = w_ref;
+    double gain_v = 1.0, gain_w = 1.0;
+    if (const CommandResponseDef& r = robot.def().command_response; !r.identity()) {
+      // A base that lags its command is told the path's velocity ahead by its lag (a dead time
+      // d and a first-order lag tau delay a smooth signal by about d + tau), over its gain: the
+      // command then leads the motion as a real base's does, and the feedback only corrects.
+      v_ahead = chord_velocity(t_s + r.dead_time_s + r.time_constant_v_s).first;
+      w_ahead = chord_velocity(t_s + r.dead_time_s + r.time_constant_omega_s).second;
+      gain_v = r.gain_v;
+      gain_w = r.gain_omega;
+    }
+    const double v = (v_ahead * std::cos(e_theta) + gain * e_along) / gain_v;
+    const double w =
+        (w_ahead + kLateralGainPerM2 * v_ref * sinc * e_across + gain * e_theta) / gain_w;
     return {t_s, v, w};
   }
 
  private:
+  /// The reference's (v, omega) at t: the chord between the samples around it along their mid
+  /// heading (signed, so that a reversing robot reverses); zero outside them.
+  std::pair<double, double> chord_velocity(double t_s) const {
+    const std::vector<StampedPose>& samples = def_.trajectory;
+    const auto after = std::upper_bound(samples.begin(), samples.end(), t_s,
+                                        [](double t, const StampedPose& p) { return t < p.t_s; });
+    if (after == samples.begin() || after == samples.end()) return {0.0, 0.0};
+    const StampedPose& a = *(after - 1);
+    const StampedPose& b = *after;
+    const double dt_s = b.t_s - a.t_s;
+    const double turn_rad = wrap_angle(b.pose.theta - a.pose.theta);
+    const Vec2 step_m = b.pose.position() - a.pose.position();
+    const double mid_rad = a.pose.theta + 0.5 * turn_rad;
+    return {(step_m.x() * std::cos(mid_rad) + step_m.y() * std::sin(mid_rad)) / dt_s,
+            turn_rad / dt_s};
+  }
   static constexpr double kDamping = 0.7;            // [-]
   static constexpr double kLateralGainPerM2 = 20.0;  // [1/m^2]
   static constexpr double kMinGainPerS = 0.5;        // [1/s]

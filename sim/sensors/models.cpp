@@ -42,17 +42,27 @@ EncoderSensor::EncoderSensor(const EncodersDef& def, const RobotDef& robot, Rand
       wheel_base_m_(believed_wheel_base_m(robot)),
       odometry_(robot.start) {}
 
+void EncoderSensor::on_physics_step(const SensorContext& context) {
+  if (def_.measures != EncodersDef::Measures::kCommand) return;
+  const double v_mps = context.robot.given_v_mps();
+  const double half_turn_mps = 0.5 * context.robot.given_omega_radps() * wheel_base_m_;
+  commanded_angle_rad_[0] += (v_mps - half_turn_mps) * context.step_s / nominal_radius_m_;
+  commanded_angle_rad_[1] += (v_mps + half_turn_mps) * context.step_s / nominal_radius_m_;
+}
+
 std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) {
   const WheelState* wheels[2] = {&context.robot.left(), &context.robot.right()};
+  const bool command = def_.measures == EncodersDef::Measures::kCommand;
   const double k[2] = {def_.k_left, def_.k_right};
   const double radians_per_tick = kTwoPi / def_.ticks_per_rev;
   double travel_m[2];
   for (int i = 0; i < 2; ++i) {
-    const double turned = wheels[i]->angle_rad - true_angle_rad_[i];
-    true_angle_rad_[i] = wheels[i]->angle_rad;
+    const double angle_rad = command ? commanded_angle_rad_[i] : wheels[i]->angle_rad;
+    const double turned = angle_rad - true_angle_rad_[i];
+    true_angle_rad_[i] = angle_rad;
     // Random error: a random walk in rolled distance with variance K^2 |d|, counted as rotation
     // of the nominal wheel so that odometry sees exactly that distance error.
-    const double rolled_m = std::abs(turned) * wheels[i]->radius_m;
+    const double rolled_m = std::abs(turned) * (command ? nominal_radius_m_ : wheels[i]->radius_m);
     const double error_m = rolled_m > 0.0 ? rng().normal(0.0, k[i] * std::sqrt(rolled_m)) : 0.0;
     counted_angle_rad_[i] += turned + error_m / nominal_radius_m_;
     const auto ticks =
@@ -489,13 +499,19 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   // With noise_correlation_s, the same draws become the innovations of each target's process.
   const double range_draw = rng().normal(0.0, 1.0);
   const double bearing_draw = rng().normal(0.0, 1.0);
-  const double range_noise_m = (def_.sigma_range_m + def_.sigma_range_per_m * range) *
+  // The value reported before noise, in which the bias and spread lines are: the distance, or
+  // the distance along the sensor's axis (depth mode; the loader keeps the field of view below
+  // 180 deg, so it is positive). In distance mode it is `range` itself, bit for bit, so that a
+  // world without the key keeps its outputs.
+  const double reported =
+      def_.range_model == RangeBearingDef::RangeModel::kDepth ? range * std::cos(bearing) : range;
+  const double range_noise_m = (def_.sigma_range_m + def_.sigma_range_per_m * reported) *
                                correlated(range_noise_, target, context.t_s, range_draw);
   const double bearing_noise_rad =
       def_.sigma_bearing_rad * correlated(bearing_noise_, target, context.t_s, bearing_draw);
   // A range is never negative, however large the noise.
-  const double measured_range =
-      std::max(0.0, range + def_.range_bias_m + def_.range_bias_per_m * range + range_noise_m);
+  const double measured_range = std::max(
+      0.0, reported + def_.range_bias_m + def_.range_bias_per_m * reported + range_noise_m);
   const double measured_bearing = bearing + def_.bearing_bias_rad + bearing_noise_rad;
   Detection detection;
   to_robot_frame(

@@ -12,6 +12,8 @@ class EncoderSensor final : public Sensor {
  public:
   EncoderSensor(const EncodersDef& def, const RobotDef& robot, RandomStream rng);
   bool supports_bias() const override { return false; }
+  /// Measuring the command: integrates the rotation it asks of the nominal wheels.
+  void on_physics_step(const SensorContext& context) override;
 
  protected:
   std::optional<ReadingData> measure(const SensorContext& context) override;
@@ -21,8 +23,9 @@ class EncoderSensor final : public Sensor {
   EncodersDef def_;
   double nominal_radius_m_;
   double wheel_base_m_;
-  double true_angle_rad_[2] = {0.0, 0.0};     // wheel rotation at the last sample
-  double counted_angle_rad_[2] = {0.0, 0.0};  // what the encoder has counted, with its error
+  double commanded_angle_rad_[2] = {0.0, 0.0};  // Measures::kCommand: asked of the wheels
+  double true_angle_rad_[2] = {0.0, 0.0};       // wheel rotation at the last sample
+  double counted_angle_rad_[2] = {0.0, 0.0};    // what the encoder has counted, with its error
   std::int64_t ticks_[2] = {0, 0};
   Pose2 odometry_;
   double last_sample_s_ = 0.0;  // for the velocity over the last period [s]

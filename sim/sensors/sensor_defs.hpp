@@ -37,6 +37,12 @@ struct EncodersDef {
   // What each reading carries (OdometryField bits; YAML: a list of ticks, pose, velocity). A
   // simulated base reports its wheels' mean velocity over the last sample period as measured.
   std::uint8_t reports = kOdometryTicks | kOdometryPose;
+  // What is counted: the wheels' rotation, or the body-velocity command the base was given (as
+  // bases that log their command rather than their encoders do, MRCLAM's among them), turned
+  // into the nominal wheels' rotation it asks for. The robot's command_response then decides how
+  // far the motion lags and falls short of it; the K error above is added to it either way.
+  enum class Measures { kWheels, kCommand };
+  Measures measures = Measures::kWheels;
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.
@@ -131,6 +137,15 @@ struct RangeBearingDef {
   double sigma_range_per_m = 0.0;  // added per metre of range [m/m]
   double range_bias_m = 0.0;       // added to every range [m]
   double range_bias_per_m = 0.0;   // added per metre of range (a scale error) [m/m]
+  // What the range reported is. kDistance: the distance r from the sensor to the target.
+  // kDepth: the target's distance along the sensor's x axis, r cos(bearing), as a camera that
+  // ranges by a marker's apparent size or by stereo depth reports it (MRCLAM's cameras:
+  // docs/reports/sim_to_real/measurements.md). The bias line range_bias_m + range_bias_per_m x
+  // and the spread line sigma_range_m + sigma_range_per_m x take x = the value reported before
+  // noise: r, or the depth. Either way min_range_m and max_range_m select targets by their
+  // distance, and a false detection's range is uniform over them.
+  enum class RangeModel { kDistance, kDepth };
+  RangeModel range_model = RangeModel::kDistance;
   static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
   static constexpr Range kBiasRange{-1000.0, 1000.0, "m"};
   static constexpr Range kSigmaPerMRange{0.0, 10.0, "m/m"};

@@ -1,6 +1,7 @@
 #include "sim/sensors/sensor_loader.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "sim/common/format.hpp"
@@ -49,33 +50,41 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
       {"encoders", "imu", "ptz_camera", "omni_camera", "ultrasonic", "laser", "range_bearing"});
   SensorsDef sensors;
   if (const auto n = node.find("encoders")) {
-    sensors.encoders =
-        parse_section(*n, EncodersDef{}, step_hz,
-                      {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports"},
-                      [&](EncodersDef& d) {
-                        if (const auto reports = n->find("reports")) {
-                          d.reports = 0;
-                          for (const YamlNode& item : reports->items()) {
-                            const std::string field = item.as_string();
-                            std::uint8_t bit = 0;
-                            for (const OdometryField f : kOdometryFields) {
-                              if (field == odometry_field_name(f)) bit = f;
-                            }
-                            if (bit == 0)
-                              item.fail("must be ticks, pose or velocity, not '" + field + "'");
-                            d.reports |= bit;
-                          }
-                          if (d.reports == 0)
-                            reports->fail("give at least one of ticks, pose, velocity");
-                        }
-                        d.ticks_per_rev = static_cast<int>(
-                            n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
-                        d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
-                        d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
-                        if (const auto base = n->find("odometry_wheel_base_m")) {
-                          d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
-                        }
-                      });
+    sensors.encoders = parse_section(
+        *n, EncodersDef{}, step_hz,
+        {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports", "measures"},
+        [&](EncodersDef& d) {
+          if (const auto measures = n->find("measures")) {
+            const std::string what = measures->as_string();
+            if (what == "wheels") {
+              d.measures = EncodersDef::Measures::kWheels;
+            } else if (what == "command") {
+              d.measures = EncodersDef::Measures::kCommand;
+            } else {
+              measures->fail("must be wheels or command, not '" + what + "'");
+            }
+          }
+          if (const auto reports = n->find("reports")) {
+            d.reports = 0;
+            for (const YamlNode& item : reports->items()) {
+              const std::string field = item.as_string();
+              std::uint8_t bit = 0;
+              for (const OdometryField f : kOdometryFields) {
+                if (field == odometry_field_name(f)) bit = f;
+              }
+              if (bit == 0) item.fail("must be ticks, pose or velocity, not '" + field + "'");
+              d.reports |= bit;
+            }
+            if (d.reports == 0) reports->fail("give at least one of ticks, pose, velocity");
+          }
+          d.ticks_per_rev = static_cast<int>(
+              n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
+          d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
+          d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
+          if (const auto base = n->find("odometry_wheel_base_m")) {
+            d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
+          }
+        });
   }
   if (const auto n = node.find("imu")) {
     sensors.imu = parse_section(
@@ -242,9 +251,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
     sensors.range_bearing = parse_section(
         *n, RangeBearingDef{}, step_hz,
         {"fov", "fov_deg", "min_range_m", "max_range_m", "sigma_range_m", "sigma_range_per_m",
-         "range_bias_m", "range_bias_per_m", "sigma_bearing", "sigma_bearing_deg", "bearing_bias",
-         "bearing_bias_deg", "miss_probability", "false_detections", "noise_correlation_s",
-         "report_ids", "sees_robots"},
+         "range_bias_m", "range_bias_per_m", "range_model", "sigma_bearing", "sigma_bearing_deg",
+         "bearing_bias", "bearing_bias_deg", "miss_probability", "false_detections",
+         "noise_correlation_s", "report_ids", "sees_robots"},
         [&](RangeBearingDef& d) {
           using D = RangeBearingDef;
           d.fov_rad = n->get_angle("fov", d.fov_rad, D::kFovRange);
@@ -257,6 +266,18 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
           d.range_bias_m = n->get_double("range_bias_m", d.range_bias_m, D::kBiasRange);
           d.range_bias_per_m =
               n->get_double("range_bias_per_m", d.range_bias_per_m, D::kBiasPerMRange);
+          const std::string range_model = n->get_string("range_model", "distance");
+          if (range_model == "depth") {
+            d.range_model = D::RangeModel::kDepth;
+          } else if (range_model != "distance") {
+            n->find("range_model")->fail("must be distance or depth, not '" + range_model + "'");
+          }
+          // A target 90 deg or more off the axis has no depth (zero or negative).
+          if (d.range_model == D::RangeModel::kDepth && d.fov_rad >= std::numbers::pi) {
+            n->find("range_model")
+                ->fail("depth needs a field of view below 180 deg, not " +
+                       rounded_number(rad_to_deg(d.fov_rad), 6) + " deg");
+          }
           d.sigma_bearing_rad =
               n->get_angle("sigma_bearing", d.sigma_bearing_rad, D::kSigmaBearingRange);
           d.bearing_bias_rad =

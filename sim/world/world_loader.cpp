@@ -209,6 +209,21 @@ FootprintDef parse_footprint(const YamlNode& node) {
   return footprint;
 }
 
+CommandResponseDef parse_command_response(const YamlNode& node) {
+  using D = CommandResponseDef;
+  node.allow_keys(
+      {"dead_time_s", "time_constant_v_s", "time_constant_omega_s", "gain_v", "gain_omega"});
+  D d;
+  d.dead_time_s = node.get_double("dead_time_s", d.dead_time_s, D::kDeadTimeRange);
+  d.time_constant_v_s =
+      node.get_double("time_constant_v_s", d.time_constant_v_s, D::kTimeConstantRange);
+  d.time_constant_omega_s =
+      node.get_double("time_constant_omega_s", d.time_constant_omega_s, D::kTimeConstantRange);
+  d.gain_v = node.get_double("gain_v", d.gain_v, D::kGainRange);
+  d.gain_omega = node.get_double("gain_omega", d.gain_omega, D::kGainRange);
+  return d;
+}
+
 namespace {
 
 /// Occupied pixels merged greedily into rectangles: runs along a row, grown down while the rows
@@ -450,7 +465,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     item.allow_keys({"name", "footprint", "mass_kg", "wheel_base_m", "wheel_radius_m",
                      "wheel_radius_left_m", "wheel_radius_right_m", "wheel_inertia_kgm2",
                      "max_wheel_speed_radps", "max_wheel_accel_radps2", "max_wheel_torque_nm",
-                     "drive_load_fraction", "height_m", "start", "sensors"});
+                     "drive_load_fraction", "height_m", "command_response", "start", "sensors"});
     RobotDef robot;
     robot.where = item.where();
     robot.key_path = item.path();
@@ -481,6 +496,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     robot.drive_load_fraction = item.get_double("drive_load_fraction", robot.drive_load_fraction,
                                                 RobotDef::kDriveLoadRange);
     robot.height_m = item.get_double("height_m", robot.height_m, RobotDef::kHeightRange);
+    if (const auto response = item.find("command_response"))
+      robot.command_response = parse_command_response(*response);
     robot.start = item["start"].as_pose(kWorldCoordinateRange);
     if (const auto sensors = item.find("sensors")) {
       robot.sensors = parse_sensors(*sensors, world.physics.step_hz);

@@ -23,5 +23,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
 OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml);
 
 FootprintDef parse_footprint(const YamlNode& node);
+/// A robot's `command_response:` (also the `robot:` section `locsim calibrate` writes).
+CommandResponseDef parse_command_response(const YamlNode& node);
 
 }  // namespace locsim

@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# The real logs of MRCLAM Dataset 6 against their twins with and without each modelled effect
+# (README.md, "Real against twin, one model at a time"). Calibrates all five robots' 900 s, writes
+# four calibration files that differ only in what the twin is given (none; the depth range model;
+# the command response; both), makes 5 robots x 3 seeds of twin recordings for each, and sweeps
+# the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
+# twins, with the calibration's localizer parameters. Prints the table of the README.
+#
+#   MRCLAM_DIR=/path/to/MRCLAM_Dataset6 [OUT=/tmp/s2r] [LOCSIM=build/locsim] ./twin_models.sh
+#
+# About 4 minutes on the 2-core VM. Needs pandas (for the table only).
+set -euo pipefail
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+# shellcheck source=mrclam_logs.sh
+source "$HERE/mrclam_logs.sh" /tmp/s2r
+"$LOCSIM" calibrate ds6.locsimlog --out cal6 --overwrite
+
+# The variants: the calibration file with the twin's models taken out one at a time. Without the
+# response the encoders get the raw odometry's k; without the depth model the camera gets the
+# distance model's lines (both from calibration.json).
+"${PYTHON:-python3}" - <<'PY'
+import json, re
+text = open("cal6/calibration.yaml").read()
+fits = json.load(open("cal6/calibration.json"))
+motion = fits["motion"]["wheel_model"]
+distance = fits["cameras"][0]["range_models"]["distance"]
+raw_encoders = f"  encoders: {{k_left: {motion['k_left']:.4g}, k_right: {motion['k_right']:.4g}}}"
+distance_lines = (f"    range_model: distance\n    sigma_range_m: {distance['spread']['m']:.4g}\n"
+                  f"    sigma_range_per_m: {distance['spread']['per_m']:.4g}\n"
+                  f"    range_bias_m: {distance['bias']['m']:.4g}\n"
+                  f"    range_bias_per_m: {distance['bias']['per_m']:.4g}\n")
+depth_lines = re.search(r"    range_model: depth\n(    .*\n){4}", text).group(0)
+def variant(response, depth):
+    t = text
+    if not response:
+        t = re.sub(r"robot: .*\n  command_response: .*\n", "", t)
+        t = re.sub(r"  encoders: \{.*\}", raw_encoders, t)
+    if not depth:
+        t = t.replace(depth_lines, distance_lines)
+    return t
+for name, response, depth in (("none", False, False), ("depth", False, True),
+                              ("response", True, False), ("both", True, True)):
+    open(f"cal_{name}.yaml", "w").write(variant(response, depth))
+PY
+
+localizers='localizers:
+  - plugin: odometry
+  - plugin: ekf_landmarks
+  - plugin: mcl
+  - plugin: srl
+  - plugin: asrl
+  - plugin: augmented_mcl
+timeout_s: 600'
+cat > real.yaml <<EOF
+name: mrclam_ds6_real
+logs: [ds6_r1.locsimlog, ds6_r2.locsimlog, ds6_r3.locsimlog, ds6_r4.locsimlog, ds6_r5.locsimlog]
+seeds: {from: 1, to: 3}
+params_file: cal6/calibration.yaml
+$localizers
+EOF
+rm -rf runs && mkdir runs
+"$LOCSIM" sweep real.yaml --jobs 2 --out runs/real > /dev/null
+for v in none depth response both; do
+  mkdir -p twin_$v
+  logs=""
+  for n in 1 2 3 4 5; do
+    "$LOCSIM" twin ds6_r$n.locsimlog --calibration cal_$v.yaml --out twin_$v/ds6_r$n.yaml --overwrite > /dev/null
+    for s in 1 2 3; do
+      "$LOCSIM" run twin_$v/ds6_r$n.yaml --seed $s --log twin_$v/ds6_r${n}_s$s.locsimlog \
+        --out twin_$v/run_r${n}_s$s --no-readings -q --overwrite
+      logs="$logs${logs:+, }twin_$v/ds6_r${n}_s$s.locsimlog"
+    done
+  done
+  # No seeds: each twin run's localizers take its recording's seed.
+  printf 'name: mrclam_ds6_twin_%s\nlogs: [%s]\nparams_file: cal6/calibration.yaml\n%s\n' \
+    "$v" "$logs" "$localizers" > twin_$v.yaml
+  "$LOCSIM" sweep twin_$v.yaml --jobs 2 --out runs/twin_$v > /dev/null
+done
+"$LOCSIM" compare runs/real runs/twin_both --out runs/real_vs_twin --labels real,twin > /dev/null
+
+"${PYTHON:-python3}" - <<'PY'
+import pandas as pd
+sets = [("real", "runs/real"), ("twin, none", "runs/twin_none"), ("twin, depth", "runs/twin_depth"),
+        ("twin, response", "runs/twin_response"), ("twin, both", "runs/twin_both")]
+filters = ["ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl"]
+real = pd.read_csv("runs/real/summary.csv").set_index("config")
+print("| set | config | position RMS [m] | x real | heading RMS [deg] | truth in 95 % ellipse | median NEES |")
+print("|---|---|---|---|---|---|---|")
+for name, path in sets:
+    d = pd.read_csv(f"{path}/summary.csv").set_index("config")
+    for c in filters:
+        r = d.loc[c]
+        print(f"| {name} | {c} | {r.position_rms_m_mean:.3f} ± {r.position_rms_m_ci95:.3f} | "
+              f"{r.position_rms_m_mean / real.loc[c, 'position_rms_m_mean']:.2f} | "
+              f"{r.heading_rms_deg_mean:.1f} | {r.inside_95_ellipse_mean:.2f} | {r.nees_median:.1f} |")
+PY
+grep -m1 "Kendall" runs/real_vs_twin/report.md
