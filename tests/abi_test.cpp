@@ -58,6 +58,116 @@ TEST(SdkOdometry, AdvanceByVelocityIsTheExactArc) {
   }
 }
 
+/// A velocity reading (the command, as MRCLAM logs it) at its pose.
+locsim_odometry command_reading(double v_mps, double omega_radps) {
+  locsim_odometry o{};
+  o.fields = LOCSIM_ODOMETRY_VELOCITY;
+  o.v_mps = v_mps;
+  o.omega_radps = omega_radps;
+  return o;
+}
+
+TEST(SdkOdometry, ACommandFollowerMovesAsTheResponseSays) {
+  // Settled at rest, then a step of the command at t = 0: after the dead time d each channel
+  // rises as g u (1 - e^(-(t - d) / tau)); straight ahead, the distance is its integral.
+  const sdk::CommandResponse response{0.1, 0.3, 0.2, 0.9, 0.95};
+  for (const double omega : {0.0, 0.4}) {
+    sdk::CommandFollower follower(response);
+    follower.follow(-1.0, command_reading(0.0, 0.0));
+    for (int k = 0; k <= 60; ++k) {
+      const double t_s = 0.05 * k - 0.02;  // readings off the 20 ms arcs' grid
+      const locsim_odometry& out = follower.follow(t_s, command_reading(0.5, omega));
+      ASSERT_EQ(out.fields, LOCSIM_ODOMETRY_VELOCITY | LOCSIM_ODOMETRY_POSE);
+      // The command of the first reading at or after -0.02 s holds from then on.
+      const double since = std::max(0.0, t_s - (-0.02) - 0.1);
+      const auto level = [&](double gain_u, double tau) {
+        return gain_u * (1.0 - std::exp(-since / tau));
+      };
+      const auto area = [&](double gain_u, double tau) {
+        return gain_u * (since - tau * (1.0 - std::exp(-since / tau)));
+      };
+      EXPECT_NEAR(out.v_mps, level(0.9 * 0.5, 0.3), 1e-12) << t_s;
+      EXPECT_NEAR(out.omega_radps, level(0.95 * omega, 0.2), 1e-12) << t_s;
+      EXPECT_NEAR(out.odom_pose.theta, area(0.95 * omega, 0.2), 1e-12) << t_s;
+      if (omega == 0.0) {
+        EXPECT_NEAR(out.odom_pose.x, area(0.9 * 0.5, 0.3), 1e-12) << t_s;
+        EXPECT_EQ(out.odom_pose.y, 0.0);
+      } else if (since > 0.0) {  // along arcs of at most 20 ms at their mean velocities
+        EXPECT_GT(out.odom_pose.y, 0.0);
+      }
+    }
+  }
+  // The identity, and a reading without a velocity, pass through untouched.
+  sdk::CommandFollower identity;
+  const locsim_odometry reading = command_reading(0.3, 0.1);
+  EXPECT_EQ(&identity.follow(0.0, reading), &reading);
+  sdk::CommandFollower lagging(response);
+  locsim_odometry ticks{};
+  ticks.fields = LOCSIM_ODOMETRY_TICKS;
+  EXPECT_EQ(&lagging.follow(0.0, ticks), &ticks);
+}
+
+TEST(SdkDetections, TheBiasIsTakenOutAsTheRangeModelSays) {
+  for (const bool depth : {false, true}) {
+    const sdk::DetectionBias bias{depth, 0.05, 0.023, 0.01};
+    for (const double bearing_rad : {-0.5, 0.0, 0.3}) {
+      const double r_m = 3.0;
+      const double z_m = 0.05 + 1.023 * r_m * (depth ? std::cos(bearing_rad) : 1.0);
+      const auto c = bias.corrected(z_m, bearing_rad + 0.01);
+      EXPECT_NEAR(c.range_m, r_m, 1e-12);
+      EXPECT_NEAR(c.bearing_rad, bearing_rad, 1e-15);
+      EXPECT_NEAR(c.model_x_m, r_m * (depth ? std::cos(bearing_rad) : 1.0), 1e-12);
+      const double h = 1e-6;
+      const double slope = (bias.corrected(z_m + h, bearing_rad + 0.01).range_m -
+                            bias.corrected(z_m - h, bearing_rad + 0.01).range_m) /
+                           (2 * h);
+      EXPECT_NEAR(c.range_scale, slope, 1e-8);
+    }
+  }
+  const auto none = sdk::DetectionBias{}.corrected(2.5, 0.4);
+  EXPECT_EQ(none.range_m, 2.5);
+  EXPECT_EQ(none.bearing_rad, 0.4);
+  EXPECT_EQ(none.range_scale, 1.0);
+}
+
+TEST(SdkDetections, CorrelatedDetectionsOfATargetWeighAsTheirMean) {
+  // N detections at a steady interval, errors of correlation rho from one to the next: the
+  // information the inflated variances add up to against the exact variance of their mean,
+  // sigma^2 / N^2 sum_ij rho^|i - j|: exact for two, within 12 % (never more confident) for any.
+  for (const double rho : {0.3, 0.8, 0.95}) {
+    const double tau_s = -0.25 / std::log(rho);
+    for (const int n : {2, 5, 20, 100}) {
+      sdk::CorrelatedDetections seen(tau_s);
+      locsim_detection d{};
+      d.id = 7;
+      double information = 0.0;
+      for (int k = 0; k < n; ++k)
+        information += 1.0 / seen.inflation(LOCSIM_CAMERA_PTZ, d, 0.25 * k);
+      double exact = 0.0;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) exact += std::pow(rho, std::abs(i - j));
+      exact /= n * n;
+      const double claimed = 1.0 / information;
+      if (n == 2) {
+        EXPECT_NEAR(claimed, exact, 1e-12);
+      }
+      EXPECT_LE(claimed, exact * (1 + 1e-12)) << rho << " " << n;
+      EXPECT_GE(claimed, 0.88 * exact) << rho << " " << n;
+    }
+  }
+  // Another target, or another camera, is independent; no correlation is no inflation.
+  sdk::CorrelatedDetections seen(1.0);
+  locsim_detection a{}, b{};
+  a.id = 1, b.id = 2;
+  EXPECT_EQ(seen.inflation(LOCSIM_CAMERA_PTZ, a, 0.0), 1.0);
+  EXPECT_EQ(seen.inflation(LOCSIM_CAMERA_PTZ, b, 0.1), 1.0);
+  EXPECT_EQ(seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, a, 0.1), 1.0);
+  EXPECT_GT(seen.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 10.0);
+  sdk::CorrelatedDetections independent(0.0);
+  EXPECT_EQ(independent.inflation(LOCSIM_CAMERA_PTZ, a, 0.0), 1.0);
+  EXPECT_EQ(independent.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 1.0);
+}
+
 TEST(SdkOdometry, WheelTravelOfAnIncrementInvertsTheArc) {
   const double b = 0.35;
   for (const Motion& m : kMotions) {

@@ -3,7 +3,10 @@
 // detection's range and bearing, with each camera's own noise model: the PTZ camera's and the
 // range-bearing sensor's grows with range (sigma_range_*), the omnidirectional camera's is an
 // ellipse along and across the ray (omni_sigma_*, paper 002's C_L; across the ray it is a bearing
-// noise of sigma_minor / range). Detections are associated by id when the camera gives ids, else
+// noise of sigma_minor / range), with a camera's measured bias taken out (range_model,
+// range_bias_*, bearing_bias_deg) and repeated detections of a target discounted when their errors
+// persist (noise_correlation_s). Odometry that reports the command follows the base's response
+// (command_*). Detections are associated by id when the camera gives ids, else
 // by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis distance; a
 // chi-square gate rejects false detections and wrong associations.
 #include <algorithm>
@@ -26,6 +29,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     k_left_ = params.number("k_left");
     k_right_ = params.number("k_right");
     noise_ = locsim::sdk::DetectionNoise::from(params);
+    bias_ = locsim::sdk::DetectionBias::from(params);
+    correlated_ = locsim::sdk::CorrelatedDetections(params.number("noise_correlation_s"));
+    response_ = locsim::sdk::CommandFollower(locsim::sdk::CommandResponse::from(params));
     gate_ = params.number("gate_chi2");
     odometry_.use_gyro(params.flag("use_gyro"));
     use_ptz_ = params.flag("use_ptz");
@@ -48,7 +54,8 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     // The ticks' travel, or (a source without ticks) the travel that makes the odometry pose's
     // increment with the nominal wheel base; turned by the gyro when the robot has one, the
     // wheels' extra turn their slip.
-    if (const auto step = odometry_.update(t_s, odometry)) {
+    // Odometry that reports the command (command_*) is first run through the base's response.
+    if (const auto step = odometry_.update(t_s, response_.follow(t_s, odometry))) {
       locsim::sdk::predict_by_wheels(x_, P_, step->d_left_m, step->d_right_m, wheel_base_m_,
                                      k_left_, k_right_,
                                      0.5 * wheel_base_m_ * std::abs(step->slip_rad));
@@ -56,7 +63,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   }
   void on_imu(double t_s, const locsim_imu& imu) override { odometry_.observe_imu(t_s, imu); }
 
-  void on_landmarks(double, const locsim_landmarks& reading) override {
+  void on_landmarks(double t_s, const locsim_landmarks& reading) override {
     if ((reading.camera == LOCSIM_CAMERA_PTZ && !use_ptz_) ||
         (reading.camera == LOCSIM_CAMERA_OMNI && !use_omni_) ||
         (reading.camera == LOCSIM_CAMERA_RANGE_BEARING && !use_range_bearing_)) {
@@ -65,8 +72,19 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     for (size_t i = 0; i < reading.count; ++i) {
       // Another robot seen is not a landmark of the map; using it (cooperative localization)
       // would need that robot's estimate, which this filter does not have.
-      if (reading.detections[i].target != LOCSIM_TARGET_LANDMARK) continue;
-      correct(reading.detections[i], noise(reading.camera, reading.detections[i].range_m));
+      const locsim_detection& detection = reading.detections[i];
+      if (detection.target != LOCSIM_TARGET_LANDMARK) continue;
+      const double inflation = correlated_.inflation(reading.camera, detection, t_s);
+      if (reading.camera == LOCSIM_CAMERA_OMNI) {
+        correct(detection, {detection.range_m, detection.bearing_rad},
+                inflation * noise(reading.camera, detection.range_m));
+        continue;
+      }
+      // The camera's measured bias taken out; the range's noise scales with the correction.
+      const auto z = bias_.corrected(detection.range_m, detection.bearing_rad);
+      Eigen::Matrix2d R = noise(reading.camera, z.model_x_m);
+      R(0, 0) *= z.range_scale * z.range_scale;
+      correct(detection, {z.range_m, z.bearing_rad}, inflation * R);
     }
   }
 
@@ -90,8 +108,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
         .asDiagonal();
   }
 
-  void correct(const locsim_detection& detection, const Eigen::Matrix2d& R) {
-    const Eigen::Vector2d z(detection.range_m, detection.bearing_rad);
+  /// The update by a detection's range and bearing z (bias taken out) with noise R.
+  void correct(const locsim_detection& detection, const Eigen::Vector2d& z,
+               const Eigen::Matrix2d& R) {
     // Association: the candidate with the smallest Mahalanobis distance of the innovation.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Vector2d best_innovation;
@@ -125,6 +144,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
 
   double k_left_, k_right_, gate_, wheel_base_m_;
   locsim::sdk::DetectionNoise noise_;
+  locsim::sdk::DetectionBias bias_;
+  locsim::sdk::CorrelatedDetections correlated_;
+  locsim::sdk::CommandFollower response_;
   bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
   Pose x_;
@@ -142,7 +164,9 @@ constexpr locsim_param_decl kParams[] = {
      "range noise growth with the square of the range (PTZ camera rows) [1/m]"},
     {"sigma_bearing_deg", LOCSIM_PARAM_DOUBLE, 1.5, 1e-6, 90.0, nullptr,
      "bearing noise of the PTZ camera and the range-bearing sensor [deg]"},
+    LOCSIM_DETECTION_BIAS_PARAMS,
     LOCSIM_OMNI_NOISE_PARAMS,
+    LOCSIM_COMMAND_RESPONSE_PARAMS,
     LOCSIM_GYRO_PARAMS,
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},

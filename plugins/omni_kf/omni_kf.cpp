@@ -61,6 +61,7 @@ class OmniKf final : public sdk::Localizer {
     least_squares_ = fix == "least_squares";
     k_left_ = params.number("k_left");
     k_right_ = params.number("k_right");
+    response_ = sdk::CommandFollower(sdk::CommandResponse::from(params));
     odometry_.use_gyro(params.flag("use_gyro"));
     if (init.map == nullptr || init.map->landmark_count < 2)
       throw std::invalid_argument("needs two landmarks on the map");
@@ -97,7 +98,9 @@ class OmniKf final : public sdk::Localizer {
     }
   }
 
-  void on_odometry(double t_s, const locsim_odometry& odometry) override {
+  void on_odometry(double t_s, const locsim_odometry& reading) override {
+    // Odometry that reports the command (command_*) is first run through the base's response.
+    const locsim_odometry& odometry = response_.follow(t_s, reading);
     const std::optional<sdk::OdometryStep> step = odometry_.update(t_s, odometry);
     if (!odom_) {
       odom_ = sdk::Pose(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
@@ -282,7 +285,8 @@ class OmniKf final : public sdk::Localizer {
   std::size_t frames_ = 10;
   double sigma_major_, sigma_minor_, sigma_major_per_m_;
   double wheel_base_m_, k_left_, k_right_;
-  sdk::OdometryTracker odometry_;    // the steps between readings, turned by the gyro
+  sdk::OdometryTracker odometry_;  // the steps between readings, turned by the gyro
+  sdk::CommandFollower response_;
   std::vector<Landmark> landmarks_;  // the pair given, else the whole map
   std::deque<Frame> frames_seen_;
   std::optional<sdk::Pose> odom_, odom_at_fix_;
@@ -311,6 +315,7 @@ constexpr locsim_param_decl kParams[] = {
      "least_squares (the pose that best explains every landmark seen, along and across each ray) "
      "or triangulate (paper 002: the most certain pair's ranges and bearings)"},
     LOCSIM_WHEEL_NOISE_PARAMS,
+    LOCSIM_COMMAND_RESPONSE_PARAMS,
     LOCSIM_GYRO_PARAMS};
 
 }  // namespace

@@ -12,14 +12,16 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
     : recovery_(recovery),
       pf_(static_cast<std::size_t>(params.integer("particles")), init.seed,
           sdk::resampler_from(params.string("resampler"))) {
-  noise_ = {params.number("alpha1"),
-            params.number("alpha2"),
-            params.number("alpha3"),
-            params.number("alpha4"),
-            params.flag("variance_form"),
-            params.number("motion_floor_m"),
-            params.number("motion_floor_deg") * std::numbers::pi / 180.0};
+  noise_ = {params.number("alpha1"), params.number("alpha2"), params.number("alpha3"),
+            params.number("alpha4"), params.flag("variance_form"),
+            // The robot's floor and the filter's roughening: independent, so in quadrature.
+            std::hypot(params.number("motion_floor_m"), params.number("roughening_m")),
+            std::hypot(params.number("motion_floor_deg"), params.number("roughening_deg")) *
+                std::numbers::pi / 180.0};
   detection_noise_ = sdk::DetectionNoise::from(params);
+  detection_bias_ = sdk::DetectionBias::from(params);
+  correlated_ = sdk::CorrelatedDetections(params.number("noise_correlation_s"));
+  response_ = sdk::CommandFollower(sdk::CommandResponse::from(params));
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
   log_outlier_likelihood_ = std::log(params.number("outlier_likelihood"));
@@ -82,7 +84,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
   pf_.initialise(init, free_);
 }
 
-void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
+void LandmarkParticleFilter::prepare_step(double t_s, const locsim_landmarks& reading) {
   if (step_.size() < reading.count) step_.resize(reading.count);
   step_count_ = 0;
   for (std::size_t k = 0; k < reading.count; ++k) {
@@ -98,12 +100,25 @@ void LandmarkParticleFilter::prepare_step(const locsim_landmarks& reading) {
         s.candidates.push_back(j);
     }
     if (s.candidates.empty()) continue;  // a landmark not on the map tells nothing
-    s.range_m = d.range_m;
-    s.bearing_rad = d.bearing_rad;
-    // The noise follows the camera and the measured range, the same for every particle.
-    const auto sigma = detection_noise_.at(reading.camera, d.range_m);
-    s.sigma_range_m = sigma.range_m;
-    s.sigma_bearing_rad = sigma.bearing_rad;
+    // The noise follows the camera and the measured range, the same for every particle; the
+    // camera's measured bias is taken out (not the omnidirectional camera's: its noise is an
+    // ellipse, not a range and a bearing), and a target seen again while its errors persist
+    // weighs less.
+    const double spread = std::sqrt(correlated_.inflation(reading.camera, d, t_s));
+    if (reading.camera == LOCSIM_CAMERA_OMNI) {
+      const auto sigma = detection_noise_.at(reading.camera, d.range_m);
+      s.range_m = d.range_m;
+      s.bearing_rad = d.bearing_rad;
+      s.sigma_range_m = spread * sigma.range_m;
+      s.sigma_bearing_rad = spread * sigma.bearing_rad;
+    } else {
+      const auto z = detection_bias_.corrected(d.range_m, d.bearing_rad);
+      const auto sigma = detection_noise_.at(reading.camera, z.model_x_m);
+      s.range_m = z.range_m;
+      s.bearing_rad = z.bearing_rad;
+      s.sigma_range_m = spread * sigma.range_m * z.range_scale;
+      s.sigma_bearing_rad = spread * sigma.bearing_rad;
+    }
     ++step_count_;
   }
 }
@@ -255,7 +270,9 @@ sdk::Pose LandmarkParticleFilter::sample_from_sensors() {
   return {best_x[pick], best_y[pick], best_theta[pick]};
 }
 
-void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& odometry) {
+void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& reading) {
+  // Odometry that reports the command (command_*) is first run through the base's response.
+  const locsim_odometry& odometry = response_.follow(t_s, reading);
   pf_.odometry().observe(t_s, odometry);
   if (wheel_motion_) {
     if (const auto step = wheels_->update(t_s, odometry)) {
@@ -277,12 +294,12 @@ void LandmarkParticleFilter::apply_pending_motion() {
   pf_.odometry().mark_now();
 }
 
-void LandmarkParticleFilter::on_landmarks(double, const locsim_landmarks& reading) {
+void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& reading) {
   const bool wanted = (reading.camera == LOCSIM_CAMERA_PTZ && use_ptz_) ||
                       (reading.camera == LOCSIM_CAMERA_OMNI && use_omni_) ||
                       (reading.camera == LOCSIM_CAMERA_RANGE_BEARING && use_range_bearing_);
   if (!wanted) return;
-  prepare_step(reading);
+  prepare_step(t_s, reading);
   if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;
   apply_pending_motion();

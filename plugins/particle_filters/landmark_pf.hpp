@@ -24,7 +24,7 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
 /// locsim's PTZ camera at 160 x 120: range from the blob's height in rows, so one row is about
 /// r^2 / (f h) of range and the measured error is 0.012 r^2 (docs/sensors.md); the default
 /// 0.02 + 0.015 r^2 leaves a margin. Not the paper's unpublished deltas. The robustness
-/// defaults (a motion floor, an outlier likelihood, resetting after three low steps and from two
+/// defaults (roughening, an outlier likelihood, resetting after three low steps and from two
 /// detections) are for worlds nobody tuned the filter for: without them the particles collapse
 /// and phantom detections decide the weights (docs/reports/suite: MCL 1.4 m -> 0.13 m in calm
 /// generated rooms). The paper's settings: worlds/asrl/presets/paper004.yaml.
@@ -46,11 +46,17 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "motion_model wheels: left wheel random error [m^1/2]"},                                       \
   {"k_right", LOCSIM_PARAM_DOUBLE, 0.0012, 0.0, 1.0, nullptr,                                     \
    "motion_model wheels: right wheel random error [m^1/2]"},                                      \
-  {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.005, 0, 10, nullptr,                                   \
-   "position noise of every step whatever its motion, per axis (locsim calibrate; 0: the "        \
-   "paper; without it the particles collapse going straight) [m]"},                               \
-  {"motion_floor_deg", LOCSIM_PARAM_DOUBLE, 0.5, 0, 180, nullptr,                                  \
-   "heading noise of every step whatever its motion (locsim calibrate; 0: the paper) [deg]"},     \
+  {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                     \
+   "position noise of every step whatever its motion, per axis: the robot's (locsim calibrate) "  \
+   "[m]"},                                                                                         \
+  {"motion_floor_deg", LOCSIM_PARAM_DOUBLE, 0.0, 0, 180, nullptr,                                  \
+   "heading noise of every step whatever its motion: the robot's (locsim calibrate) [deg]"},      \
+  {"roughening_m", LOCSIM_PARAM_DOUBLE, 0.005, 0, 10, nullptr,                                     \
+   "position noise added to every particle at every step beside the motion floor (the two add "   \
+   "in quadrature), so that a finite set of particles does not collapse (Gordon's roughening; "   \
+   "0: the paper) [m]"},                                                                           \
+  {"roughening_deg", LOCSIM_PARAM_DOUBLE, 0.5, 0, 180, nullptr,                                    \
+   "heading noise added likewise (0: the paper) [deg]"},                                          \
   {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 100, nullptr,                                 \
    "range noise of a detection at zero range [m]"},                                                \
   {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                  \
@@ -61,7 +67,9 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "bearing noise of a detection [deg]"},                                                          \
   {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "roulette",                                          \
    "roulette (as in the paper) or low_variance"},                                                  \
+  LOCSIM_DETECTION_BIAS_PARAMS,                                                                    \
   LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
+  LOCSIM_COMMAND_RESPONSE_PARAMS,                                                                  \
   LOCSIM_GYRO_PARAMS,                                                                              \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
   {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
@@ -116,7 +124,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
     std::vector<std::size_t> candidates;  // indices into landmarks_
   };
   LandmarkParticleFilter(const locsim_init& init, const sdk::Params& params, Recovery recovery);
-  void prepare_step(const locsim_landmarks& reading);
+  void prepare_step(double t_s, const locsim_landmarks& reading);
   /// log of the match of all this step's detections at one pose (sdk::landmark_log_match, 0 =
   /// perfect), each with its best-matching candidate.
   double log_likelihood(double x, double y, double theta) const;
@@ -133,6 +141,9 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::ParticleFilter pf_;
   sdk::OdometryNoise noise_;
   sdk::DetectionNoise detection_noise_;  // by camera and range
+  sdk::DetectionBias detection_bias_;    // taken out of each detection
+  sdk::CorrelatedDetections correlated_;
+  sdk::CommandFollower response_;  // odometry that reports the command
   bool use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   double log_outlier_likelihood_;           // log of outlier_likelihood; -inf when 0

@@ -144,10 +144,12 @@ class OdometryNoise:
     @classmethod
     def from_params(cls, params):
         """From a filter's parameters as motion_noise_params() declares them (the floor's heading
-        in degrees, as the C++ SDK's and `locsim calibrate`'s)."""
+        in degrees, as the C++ SDK's and `locsim calibrate`'s). The floor is the robot's and the
+        filter's roughening together, in quadrature, as the C++ landmark particle filters add them."""
         return cls(params["alpha1"], params["alpha2"], params["alpha3"], params["alpha4"],
-                   bool(params["variance_form"]), params["motion_floor_m"],
-                   math.radians(params["motion_floor_deg"]))
+                   bool(params["variance_form"]),
+                   math.hypot(params["motion_floor_m"], params["roughening_m"]),
+                   math.radians(math.hypot(params["motion_floor_deg"], params["roughening_deg"])))
 
 
 def motion_noise_params(**defaults):

@@ -28,8 +28,14 @@ MOTION_NOISE = [
      "wheel travel with variance k^2 |d| per wheel (k_left, k_right)"),
     ("k_left", float, K_LEFT, 0.0, 1.0, "motion_model wheels: left wheel random error [m^1/2]"),
     ("k_right", float, K_RIGHT, 0.0, 1.0, "motion_model wheels: right wheel random error [m^1/2]"),
-    ("motion_floor_m", float, 0.005, 0.0, 10.0, "position noise of every step whatever its motion, per axis [m]"),
-    ("motion_floor_deg", float, 0.5, 0.0, 180.0, "heading noise of every step whatever its motion [deg]"),
+    ("motion_floor_m", float, 0.0, 0.0, 10.0,
+     "position noise of every step whatever its motion, per axis: the robot's (locsim calibrate) [m]"),
+    ("motion_floor_deg", float, 0.0, 0.0, 180.0,
+     "heading noise of every step whatever its motion: the robot's (locsim calibrate) [deg]"),
+    ("roughening_m", float, 0.005, 0.0, 10.0,
+     "position noise added to every particle at every step beside the motion floor (in quadrature), "
+     "so that a finite set of particles does not collapse [m]"),
+    ("roughening_deg", float, 0.5, 0.0, 180.0, "heading noise added likewise [deg]"),
 ]
 
 # The calls a filter's `params` may add, by name.

@@ -45,7 +45,7 @@ def test_the_sdks_noise_lists_are_declared_as_the_cpp_filters_declare_them(tmp_p
     out = describe(path)
     assert out.returncode == 0, out.stderr
     params = {line.split("\t")[1]: line.split("\t")[2:] for line in out.stdout.splitlines() if line.startswith("param\t")}
-    assert list(params)[0] == "n" and len(params) == 1 + 4 + 10
+    assert list(params)[0] == "n" and len(params) == 1 + 4 + 12
     assert params["sigma_bearing_deg"][:4] == ["double", "5.0", "1e-06", "180.0"]
     assert params["sigma_range_m"][:4] == ["double", "0.02", "1e-06", "100.0"]
     assert params["motion_model"][:2] == ["string", "odometry"] and params["variance_form"][:2] == ["bool", "0"]
@@ -103,7 +103,7 @@ def test_numpy_particle_filter_through_the_binary(tmp_path):
     assert (summary.status == "ok").all(), summary.failure
     assert summary.loc["pf", "plugin"] == "landmark_pf"
     params = run.localizer_metrics("pf")["params"]
-    assert params["particles"] == 300 and params["sigma_range_m"] == 0.02 and params["motion_floor_deg"] == 0.5
+    assert params["particles"] == 300 and params["sigma_range_m"] == 0.02 and params["roughening_deg"] == 0.5
     errors = run.errors("pf")
     assert len(errors) == run.localizer_metrics("pf")["samples"]
     assert summary.loc["pf", "position_rms_m"] < 0.5

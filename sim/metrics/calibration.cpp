@@ -258,7 +258,8 @@ std::vector<double> perception_steps(const RobotLog& robot, const WorldDef& worl
 /// `odometry` is the robot's, or what a model makes of it.
 void collect_motion(const RobotLog& robot,
                     const std::vector<std::pair<double, locsim_odometry>>& odometry,
-                    const TruthView& truth, std::vector<MotionSample>& out) {
+                    const TruthView& truth, std::vector<MotionSample>& out,
+                    std::size_t stride = 1) {
   const std::vector<double>& steps = robot.steps;
   // The odometry a filter has at time t: the latest reading at or before it.
   const auto latest = [&](double t_s) -> std::optional<std::size_t> {
@@ -268,8 +269,8 @@ void collect_motion(const RobotLog& robot,
     return static_cast<std::size_t>(it - odometry.begin()) - 1;
   };
   const double wheel_base_m = believed_wheel_base_m(robot.def);  // what ekf_landmarks is told
-  for (std::size_t k = 1; k < steps.size(); ++k) {
-    const auto ia = latest(steps[k - 1]), ib = latest(steps[k]);
+  for (std::size_t k = stride; k < steps.size(); k += stride) {
+    const auto ia = latest(steps[k - stride]), ib = latest(steps[k]);
     if (!ia || !ib || *ib <= *ia) continue;
     const double ta = odometry[*ia].first, tb = odometry[*ib].first;
     if (!truth.continuous(ta, tb)) continue;
@@ -473,6 +474,23 @@ RangeModelFit fit_depth_model(const std::vector<Residual>& r,
   return fit;
 }
 
+/// What the landmark localizers are given for a camera (localizer_params): the chosen range
+/// model's bias and the bearing's, taken out of each detection (sdk::DetectionBias), the spreads
+/// about them (the range's in the model's distance or depth), and the noise correlation.
+struct LocalizerNoise {
+  sdk::DetectionBias bias;
+  LineFit range_spread_m;
+  double bearing_spread_rad = 0.0;
+  double correlation_s = 0.0;
+};
+LocalizerNoise localizer_noise(const DetectionCalibration& c) {
+  const bool depth = c.range_model == "depth" && c.depth_model;
+  const LineFit& bias = depth ? c.depth_model->bias_m : c.range_bias_m;
+  return {sdk::DetectionBias{depth, bias.at_zero, bias.per_unit, c.bearing_bias_rad},
+          depth ? c.depth_model->spread_m : c.range_spread_m, c.bearing_spread_rad,
+          c.noise_correlation_s.value_or(0.0)};
+}
+
 /// The landmark particle filters' outlier_likelihood: a detection is false with probability eps
 /// (the false ones among all), and a false one falls anywhere in the measured span of ranges and
 /// bearings. Its mixture with the match (scaled to 1 at a perfect match, a Gaussian of peak
@@ -484,8 +502,9 @@ void outlier_likelihood(const CameraData& data, DetectionCalibration& c) {
       std::min(static_cast<double>(c.false_detections) / static_cast<double>(c.detections), 0.5);
   if (eps <= 0.0) return;
   const double middle_m = 0.5 * (data.min_range_m + data.max_range_m);
-  const double sigma_range = std::max(c.range_rms_m.at(middle_m), 1e-9);
-  const double sigma_bearing = std::max(c.bearing_rms_rad, 1e-9);
+  const LocalizerNoise noise = localizer_noise(c);
+  const double sigma_range = std::max(noise.range_spread_m.at(middle_m), 1e-9);
+  const double sigma_bearing = std::max(noise.bearing_spread_rad, 1e-9);
   const double bearing_span = std::max(2.0 * data.max_abs_bearing_rad, sigma_bearing);
   const double uniform = 1.0 / ((data.max_range_m - data.min_range_m) * bearing_span);
   const double peak = 1.0 / (2.0 * std::numbers::pi * sigma_range * sigma_bearing);
@@ -557,24 +576,36 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
 }
 
 /// The likelihood a landmark particle filter gives the true pose at each step (its own match,
-/// sdk::landmark_log_match, with the noise written for it: the spread about zero), and from its
-/// low quantile the resetting levels: a reset is meant for a step that the truth would explain
-/// worse than it almost ever does. With calibrated noise a single detection's match is about
-/// uniform on (0, 1] at the truth, so a fixed level of 0.1 resets on one step in ten.
+/// sdk::landmark_log_match, with what it is given: each detection corrected by the camera's
+/// bias, the spread about it, inflated for a landmark seen again while its errors persist), and
+/// from its low quantile the resetting levels: a reset is meant for a step that the truth would
+/// explain worse than it almost ever does. With calibrated noise a single detection's match is
+/// about uniform on (0, 1] at the truth, so a fixed level of 0.1 resets on one step in ten.
 void reset_levels(const CameraData& data, DetectionCalibration& c) {
   constexpr double kQuantile = 0.01;
-  const double sigma_bearing = std::max(c.bearing_rms_rad, 1e-9);
+  const LocalizerNoise noise = localizer_noise(c);
   std::vector<double> step_likelihood, per_detection;
   std::vector<std::size_t> step_track;
+  std::optional<sdk::CorrelatedDetections> seen;  // of the current track
   for (const auto& [first, count] : data.steps) {
-    step_track.push_back(data.residuals[first].track);
+    const std::size_t track = data.residuals[first].track;
+    if (step_track.empty() || step_track.back() != track) seen.emplace(noise.correlation_s);
+    step_track.push_back(track);
     double log_p = 0.0;
     for (std::size_t i = first; i < first + count; ++i) {
       const Residual& r = data.residuals[i];
-      const double measured_m = r.range_m + r.range_error_m;
-      const double sigma_range = std::max(c.range_rms_m.at(measured_m), 1e-9);
-      const double match = -0.5 * r.range_error_m * r.range_error_m / (sigma_range * sigma_range) -
-                           (1.0 - std::cos(r.bearing_error_rad)) / (sigma_bearing * sigma_bearing);
+      locsim_detection target{};
+      target.id = static_cast<std::int32_t>(r.landmark);
+      const double spread = std::sqrt(seen->inflation(0, target, r.t_s));
+      const auto z =
+          noise.bias.corrected(r.range_m + r.range_error_m, r.bearing_rad + r.bearing_error_rad);
+      const double sigma_range =
+          spread * z.range_scale * std::max(noise.range_spread_m.at(z.model_x_m), 1e-9);
+      const double sigma_bearing = spread * std::max(noise.bearing_spread_rad, 1e-9);
+      const double range_error_m = z.range_m - r.range_m;
+      const double bearing_error_rad = sdk::wrap(z.bearing_rad - r.bearing_rad);
+      const double match = -0.5 * range_error_m * range_error_m / (sigma_range * sigma_range) -
+                           (1.0 - std::cos(bearing_error_rad)) / (sigma_bearing * sigma_bearing);
       // As the filters weigh it, false detections allowed (their outlier_likelihood).
       log_p += std::log(std::exp(match) + c.outlier_likelihood.value_or(0.0));
     }
@@ -698,8 +729,8 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
       c.depth_model = fit_depth_model(r, kept);
       // Both are two-parameter lines through the same measured ranges, so neither fits noise
       // better by having more freedom. Where the bearings are small the two models are nearly
-      // the same and their residuals differ by chance; depth (which the localizers do not
-      // model) is chosen only when it leaves clearly less: under 0.8 of distance's variance
+      // the same and their residuals differ by chance; depth (the less common camera) is
+      // chosen only when it leaves clearly less: under 0.8 of distance's variance
       // (on MRCLAM's cameras it leaves about 0.12: docs/reports/sim_to_real/measurements.md).
       constexpr double kDepthVarianceRatio = 0.8;
       const double distance_variance = std::pow(c.distance_model->residual_rms_m, 2);
@@ -988,13 +1019,6 @@ std::vector<double> lag(const std::vector<double>& u, double tau_s) {
   return y;
 }
 
-/// x delayed by `delay` steps (its first value before the start).
-std::vector<double> delayed(const std::vector<double>& x, std::size_t delay) {
-  std::vector<double> y(x.size());
-  for (std::size_t k = 0; k < x.size(); ++k) y[k] = x[k >= delay ? k - delay : 0];
-  return y;
-}
-
 /// One channel's least squares through the origin: truth y = gain * model output f, where f is
 /// a filter's output of a reported signal with noise of its own. That noise adds `noise` to
 /// f.f (what the filter passes of it), and would pull the gain down and favour filters that
@@ -1132,39 +1156,17 @@ std::optional<CommandResponseFit> fit_command_response(const std::vector<RobotLo
   return fit;
 }
 
-/// The robot's odometry as the fitted response makes of it (what the motion would be if it
-/// followed the response exactly): velocity readings at the same times, the pose integrated on
-/// the fit's grid.
-std::vector<std::pair<double, locsim_odometry>> through_response(const RobotLog& robot,
-                                                                 const CommandResponseFit& fit) {
+/// The robot's odometry as a base that follows `response` would move (sdk::CommandFollower, as
+/// a localizer with command_* runs it): velocity readings at the same times, the pose integrated
+/// through the response.
+std::vector<std::pair<double, locsim_odometry>> followed(const RobotLog& robot,
+                                                         const CommandResponseFit& fit) {
+  sdk::CommandFollower follower(sdk::CommandResponse{fit.dead_time_s, fit.time_constant_v_s,
+                                                     fit.time_constant_omega_s, fit.gain_v,
+                                                     fit.gain_omega});
   std::vector<std::pair<double, locsim_odometry>> out;
-  const std::optional<VelocitySeries> s = velocity_series(robot);
-  if (!s) return out;
-  const auto delay = static_cast<std::size_t>(std::lround(fit.dead_time_s / kResponseGridS));
-  const std::vector<double> v = delayed(lag(s->reported_v, fit.time_constant_v_s), delay);
-  const std::vector<double> omega =
-      delayed(lag(s->reported_omega, fit.time_constant_omega_s), delay);
-  std::vector<Pose2> poses(v.size());
-  Pose2 pose;
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    poses[k] = pose;
-    const double distance_m = fit.gain_v * v[k] * kResponseGridS;
-    const double turn_rad = fit.gain_omega * omega[k] * kResponseGridS;
-    const double mid_rad = pose.theta + 0.5 * turn_rad;
-    pose = {pose.x + distance_m * std::cos(mid_rad), pose.y + distance_m * std::sin(mid_rad),
-            wrap_angle(pose.theta + turn_rad)};
-  }
-  for (const auto& [t_s, o] : robot.odometry) {
-    const double at = std::round((t_s - s->t0_s) / kResponseGridS);
-    if (at < 0.0 || at >= static_cast<double>(v.size())) continue;
-    const auto k = static_cast<std::size_t>(at);
-    locsim_odometry modelled{};
-    modelled.fields = LOCSIM_ODOMETRY_VELOCITY | LOCSIM_ODOMETRY_POSE;
-    modelled.v_mps = fit.gain_v * v[k];
-    modelled.omega_radps = fit.gain_omega * omega[k];
-    modelled.odom_pose = {poses[k].x, poses[k].y, poses[k].theta};
-    out.emplace_back(t_s, modelled);
-  }
+  out.reserve(robot.odometry.size());
+  for (const auto& [t_s, o] : robot.odometry) out.emplace_back(t_s, follower.follow(t_s, o));
   return out;
 }
 
@@ -1180,14 +1182,37 @@ void fit_command(const std::vector<RobotLog>& robots, MotionCalibration& m) {
   gain_only.gain_omega = m.command->gain_omega;
   std::vector<MotionSample> samples;
   for (const RobotLog& robot : robots) {
-    collect_motion(robot, through_response(robot, gain_only), TruthView{robot.truth, &*m.command},
-                   samples);
+    collect_motion(robot, followed(robot, gain_only), TruthView{robot.truth, &*m.command}, samples);
   }
   if (samples.size() < 10) return;
   MotionCalibration residual;
   fit_wheel_model(samples, residual);
   m.command->k_left = residual.k_left / std::sqrt(m.command->gain_v);
   m.command->k_right = residual.k_right / std::sqrt(m.command->gain_v);
+  // What a localizer that follows the response (command_*) is left with: its odometry through
+  // the whole response against the truth, over the same intervals as the raw odometry's fit.
+  std::vector<MotionSample> through;
+  for (const RobotLog& robot : robots)
+    collect_motion(robot, followed(robot, *m.command), TruthView{robot.truth}, through);
+  if (through.size() < 10) return;
+  MotionCalibration localizer;
+  fit_wheel_model(through, localizer);
+  // The same over 2, 4, 8 steps: white noise would keep k; errors correlated from step to step
+  // make it grow (a filter that takes the one-step k is then overconfident over longer spans).
+  for (const std::size_t stride : {2, 4, 8}) {
+    std::vector<MotionSample> longer;
+    for (const RobotLog& robot : robots)
+      collect_motion(robot, followed(robot, *m.command), TruthView{robot.truth}, longer, stride);
+    if (longer.size() < 10) break;
+    MotionCalibration fit;
+    fit_wheel_model(longer, fit);
+    double mean_s = 0.0;
+    for (const MotionSample& x : longer) mean_s += x.dt_s / static_cast<double>(longer.size());
+    m.command->localizer_by_span.push_back({stride, mean_s, fit.k_left, fit.k_right});
+  }
+  m.command->localizer =
+      WheelModelFit{localizer.k_left, localizer.k_right, localizer.k_floor_position_m,
+                    localizer.k_floor_heading_rad, localizer.k_mean_nees};
 }
 
 json line_json(const LineFit& line, const char* at_zero, const char* per_unit) {
@@ -1338,6 +1363,22 @@ json Calibration::to_json() const {
         j["motion"]["command_response"]["k_left"] = *c->k_left;
         j["motion"]["command_response"]["k_right"] = *c->k_right;
       }
+      if (const auto& w = c->localizer) {
+        j["motion"]["command_response"]["localizer_wheel_model"] = {
+            {"k_left", w->k_left},
+            {"k_right", w->k_right},
+            {"floor_position_m", w->floor_position_m},
+            {"floor_heading_rad", w->floor_heading_rad},
+            {"mean_nees", w->mean_nees}};
+        json spans = json::array();
+        for (const auto& span : c->localizer_by_span) {
+          spans.push_back({{"steps", span.steps},
+                           {"mean_interval_s", span.mean_interval_s},
+                           {"k_left", span.k_left},
+                           {"k_right", span.k_right}});
+        }
+        j["motion"]["command_response"]["localizer_wheel_model"]["over_steps"] = spans;
+      }
     }
   }
   j["cameras"] = json::array();
@@ -1410,8 +1451,29 @@ std::string Calibration::to_yaml() const {
         (camera->camera != sensor_name(SensorKind::kRangeBearing) && c.inliers > camera->inliers))
       camera = &c;
   }
+  const CommandResponseFit* command =
+      motion && motion->command && motion->command->leads && motion->command->k_left
+          ? &*motion->command
+          : nullptr;
   y += "localizer_params:  # each localizer takes the keys it declares\n";
-  if (motion) {
+  if (command != nullptr && command->localizer) {
+    // The localizers that follow the response predict with the motion it gives; their wheel
+    // noise is what is left beyond it.
+    const WheelModelFit& w = *command->localizer;
+    y += "  # motion: the odometry reports the command; the localizers run it through the "
+         "robot's response (command_*), then the wheel model at every odometry reading "
+         "(ekf_landmarks, odometry, omni_kf; the particle filters with motion_model wheels)\n";
+    y += "  command_dead_time_s: " + four_digits(command->dead_time_s) +
+         "\n  command_time_constant_v_s: " + four_digits(command->time_constant_v_s) +
+         "\n  command_time_constant_omega_s: " + four_digits(command->time_constant_omega_s) +
+         "\n  command_gain_v: " + four_digits(command->gain_v) +
+         "\n  command_gain_omega: " + four_digits(command->gain_omega) +
+         "\n  motion_model: wheels\n  k_left: " + four_digits(w.k_left) +
+         "\n  k_right: " + four_digits(w.k_right) +
+         "\n  motion_floor_m: " + four_digits(w.floor_position_m) +
+         "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
+         four_digits(rad_to_deg(w.floor_heading_rad)) + "\n";
+  } else if (motion) {
     // The wheel model's noise adds up the same whatever the step length; the per-step alphas'
     // does not (they hold for steps as long as the intervals measured here), so the particle
     // filters get the wheel model (docs/real_data.md measures both on MRCLAM).
@@ -1422,6 +1484,8 @@ std::string Calibration::to_yaml() const {
          "\n  motion_floor_m: " + four_digits(motion->k_floor_position_m) +
          "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
          four_digits(rad_to_deg(motion->k_floor_heading_rad)) + "\n";
+  }
+  if (motion) {
     const OdometryModelFit& f =
         motion->variance_form ? motion->odometry_variance : motion->odometry_std;
     y += "  # the odometry model per perception step (fastslam; motion_model odometry)\n";
@@ -1431,17 +1495,28 @@ std::string Calibration::to_yaml() const {
          "  # the form that explains the odometry better\n";
   }
   if (camera != nullptr) {
-    // Localizers do not model a bias: they get the spread about zero (root mean square).
-    y +=
-        "  # from the " + camera->camera + "'s detections; the spread about zero (bias included)\n";
-    y += "  sigma_range_m: " + four_digits(std::max(camera->range_rms_m.at_zero, 1e-6)) +
-         "\n  sigma_range_per_m: " + four_digits(camera->range_rms_m.per_unit) +
+    // The landmark localizers take the bias out of each detection and weigh it with the spread
+    // about it; a landmark seen again while its errors persist counts less.
+    const LocalizerNoise noise = localizer_noise(*camera);
+    y += "  # from the " + camera->camera +
+         "'s detections: the bias taken out of each, the spread about it\n";
+    y += "  range_model: " + std::string(noise.bias.depth ? "depth" : "distance") +
+         "\n  range_bias_m: " + four_digits(noise.bias.range_bias_m) +
+         "\n  range_bias_per_m: " + four_digits(noise.bias.range_bias_per_m) +
+         "\n  bearing_bias_deg: " + four_digits(rad_to_deg(noise.bias.bearing_bias_rad)) +
+         "\n  sigma_range_m: " + four_digits(std::max(noise.range_spread_m.at_zero, 1e-6)) +
+         "\n  sigma_range_per_m: " + four_digits(std::max(noise.range_spread_m.per_unit, 0.0)) +
          "\n  sigma_range_per_m2: 0\n  sigma_bearing_deg: " +
-         four_digits(std::max(rad_to_deg(camera->bearing_rms_rad), 1e-6)) + "\n";
-    // The FastSLAM filters take one range noise: the spread at the middle bin's range.
+         four_digits(std::max(rad_to_deg(noise.bearing_spread_rad), 1e-6)) +
+         "\n  noise_correlation_s: " + four_digits(noise.correlation_s) +
+         "  # how long a landmark's errors persist\n";
+    // The FastSLAM filters, which take no bias out, get one noise about zero: the range's at the
+    // middle bin's range, the bearing's root mean square.
     if (!camera->bins.empty()) {
       const double middle_m = camera->bins[camera->bins.size() / 2].range_m;
-      const std::string fixed = four_digits(std::max(camera->range_rms_m.at(middle_m), 1e-6));
+      const std::string fixed = four_digits(std::max(camera->range_rms_m.at(middle_m), 1e-6)) +
+                                ", sigma_bearing_deg: " +
+                                four_digits(std::max(rad_to_deg(camera->bearing_rms_rad), 1e-6));
       for (const char* name : {"fastslam", "fastslam_afsa", "pso_pf"}) {
         y += std::string("  ") + name + ": {sigma_range_m: " + fixed + "}  # at " +
              four_digits(middle_m) + " m\n";
@@ -1469,10 +1544,6 @@ std::string Calibration::to_yaml() const {
          " % of them), anywhere in the measured ranges and bearings\n";
     y += "  outlier_likelihood: " + four_digits(*camera->outlier_likelihood) + "\n";
   }
-  const CommandResponseFit* command =
-      motion && motion->command && motion->command->leads && motion->command->k_left
-          ? &*motion->command
-          : nullptr;
   if (command != nullptr) {
     y += "robot:  # the robots' motion lags and falls short of the velocity their odometry "
          "reports (docs/worlds.md)\n";
@@ -1542,6 +1613,18 @@ std::string describe(const Calibration& c) {
                                  : std::string("; the odometry leads the motion"))
                     : std::string("; no lead")) +
           "\n";
+      if (r->leads && r->localizer) {
+        text += "  a localizer that follows the response (command_*): k_left " +
+                four_digits(r->localizer->k_left) + ", k_right " +
+                four_digits(r->localizer->k_right) + " m^1/2 (mean NEES " +
+                four_digits(r->localizer->mean_nees) + ")";
+        for (const auto& span : r->localizer_by_span) {
+          text += "; over " + std::to_string(span.steps) + " steps (" +
+                  four_digits(span.mean_interval_s) + " s) " + four_digits(span.k_left) + ", " +
+                  four_digits(span.k_right);
+        }
+        text += "\n";
+      }
     }
   }
   for (const DetectionCalibration& d : c.cameras) {

@@ -125,6 +125,13 @@ struct OdometryModelFit {
   double log_likelihood = 0.0;  // per interval [nats]
 };
 
+/// The wheel model (paper 002's k per wheel, with a floor per interval whatever the motion).
+struct WheelModelFit {
+  double k_left = 0.0, k_right = 0.0;                      // [m^1/2]
+  double floor_position_m = 0.0, floor_heading_rad = 0.0;  // per interval
+  double mean_nees = 0.0;                                  // 3 when it fits the errors
+};
+
 /// How the robots' motion follows what their odometry reports, when it reports a velocity that
 /// leads the motion (a base that logs its command: the robot's CommandResponseDef), fitted to the
 /// truth's velocity on a 20 ms grid: a dead time shared by both channels, a first-order time
@@ -143,6 +150,16 @@ struct CommandResponseFit {
   // The wheel model's noise of the odometry passed through the response (what the motion does
   // beyond it): the noise a simulated base that measures its command adds. [m^1/2]
   std::optional<double> k_left, k_right;
+  // The wheel model of the odometry run through the whole response (sdk::CommandFollower): the
+  // noise a localizer that follows the response (command_*) is left with.
+  std::optional<WheelModelFit> localizer;
+  // The same k fitted over spans of several perception steps: constant for white noise, growing
+  // when the errors are correlated from step to step.
+  struct Span {
+    std::size_t steps = 0;
+    double mean_interval_s = 0.0, k_left = 0.0, k_right = 0.0;
+  };
+  std::vector<Span> localizer_by_span;
 };
 
 struct MotionCalibration {

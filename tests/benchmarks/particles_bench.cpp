@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "locsim/models.hpp"
@@ -122,6 +123,30 @@ void BM_OdometryTrackerVelocityOnly(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_OdometryTrackerVelocityOnly);
+
+// The SDK's CommandFollower on MRCLAM-like commanded velocities (a reading every 15 ms, the
+// response calibrate fits there), then the tracker: what a landmark filter with command_* adds
+// per odometry reading over BM_OdometryTrackerVelocityOnly.
+void BM_CommandFollowerThenTracker(benchmark::State& state) {
+  locsim::sdk::CommandFollower follower(locsim::sdk::CommandResponse{0.08, 0.25, 0.2, 0.93, 0.95});
+  // On the heap: GCC's inlining of both otherwise warns (wrongly) of the tracker's empty
+  // std::optional being read.
+  const auto tracker = std::make_unique<locsim::sdk::OdometryTracker>(0.35);
+  locsim_odometry reading{};
+  reading.fields = LOCSIM_ODOMETRY_POSE | LOCSIM_ODOMETRY_VELOCITY;
+  double t_s = 0.0, travel_m = 0.0;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    t_s += 0.015;
+    reading.v_mps = 0.1 + 0.05 * static_cast<double>(++k % 7);
+    reading.omega_radps = 0.2 - 0.1 * static_cast<double>(k % 5);
+    if (const auto step = tracker->update(t_s, follower.follow(t_s, reading)))
+      travel_m += step->d_left_m;
+    benchmark::DoNotOptimize(travel_m);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_CommandFollowerThenTracker);
 
 // The SDK's OdometryFollower per odometry reading and the IMU's two readings before it (as the
 // host streams them: 50 and 100 Hz), with the gyro turning the odometry (Arg 1) or not (0).

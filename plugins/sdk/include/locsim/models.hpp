@@ -7,9 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -148,6 +152,98 @@ struct DetectionNoise {
   }
 };
 
+/// A camera's systematic error, as `locsim calibrate` measures it, taken out of each detection
+/// before a filter weighs it: a bearing bias, and a range that is a line in the distance r or, for
+/// a camera that measures depth along its axis (MRCLAM's; the range_bearing sensor's
+/// `range_model: depth`), in the depth r cos(phi):
+///   distance: z = range_bias_m + (1 + range_bias_per_m) r,
+///   depth:    z = range_bias_m + (1 + range_bias_per_m) r cos(phi).
+/// corrected() inverts it at the measured bearing less its bias; the identity by default. The
+/// range's noise is that of z (DetectionNoise::at at model_x_m, the model's r or r cos(phi)),
+/// times range_scale.
+// clang-format off
+#define LOCSIM_DETECTION_BIAS_PARAMS                                                               \
+  {"range_model", LOCSIM_PARAM_STRING, 0, 0, 0, "distance",                                       \
+   "what a PTZ or range-bearing camera's range measures (locsim calibrate): distance, or depth "   \
+   "along the camera's axis (r cos(bearing))"},                                                    \
+  {"range_bias_m", LOCSIM_PARAM_DOUBLE, 0.0, -100.0, 100.0, nullptr,                              \
+   "range offset, taken out of every detection's range (locsim calibrate) [m]"},                   \
+  {"range_bias_per_m", LOCSIM_PARAM_DOUBLE, 0.0, -0.9, 10.0, nullptr,                             \
+   "range scale error: the range measures (1 + this) times the distance or depth [m/m]"},         \
+  {"bearing_bias_deg", LOCSIM_PARAM_DOUBLE, 0.0, -90.0, 90.0, nullptr,                            \
+   "bearing offset, taken out of every detection's bearing [deg]"},                                \
+  {"noise_correlation_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1e6, nullptr,                            \
+   "how long a target's detection errors persist (locsim calibrate): a detection of a target "     \
+   "seen dt before counts (1 - rho) / (1 + rho) of an independent one, rho = exp(-dt / this); "    \
+   "0: independent [s]"}
+// clang-format on
+
+struct DetectionBias {
+  bool depth = false;             // range_model depth: the range measures r cos(phi)
+  double range_bias_m = 0.0;      // z at zero distance or depth [m]
+  double range_bias_per_m = 0.0;  // z's scale error [m/m]
+  double bearing_bias_rad = 0.0;  // [rad]
+
+  /// From a plugin's parameters LOCSIM_DETECTION_BIAS_PARAMS declares (bearing in degrees);
+  /// throws std::invalid_argument for a range_model other than distance or depth.
+  template <class Params>
+  static DetectionBias from(const Params& params) {
+    const auto model = params.string("range_model");
+    if (model != "distance" && model != "depth") {
+      throw std::invalid_argument("range_model must be distance or depth, not '" +
+                                  std::string(model) + "'");
+    }
+    return {model == "depth", params.number("range_bias_m"), params.number("range_bias_per_m"),
+            params.number("bearing_bias_deg") * std::numbers::pi / 180.0};
+  }
+
+  struct Corrected {
+    double range_m;      // the distance the detection says
+    double bearing_rad;  // the bearing less its bias
+    double model_x_m;    // (z - range_bias_m) / (1 + range_bias_per_m): distance, or depth
+    double range_scale;  // d range_m / d z: the range's noise is z's times this
+  };
+  Corrected corrected(double range_m, double bearing_rad) const {
+    const double bearing = wrap(bearing_rad - bearing_bias_rad);
+    const double x_m = (range_m - range_bias_m) / (1.0 + range_bias_per_m);
+    // A depth camera sees less than 180 deg; at the edge of a wide view the cosine is floored
+    // (at 84 deg off axis), so that a stray bearing cannot make a range ten times its depth.
+    const double along = depth ? std::max(std::cos(bearing), 0.1) : 1.0;
+    return {std::max(x_m, 0.0) / along, bearing, x_m, 1.0 / ((1.0 + range_bias_per_m) * along)};
+  }
+};
+
+/// Detections of one target whose errors persist (a first-order Gauss-Markov process of time
+/// constant tau per target, as the simulated sensors' noise_correlation_s makes them and
+/// `locsim calibrate` measures them) do not carry independent information. A detection that
+/// follows the target's previous one by dt adds (1 - rho) / (1 + rho) of an independent one's
+/// information, rho = exp(-dt / tau): its variances are inflated by (1 + rho) / (1 - rho). For
+/// two detections this gives exactly the variance of their mean, sigma^2 (1 + rho) / 2; for a
+/// long run at a steady interval, the mean's asymptotic variance; the first after a long gap
+/// counts in full. Targets are told apart by camera and id, or (a camera without ids) colour.
+class CorrelatedDetections {
+ public:
+  explicit CorrelatedDetections(double correlation_s = 0.0) : tau_s_(correlation_s) {}
+  /// The factor on the variances of this detection at t_s (1 without correlation, or for a
+  /// target not seen before); remembers the time.
+  double inflation(std::int32_t camera, const locsim_detection& detection, double t_s) {
+    if (!(tau_s_ > 0.0)) return 1.0;
+    const auto key =
+        std::tuple{camera, detection.id,
+                   detection.id >= 0 || detection.color == nullptr ? std::string()
+                                                                   : std::string(detection.color)};
+    const auto [it, first] = last_s_.try_emplace(key, t_s);
+    if (first) return 1.0;
+    const double rho = std::exp(-std::max(t_s - it->second, 0.0) / tau_s_);
+    it->second = t_s;
+    return (1.0 + rho) / std::max(1.0 - rho, 1e-12);
+  }
+
+ private:
+  double tau_s_;
+  std::map<std::tuple<std::int32_t, std::int32_t, std::string>, double> last_s_;
+};
+
 /// Pose composition a (+) b: b expressed in a's frame, mapped to a's parent frame.
 inline Pose compose(const Pose& a, const Pose& b) {
   const double c = std::cos(a(2)), s = std::sin(a(2));
@@ -203,6 +299,126 @@ class VelocityOdometry {
   Pose pose_;
   std::optional<double> last_t_s_;
   double v_mps_ = 0.0, omega_radps_ = 0.0;
+};
+
+/// How a base that reports its command moves (`locsim calibrate`'s command response, the
+/// simulated robot's `command_response`): the command applied after a dead time, through a
+/// first-order lag and a gain per channel,
+///   tau_v dv/dt + v = gain_v v_cmd(t - dead_time),  tau_omega domega/dt + omega = gain_omega ...
+/// The identity (the defaults) is a base that moves as it reports.
+// clang-format off
+#define LOCSIM_COMMAND_RESPONSE_PARAMS                                                             \
+  {"command_dead_time_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                           \
+   "odometry that reports the command (locsim calibrate): the robot starts to follow it this "    \
+   "much later [s]"},                                                                              \
+  {"command_time_constant_v_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 100.0, nullptr,                    \
+   "... the forward velocity follows it with this first-order time constant [s]"},                \
+  {"command_time_constant_omega_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 100.0, nullptr,                \
+   "... the turn rate with this one [s]"},                                                         \
+  {"command_gain_v", LOCSIM_PARAM_DOUBLE, 1.0, 0.01, 100.0, nullptr,                              \
+   "... reaching this share of the commanded forward velocity [-]"},                               \
+  {"command_gain_omega", LOCSIM_PARAM_DOUBLE, 1.0, 0.01, 100.0, nullptr,                          \
+   "... and of the commanded turn rate [-]"}
+// clang-format on
+
+struct CommandResponse {
+  double dead_time_s = 0.0;            // [s]
+  double time_constant_v_s = 0.0;      // [s]
+  double time_constant_omega_s = 0.0;  // [s]
+  double gain_v = 1.0;                 // [-]
+  double gain_omega = 1.0;             // [-]
+
+  bool identity() const {
+    return dead_time_s == 0.0 && time_constant_v_s == 0.0 && time_constant_omega_s == 0.0 &&
+           gain_v == 1.0 && gain_omega == 1.0;
+  }
+  /// From a plugin's parameters LOCSIM_COMMAND_RESPONSE_PARAMS declares.
+  template <class Params>
+  static CommandResponse from(const Params& params) {
+    return {params.number("command_dead_time_s"), params.number("command_time_constant_v_s"),
+            params.number("command_time_constant_omega_s"), params.number("command_gain_v"),
+            params.number("command_gain_omega")};
+  }
+};
+
+/// Odometry readings as a CommandResponse makes them: each reading's velocity is a command, held
+/// from its time until the next reading (as VelocityOdometry takes it); follow() gives the
+/// reading with the velocity the base has through the response and odom_pose integrated from
+/// it (ticks dropped). The lag is integrated exactly for the held input, the pose along arcs
+/// of at most 20 ms at each one's mean velocities. The base is taken as settled at the first
+/// reading's command. A reading without a velocity, or the identity response, passes unchanged.
+class CommandFollower {
+ public:
+  explicit CommandFollower(const CommandResponse& response = {}) : response_(response) {}
+
+  const locsim_odometry& follow(double t_s, const locsim_odometry& reading) {
+    if (response_.identity() || (reading.fields & LOCSIM_ODOMETRY_VELOCITY) == 0 ||
+        !std::isfinite(t_s)) {
+      return reading;
+    }
+    if (std::isnan(now_s_)) {
+      now_s_ = t_s;
+      pose_ = Pose(reading.odom_pose.x, reading.odom_pose.y, reading.odom_pose.theta);
+      input_ = {response_.gain_v * reading.v_mps, response_.gain_omega * reading.omega_radps};
+      velocity_ = input_;
+    } else {
+      advance_to(t_s);
+    }
+    pending_.push_back({t_s + response_.dead_time_s, reading.v_mps, reading.omega_radps});
+    apply_due();
+    out_ = reading;
+    out_.fields = LOCSIM_ODOMETRY_VELOCITY | LOCSIM_ODOMETRY_POSE;
+    out_.left_ticks = out_.right_ticks = 0;
+    out_.odom_pose = {pose_(0), pose_(1), pose_(2)};
+    out_.v_mps = velocity_.first;
+    out_.omega_radps = velocity_.second;
+    return out_;
+  }
+
+ private:
+  struct Command {
+    double applies_s, v_mps, omega_radps;
+  };
+  /// Commands whose dead time has passed become the input.
+  void apply_due() {
+    while (!pending_.empty() && pending_.front().applies_s <= now_s_) {
+      input_ = {response_.gain_v * pending_.front().v_mps,
+                response_.gain_omega * pending_.front().omega_radps};
+      pending_.pop_front();
+    }
+  }
+  /// One channel over h seconds at input u: the velocity at the end and the mean over h
+  /// (v = u + (v0 - u) e^(-s/tau)).
+  static std::pair<double, double> lag(double v0, double u, double tau_s, double h_s) {
+    if (!(tau_s > 0.0)) return {u, u};
+    const double rise = -std::expm1(-h_s / tau_s);  // 1 - e^(-h/tau), exact for a short h
+    return {u + (v0 - u) * (1.0 - rise), u + (v0 - u) * tau_s * rise / h_s};
+  }
+  void advance_to(double t_s) {
+    constexpr double kMaxArcS = 0.02;
+    while (now_s_ < t_s) {
+      const double until = pending_.empty() ? t_s : std::min(t_s, pending_.front().applies_s);
+      const double next_s = std::min(until, now_s_ + kMaxArcS);
+      const double h_s = next_s - now_s_;
+      if (h_s > 0.0) {
+        const auto [v_end, v_mean] =
+            lag(velocity_.first, input_.first, response_.time_constant_v_s, h_s);
+        const auto [omega_end, omega_mean] =
+            lag(velocity_.second, input_.second, response_.time_constant_omega_s, h_s);
+        pose_ = advance_by_velocity(pose_, v_mean, omega_mean, h_s);
+        velocity_ = {v_end, omega_end};
+      }
+      now_s_ = next_s;
+      apply_due();
+    }
+  }
+
+  CommandResponse response_;
+  double now_s_ = std::numeric_limits<double>::quiet_NaN();
+  Pose pose_ = Pose::Zero();
+  std::pair<double, double> input_{0.0, 0.0}, velocity_{0.0, 0.0};  // (v, omega)
+  std::deque<Command> pending_;
+  locsim_odometry out_{};
 };
 
 /// The wheel travel (left, right) [m] of a differential drive with wheel base b [m] that moves
@@ -338,10 +554,10 @@ class OdometryTracker {
   }
 
   struct Last {
-    double t_s;
-    Pose pose;
-    std::int64_t left, right;
-    bool ticks;
+    double t_s = 0.0;
+    Pose pose = Pose::Zero();
+    std::int64_t left = 0, right = 0;
+    bool ticks = false;
   };
   double wheel_base_m_;
   bool use_gyro_ = true;
