@@ -18,13 +18,9 @@ for n in 1 2 3 4 5; do
   echo "robot $n:"
   "$LOCSIM" calibrate ds6.locsimlog --robots robot$n --out cal_r$n --overwrite | grep -E "reported|range model"
 done
-localizers='localizers:
-  - plugin: ekf_landmarks
-  - plugin: mcl
-  - plugin: srl
-  - plugin: asrl
-  - plugin: augmented_mcl
-timeout_s: 600'
+localizers="localizers:
+$landmark_filters
+timeout_s: 600"
 sweep() {  # NAME LOGS PARAMS [SEEDS]
   printf 'name: %s\nlogs: [%s]\n%sparams_file: %s\n%s\n' "$1" "$2" "${4:-}" "$3" "$localizers" > "$1.yaml"
   rm -rf "runs/$1"

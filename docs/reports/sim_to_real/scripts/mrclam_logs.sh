@@ -14,3 +14,10 @@ for n in 1 2 3 4 5; do
   [ -f ds6_r$n.locsimlog ] || "$LOCSIM" import mrclam "$MRCLAM_DIR" --robots $n --out ds6_r$n.locsimlog -q
 done
 [ -f ds6.locsimlog ] || "$LOCSIM" import mrclam "$MRCLAM_DIR" --out ds6.locsimlog -q
+
+# The five landmark filters the reports compare, as entries of an experiment's `localizers:`.
+landmark_filters='  - plugin: ekf_landmarks
+  - plugin: mcl
+  - plugin: srl
+  - plugin: asrl
+  - plugin: augmented_mcl'

@@ -43,14 +43,10 @@ for name, response, depth in (("none", False, False), ("depth", False, True),
     open(f"cal_{name}.yaml", "w").write(variant(response, depth))
 PY
 
-localizers='localizers:
+localizers="localizers:
   - plugin: odometry
-  - plugin: ekf_landmarks
-  - plugin: mcl
-  - plugin: srl
-  - plugin: asrl
-  - plugin: augmented_mcl
-timeout_s: 600'
+$landmark_filters
+timeout_s: 600"
 cat > real.yaml <<EOF
 name: mrclam_ds6_real
 logs: [ds6_r1.locsimlog, ds6_r2.locsimlog, ds6_r3.locsimlog, ds6_r4.locsimlog, ds6_r5.locsimlog]
