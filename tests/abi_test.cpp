@@ -9,6 +9,7 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -166,6 +167,60 @@ TEST(SdkDetections, CorrelatedDetectionsOfATargetWeighAsTheirMean) {
   sdk::CorrelatedDetections independent(0.0);
   EXPECT_EQ(independent.inflation(LOCSIM_CAMERA_PTZ, a, 0.0), 1.0);
   EXPECT_EQ(independent.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 1.0);
+}
+
+// With a slow part (a share w of the variance persisting over tau_slow), a run of detections of
+// a target weighs what generalised least squares gives it: 1^T C^-1 1, C = w R_slow + (1 - w)
+// R_fast, R the two processes' correlations, at steady and at irregular intervals; each one at
+// most an independent detection's, and a long dense run about (1 + T / (2 tau_slow)) / w.
+TEST(SdkDetections, ASlowPartOfTheErrorsBoundsWhatARunOfDetectionsWeighs) {
+  std::mt19937_64 engine(3);
+  std::exponential_distribution<double> gap(2.0);  // 0.5 s apart on average
+  for (const double w : {0.3, 0.6}) {
+    for (const double fast_s : {0.0, 0.5}) {
+      for (const double slow_s : {5.0, 60.0}) {
+        for (const bool steady : {true, false}) {
+          SCOPED_TRACE(testing::Message() << "w " << w << ", tau " << fast_s << " s, slow "
+                                          << slow_s << " s, " << (steady ? "steady" : "irregular"));
+          sdk::CorrelatedDetections seen(fast_s, slow_s, w);
+          locsim_detection d{};
+          d.id = 3;
+          std::vector<double> times;
+          double information = 0.0, t_s = 0.0;
+          for (int k = 0; k < 200; ++k) {
+            t_s += k == 0 ? 0.0 : (steady ? 0.25 : gap(engine));
+            times.push_back(t_s);
+            const double added = 1.0 / seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s);
+            EXPECT_LE(added, 1.0);
+            information += added;
+          }
+          const auto n = static_cast<Eigen::Index>(times.size());
+          Eigen::MatrixXd C(n, n);
+          for (Eigen::Index i = 0; i < n; ++i) {
+            for (Eigen::Index j = 0; j < n; ++j) {
+              const double dt = std::abs(times[i] - times[j]);
+              const double fast = fast_s > 0.0 ? std::exp(-dt / fast_s) : (i == j ? 1.0 : 0.0);
+              C(i, j) = w * std::exp(-dt / slow_s) + (1.0 - w) * fast;
+            }
+          }
+          const Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
+          const double exact = ones.dot(C.ldlt().solve(ones));
+          EXPECT_NEAR(information, exact, 1e-6 * exact);
+          EXPECT_LE(information, (1.0 + t_s / (2.0 * slow_s)) / w * (1.0 + 1e-9));
+        }
+      }
+    }
+  }
+  // The first detection of a target counts in full; without a slow time constant the share
+  // means nothing.
+  sdk::CorrelatedDetections seen(0.5, 30.0, 0.5);
+  locsim_detection a{};
+  a.id = 1;
+  EXPECT_EQ(seen.inflation(LOCSIM_CAMERA_PTZ, a, 0.0), 1.0);
+  EXPECT_GT(seen.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 2.0);
+  sdk::CorrelatedDetections shareless(0.0, 0.0, 0.5);
+  EXPECT_EQ(shareless.inflation(LOCSIM_CAMERA_PTZ, a, 0.0), 1.0);
+  EXPECT_EQ(shareless.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 1.0);
 }
 
 TEST(SdkOdometry, WheelTravelOfAnIncrementInvertsTheArc) {

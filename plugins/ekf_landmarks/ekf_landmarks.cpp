@@ -5,13 +5,15 @@
 // ellipse along and across the ray (omni_sigma_*, paper 002's C_L; across the ray it is a bearing
 // noise of sigma_minor / range), with a camera's measured bias taken out (range_model,
 // range_bias_*, bearing_bias_deg) and repeated detections of a target discounted when their errors
-// persist (noise_correlation_s). Odometry that reports the command follows the base's response
-// (command_*). Detections are associated by id when the camera gives ids, else
-// by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis distance; a
-// chi-square gate rejects false detections and wrong associations.
+// persist (noise_correlation_*). Odometry that reports the command follows the base's response
+// (command_*); a base whose gains wander (gain_wander_*) has them in the state, (x, y, theta, g_v,
+// g_omega), where the detections estimate them. Detections are associated by id when the camera
+// gives ids, else by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis
+// distance; a chi-square gate rejects false detections and wrong associations.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <locsim/localizer.hpp>
 #include <locsim/models.hpp>
 #include <optional>
@@ -30,8 +32,9 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     k_right_ = params.number("k_right");
     noise_ = locsim::sdk::DetectionNoise::from(params);
     bias_ = locsim::sdk::DetectionBias::from(params);
-    correlated_ = locsim::sdk::CorrelatedDetections(params.number("noise_correlation_s"));
+    correlated_ = locsim::sdk::CorrelatedDetections::from(params);
     response_ = locsim::sdk::CommandFollower(locsim::sdk::CommandResponse::from(params));
+    wander_ = locsim::sdk::GainWander::from(params);
     gate_ = params.number("gate_chi2");
     odometry_.use_gyro(params.flag("use_gyro"));
     use_ptz_ = params.flag("use_ptz");
@@ -46,8 +49,17 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       throw std::invalid_argument(
           "ekf_landmarks tracks a known initial pose; it cannot localize globally");
     }
-    x_ = {init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta};
-    P_ = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(init.initial_covariance);
+    pose_.x = {init.initial_pose.x, init.initial_pose.y, init.initial_pose.theta};
+    pose_.P =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(init.initial_covariance);
+    if (wander_.active()) {  // the gains start at their stationary spread, unrelated to the pose
+      with_gains_.emplace();
+      with_gains_->x << pose_.x, 0.0, 0.0;
+      with_gains_->P.setZero();
+      with_gains_->P.topLeftCorner<3, 3>() = pose_.P;
+      with_gains_->P(3, 3) = wander_.sigma_v * wander_.sigma_v;
+      with_gains_->P(4, 4) = wander_.sigma_omega * wander_.sigma_omega;
+    }
   }
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override {
@@ -55,10 +67,18 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     // increment with the nominal wheel base; turned by the gyro when the robot has one, the
     // wheels' extra turn their slip.
     // Odometry that reports the command (command_*) is first run through the base's response.
+    const double dt_s = std::isnan(last_odometry_s_) ? 0.0 : t_s - last_odometry_s_;
+    last_odometry_s_ = t_s;
     if (const auto step = odometry_.update(t_s, response_.follow(t_s, odometry))) {
-      locsim::sdk::predict_by_wheels(x_, P_, step->d_left_m, step->d_right_m, wheel_base_m_,
-                                     k_left_, k_right_,
-                                     0.5 * wheel_base_m_ * std::abs(step->slip_rad));
+      const double slip_m = 0.5 * wheel_base_m_ * std::abs(step->slip_rad);
+      if (with_gains_) {
+        locsim::sdk::predict_by_wheels_and_gains(with_gains_->x, with_gains_->P, step->d_left_m,
+                                                 step->d_right_m, wheel_base_m_, k_left_, k_right_,
+                                                 slip_m, wander_, dt_s);
+      } else {
+        locsim::sdk::predict_by_wheels(pose_.x, pose_.P, step->d_left_m, step->d_right_m,
+                                       wheel_base_m_, k_left_, k_right_, slip_m);
+      }
     }
   }
   void on_imu(double t_s, const locsim_imu& imu) override { odometry_.observe_imu(t_s, imu); }
@@ -88,10 +108,22 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     }
   }
 
-  locsim::sdk::Estimate estimate() const override { return {{x_(0), x_(1), x_(2)}, P_}; }
+  locsim::sdk::Estimate estimate() const override {
+    if (with_gains_) {
+      const auto& x = with_gains_->x;
+      return {{x(0), x(1), x(2)}, with_gains_->P.topLeftCorner<3, 3>()};
+    }
+    return {{pose_.x(0), pose_.x(1), pose_.x(2)}, pose_.P};
+  }
 
   std::vector<std::pair<std::string, double>> diagnostics() const override {
-    return {{"updates_accepted", accepted_}, {"updates_rejected", rejected_}};
+    std::vector<std::pair<std::string, double>> out = {{"updates_accepted", accepted_},
+                                                       {"updates_rejected", rejected_}};
+    if (with_gains_) {
+      out.emplace_back("gain_error_v", with_gains_->x(3));
+      out.emplace_back("gain_error_omega", with_gains_->x(4));
+    }
+    return out;
   }
 
  private:
@@ -108,24 +140,44 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
         .asDiagonal();
   }
 
-  /// The update by a detection's range and bearing z (bias taken out) with noise R.
+  /// The state (the pose, or the pose and the gains) and its covariance.
+  template <int N>
+  struct Belief {
+    Eigen::Matrix<double, N, 1> x;
+    Eigen::Matrix<double, N, N> P;
+  };
+
   void correct(const locsim_detection& detection, const Eigen::Vector2d& z,
+               const Eigen::Matrix2d& R) {
+    if (with_gains_)
+      correct(*with_gains_, detection, z, R);
+    else
+      correct(pose_, detection, z, R);
+  }
+
+  /// The update by a detection's range and bearing z (bias taken out) with noise R.
+  template <int N>
+  void correct(Belief<N>& b, const locsim_detection& detection, const Eigen::Vector2d& z,
                const Eigen::Matrix2d& R) {
     // Association: the candidate with the smallest Mahalanobis distance of the innovation.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Vector2d best_innovation;
-    Eigen::Matrix<double, 2, 3> best_H;
+    Eigen::Matrix<double, 2, N> best_H;
     Eigen::Matrix2d best_S;
+    const Pose pose = b.x.template head<3>();
     for (const Landmark& landmark : landmarks_) {
       const bool candidate =
           detection.id >= 0 ? landmark.id == detection.id
                             : (detection.color != nullptr && landmark.color == detection.color);
       if (!candidate) continue;
-      Eigen::Matrix<double, 2, 3> H;
-      const Eigen::Vector2d predicted = locsim::sdk::range_bearing(x_, landmark.position, &H);
+      Eigen::Matrix<double, 2, 3> H_pose;
+      const Eigen::Vector2d predicted =
+          locsim::sdk::range_bearing(pose, landmark.position, &H_pose);
+      Eigen::Matrix<double, 2, N> H = Eigen::Matrix<double, 2, N>::Zero();
+      H.template leftCols<3>() = H_pose;  // the gains are not seen, only what they did
       Eigen::Vector2d innovation = z - predicted;
       innovation(1) = locsim::sdk::wrap(innovation(1));
-      const Eigen::Matrix2d S = H * P_ * H.transpose() + R;
+      const Eigen::Matrix2d S = H * b.P * H.transpose() + R;
       const double d2 = innovation.dot(S.ldlt().solve(innovation));
       if (d2 < best) best = d2, best_innovation = innovation, best_H = H, best_S = S;
     }
@@ -134,12 +186,12 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       return;
     }
     ++accepted_;
-    const Eigen::Matrix<double, 3, 2> K = P_ * best_H.transpose() * best_S.inverse();
-    x_ += K * best_innovation;
-    x_(2) = locsim::sdk::wrap(x_(2));
+    const Eigen::Matrix<double, N, 2> K = b.P * best_H.transpose() * best_S.inverse();
+    b.x += K * best_innovation;
+    b.x(2) = locsim::sdk::wrap(b.x(2));
     // Joseph form: stays symmetric and positive definite.
-    const Eigen::Matrix3d I_KH = Eigen::Matrix3d::Identity() - K * best_H;
-    P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
+    const Eigen::Matrix<double, N, N> I_KH = Eigen::Matrix<double, N, N>::Identity() - K * best_H;
+    b.P = I_KH * b.P * I_KH.transpose() + K * R * K.transpose();
   }
 
   double k_left_, k_right_, gate_, wheel_base_m_;
@@ -147,10 +199,12 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   locsim::sdk::DetectionBias bias_;
   locsim::sdk::CorrelatedDetections correlated_;
   locsim::sdk::CommandFollower response_;
+  locsim::sdk::GainWander wander_;
   bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
-  Pose x_;
-  Eigen::Matrix3d P_;
+  Belief<3> pose_;                       // without gain wander
+  std::optional<Belief<5>> with_gains_;  // with it
+  double last_odometry_s_ = std::numeric_limits<double>::quiet_NaN();
   locsim::sdk::OdometryTracker odometry_;
   double accepted_ = 0, rejected_ = 0;
 };
@@ -167,6 +221,7 @@ constexpr locsim_param_decl kParams[] = {
     LOCSIM_DETECTION_BIAS_PARAMS,
     LOCSIM_OMNI_NOISE_PARAMS,
     LOCSIM_COMMAND_RESPONSE_PARAMS,
+    LOCSIM_GAIN_WANDER_PARAMS,
     LOCSIM_GYRO_PARAMS,
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},

@@ -4,8 +4,39 @@
 #include <cmath>
 #include <limits>
 #include <locsim/vector_math.hpp>
+#include <tuple>
 
 namespace locsim::particle_filters {
+
+namespace {
+
+/// The regularised particle filter's kernel (Musso, Oudjane and Le Gland 2001): after resampling,
+/// each particle moves by a draw of N(0, (s h)^2 C), C the set's covariance (the heading's about
+/// its circular mean), h = (4 / (n (d + 2)))^(1 / (d + 4)) the optimal width of a Gaussian kernel
+/// for d = 3 dimensions and n particles, s the `regularization` scale. Where the detections are
+/// sharp a resampled set holds copies of a few particles; without the kernel they stay together
+/// and the set claims a certainty that n particles cannot represent (MRCLAM: MCL's truth in its
+/// 95 % ellipse 69 % of the time with 200 particles, 83 % with 1000).
+void regularize(sdk::ParticleSet& p, double scale, sdk::Random& random) {
+  const auto n = static_cast<double>(p.size());
+  if (p.size() < 2 || !(scale > 0.0)) return;
+  sdk::Pose mean;
+  Eigen::Matrix3d covariance;
+  sdk::mean_and_covariance(p, mean, covariance);
+  const double h = scale * std::pow(4.0 / (n * 5.0), 1.0 / 7.0);
+  const Eigen::LLT<Eigen::Matrix3d> llt(covariance + 1e-18 * Eigen::Matrix3d::Identity());
+  if (llt.info() != Eigen::Success) return;
+  const Eigen::Matrix3d L = h * llt.matrixL().toDenseMatrix();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double a = random.normal(), b = random.normal(), c = random.normal();
+    const Eigen::Vector3d d = L * Eigen::Vector3d(a, b, c);
+    p.x[i] += d(0);
+    p.y[i] += d(1);
+    p.theta[i] = sdk::wrap(p.theta[i] + d(2));
+  }
+}
+
+}  // namespace
 
 LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sdk::Params& params,
                                                Recovery recovery)
@@ -20,8 +51,10 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
                 std::numbers::pi / 180.0};
   detection_noise_ = sdk::DetectionNoise::from(params);
   detection_bias_ = sdk::DetectionBias::from(params);
-  correlated_ = sdk::CorrelatedDetections(params.number("noise_correlation_s"));
+  correlated_ = sdk::CorrelatedDetections::from(params);
   response_ = sdk::CommandFollower(sdk::CommandResponse::from(params));
+  wander_ = sdk::GainWander::from(params);
+  regularization_ = params.number("regularization");
   reject_inconsistent_ = params.flag("reject_inconsistent");
   consistency_level_ = params.number("consistency_level");
   log_outlier_likelihood_ = std::log(params.number("outlier_likelihood"));
@@ -275,23 +308,58 @@ void LandmarkParticleFilter::on_odometry(double t_s, const locsim_odometry& read
   const locsim_odometry& odometry = response_.follow(t_s, reading);
   pf_.odometry().observe(t_s, odometry);
   if (wheel_motion_) {
+    const double dt_s = std::isnan(last_odometry_s_) ? 0.0 : t_s - last_odometry_s_;
+    last_odometry_s_ = t_s;
     if (const auto step = wheels_->update(t_s, odometry)) {
-      sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
-                               k_left_, k_right_, pf_.random(),
-                               0.5 * wheel_base_m_ * std::abs(step->slip_rad));
+      const double slip_m = 0.5 * wheel_base_m_ * std::abs(step->slip_rad);
+      if (wander_.active()) {
+        sdk::sample_wheel_motion(pf_.particles(), gains_, wander_, dt_s, step->d_left_m,
+                                 step->d_right_m, wheel_base_m_, k_left_, k_right_, pf_.random(),
+                                 slip_m);
+      } else {
+        sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
+                                 k_left_, k_right_, pf_.random(), slip_m);
+      }
     }
     pf_.odometry().mark_now();
   }
 }
 
-void LandmarkParticleFilter::apply_pending_motion() {
+void LandmarkParticleFilter::apply_pending_motion(double t_s) {
   if (!pf_.odometry().ready()) return;
+  const double dt_s = std::isnan(last_step_s_) ? 0.0 : t_s - last_step_s_;
+  last_step_s_ = t_s;
   if (wheel_motion_) {  // moved at each odometry reading: only the step's floor is left
     sdk::add_motion_floor(pf_.particles(), noise_, pf_.random());
     return;
   }
-  sdk::sample_motion(pf_.particles(), pf_.odometry().since_mark(), noise_, pf_.random());
+  if (wander_.active()) {
+    sample_motion_with_gains(pf_.odometry().since_mark(), dt_s);
+  } else {
+    sdk::sample_motion(pf_.particles(), pf_.odometry().since_mark(), noise_, pf_.random());
+  }
   pf_.odometry().mark_now();
+}
+
+void LandmarkParticleFilter::sample_motion_with_gains(const sdk::OdometryDelta& d, double dt_s) {
+  sdk::ParticleSet& p = pf_.particles();
+  sdk::Random& random = pf_.random();
+  gains_.fit(p.size(), wander_, random);
+  const double phi = wander_.phi(dt_s), renewal = std::sqrt(1.0 - phi * phi);
+  const sdk::OdometryDelta spread = sdk::motion_spread(d, noise_);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    gains_.v[i] = phi * gains_.v[i] + random.normal(wander_.sigma_v * renewal);
+    gains_.omega[i] = phi * gains_.omega[i] + random.normal(wander_.sigma_omega * renewal);
+    // The distance by (1 + g_v), both turns by (1 + g_omega), then the paper's noise.
+    const double rot1 = (1.0 + gains_.omega[i]) * d.rot1 + random.normal(spread.rot1);
+    const double trans = (1.0 + gains_.v[i]) * d.trans + random.normal(spread.trans);
+    const double rot2 = (1.0 + gains_.omega[i]) * d.rot2 + random.normal(spread.rot2);
+    const double heading = p.theta[i] + rot1;
+    p.x[i] += trans * std::cos(heading);
+    p.y[i] += trans * std::sin(heading);
+    p.theta[i] = sdk::wrap(heading + rot2);
+  }
+  sdk::add_motion_floor(p, noise_, random);
 }
 
 void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& reading) {
@@ -302,7 +370,7 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
   prepare_step(t_s, reading);
   if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;
-  apply_pending_motion();
+  apply_pending_motion(t_s);
   const std::size_t n = pf_.size();
   weigh_particles();
   // The likelihood of the detections under the belief, p~ = sum_i p(z | x_i) / n (each p scaled
@@ -317,7 +385,13 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
   mean_likelihood_ = std::exp(log_mean_likelihood);
   injected_ = 0;
   n_eff_ = evidence.n_eff;
-  pf_.resample();
+  if (wander_.active()) {
+    gains_.fit(n, wander_, pf_.random());
+    pf_.resample(gains_.v, gains_.omega);
+  } else {
+    pf_.resample();
+  }
+  regularize(pf_.particles(), regularization_, pf_.random());
 
   // How many to replace.
   double fraction = 0.0;
@@ -357,6 +431,11 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
     std::swap(p.x[i], p.x[pick]);
     std::swap(p.y[i], p.y[pick]);
     std::swap(p.theta[i], p.theta[pick]);
+    if (wander_.active()) {  // a new hypothesis: its gains from the prior
+      std::swap(gains_.v[i], gains_.v[pick]);
+      std::swap(gains_.omega[i], gains_.omega[pick]);
+      std::tie(gains_.v[i], gains_.omega[i]) = gains_.draw(wander_, random);
+    }
     pf_.set(i, recovery_ == Recovery::kAugmented && inject_uniform_ ? free_.sample(random)
                                                                     : sample_from_sensors());
   }

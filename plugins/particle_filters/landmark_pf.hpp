@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cmath>
+#include <limits>
 #include <locsim/localizer.hpp>
 #include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
@@ -57,6 +58,10 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "0: the paper) [m]"},                                                                           \
   {"roughening_deg", LOCSIM_PARAM_DOUBLE, 0.5, 0, 180, nullptr,                                    \
    "heading noise added likewise (0: the paper) [deg]"},                                          \
+  {"regularization", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                     \
+   "after resampling, move each particle by a draw of the set's own covariance times (this h)^2, " \
+   "h the optimal Gaussian kernel width for the particle count (the regularised particle filter; " \
+   "locsim calibrate; 0: off) [-]"},                                                              \
   {"sigma_range_m", LOCSIM_PARAM_DOUBLE, 0.02, 1e-6, 100, nullptr,                                 \
    "range noise of a detection at zero range [m]"},                                                \
   {"sigma_range_per_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                                  \
@@ -70,6 +75,7 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
   LOCSIM_DETECTION_BIAS_PARAMS,                                                                    \
   LOCSIM_OMNI_NOISE_PARAMS,                                                                        \
   LOCSIM_COMMAND_RESPONSE_PARAMS,                                                                  \
+  LOCSIM_GAIN_WANDER_PARAMS,                                                                       \
   LOCSIM_GYRO_PARAMS,                                                                              \
   {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},             \
   {"use_omni", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr,                                                \
@@ -144,6 +150,9 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::DetectionBias detection_bias_;    // taken out of each detection
   sdk::CorrelatedDetections correlated_;
   sdk::CommandFollower response_;  // odometry that reports the command
+  double regularization_ = 0.0;    // the regularised filter's kernel scale (0: off)
+  sdk::GainWander wander_;         // each particle's gains wander
+  sdk::ParticleGains gains_;
   bool use_ptz_, use_omni_, use_range_bearing_, reject_inconsistent_;
   double consistency_level_;
   double log_outlier_likelihood_;           // log of outlier_likelihood; -inf when 0
@@ -160,11 +169,17 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// Odometry is applied once per step, just before weighting (the paper's steps 2 and 3): the
   /// alpha noise is per perception step, as in the paper, whatever the encoder rate. Between
   /// steps the estimate is the particles' mean moved by the odometry since (pf_.odometry()).
-  void apply_pending_motion();
+  void apply_pending_motion(double t_s);
+  /// motion_model odometry with gain_wander_*: each particle's gains move on by dt_s, then scale
+  /// its share of the motion since the last step (the distance by 1 + g_v, the turns by
+  /// 1 + g_omega) before the paper's noise.
+  void sample_motion_with_gains(const sdk::OdometryDelta& d, double dt_s);
+  double last_step_s_ = std::numeric_limits<double>::quiet_NaN();
   // motion_model wheels: the particles move at every odometry reading.
   bool wheel_motion_ = false;
   double k_left_ = 0.0, k_right_ = 0.0, wheel_base_m_ = 0.0;
   std::optional<sdk::OdometryTracker> wheels_;
+  double last_odometry_s_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> log_likelihood_, candidate_match_, mixture_;
   std::vector<std::vector<double>> detection_match_;  // per detection of the step, per particle
   sdk::Headings headings_;

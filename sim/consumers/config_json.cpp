@@ -144,6 +144,10 @@ json sensors(const SensorsDef& s) {
     // Only when not the default, so that a world that does not use it writes what it wrote.
     if (d.range_model == RangeBearingDef::RangeModel::kDepth)
       out["range_bearing"]["range_model"] = "depth";
+    if (d.noise_correlation_slow_share > 0.0) {
+      out["range_bearing"]["noise_correlation_slow_s"] = d.noise_correlation_slow_s;
+      out["range_bearing"]["noise_correlation_slow_share"] = d.noise_correlation_slow_share;
+    }
   }
   return out;
 }
@@ -267,6 +271,12 @@ json to_json(const WorldDef& w) {
                                            {"time_constant_omega_s", c.time_constant_omega_s},
                                            {"gain_v", c.gain_v},
                                            {"gain_omega", c.gain_omega}};
+      if (c.wanders()) {
+        robots.back()["command_response"]["gain_wander_v"] = c.gain_wander_v;
+        robots.back()["command_response"]["gain_wander_omega"] = c.gain_wander_omega;
+        robots.back()["command_response"]["gain_wander_correlation_s"] =
+            c.gain_wander_correlation_s;
+      }
     }
   }
   out["robots"] = robots;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "sim/common/errors.hpp"
@@ -175,8 +176,15 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   const SensorSettings calibrated =
       options.calibration ? read_calibration_sensors(*options.calibration, world.physics.step_hz)
                           : SensorSettings{};
-  const std::optional<CommandResponseDef> response =
-      options.calibration ? read_calibration_robot(*options.calibration) : std::nullopt;
+  // On the heap: GCC 12 takes a std::optional's members for maybe uninitialised below.
+  const std::unique_ptr<const CommandResponseDef> response = [&] {
+    std::unique_ptr<const CommandResponseDef> read;
+    if (options.calibration) {
+      if (const auto found = read_calibration_robot(*options.calibration))
+        read = std::make_unique<const CommandResponseDef>(*found);
+    }
+    return read;
+  }();
 
   // The paths, and what a range-bearing camera on them would have in view.
   const PhysicsWorld physics(world);
@@ -285,6 +293,11 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       r["time_constant_omega_s"] = seven_digits(response->time_constant_omega_s);
       r["gain_v"] = seven_digits(response->gain_v);
       r["gain_omega"] = seven_digits(response->gain_omega);
+      if (response->wanders()) {
+        r["gain_wander_v"] = seven_digits(response->gain_wander_v);
+        r["gain_wander_omega"] = seven_digits(response->gain_wander_omega);
+        r["gain_wander_correlation_s"] = seven_digits(response->gain_wander_correlation_s);
+      }
       robot["command_response"] = r;
     }
     YAML::Node sensors = robot["sensors"];

@@ -115,6 +115,14 @@ struct DetectionCalibration {
   // from this many pairs of consecutive detections of a landmark by a robot.
   std::optional<double> noise_correlation_s;
   std::size_t noise_correlation_pairs = 0;
+  // Two time constants, when they explain the pairs significantly better than one (correlation
+  // w e^(-dt / slow_s) + (1 - w) e^(-dt / fast_s)): what the localizers take (their
+  // noise_correlation_s, _slow_s, _slow_share). The sensor's single one stays above.
+  struct TwoCorrelations {
+    double fast_s = 0.0, slow_s = 0.0, slow_share = 0.0;
+    double gain_nats = 0.0;  // log-likelihood over the single time constant's
+  };
+  std::optional<TwoCorrelations> noise_correlation_two;
 };
 
 struct OdometryModelFit {
@@ -160,6 +168,22 @@ struct CommandResponseFit {
     double mean_interval_s = 0.0, k_left = 0.0, k_right = 0.0;
   };
   std::vector<Span> localizer_by_span;
+  // How the base's gain wanders about the response (the true distance or turn over the
+  // response's, less 1, over windows of 2, 5, 10 and 20 s), as a first-order Gauss-Markov process
+  // whose window means have variance sigma^2 f(W / tau), f(x) = 2 (x - 1 + e^-x) / x^2, beside
+  // noise independent from step to step (c W / M^2 for a window that moved M): the localizers'
+  // gain_wander_*. One tau for both channels; sigma 0: no wander found (fit_gain_wander).
+  struct GainWander {
+    double sigma = 0.0;                // relative [-]
+    double correlation_s = 0.0;        // tau [s]
+    double log_likelihood_gain = 0.0;  // [nats] over step-to-step noise alone, both channels
+    struct Window {
+      double window_s = 0.0, sd = 0.0;
+      std::size_t count = 0;
+    };
+    std::vector<Window> windows;
+  };
+  std::optional<GainWander> gain_wander_v, gain_wander_omega;
 };
 
 struct MotionCalibration {

@@ -36,6 +36,8 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
                            " (overlaps a wall, shape, mover or another robot)");
     }
     slot.kidnap_rng = make_stream(seed, "kidnap/" + def.name);
+    if (def.command_response.wanders())
+      slot.robot->seed_response(make_stream(seed, "response/" + def.name));
     slot.last_position = def.start.position();
     // A robot the scenario does not drive keeps whatever command its owner last gave it.
     for (const DriveDef& d : scenario_.drives) {

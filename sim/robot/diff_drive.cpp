@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace locsim {
 
@@ -54,8 +55,23 @@ void DiffDriveRobot::command(double v_mps, double w_radps) {
   if (def_.command_response.identity()) set_wheel_targets(v_mps, w_radps);
 }
 
+void DiffDriveRobot::seed_response(RandomStream stream) {
+  const CommandResponseDef& r = def_.command_response;
+  wander_rng_.emplace(stream);
+  // The gains start from their stationary distribution.
+  wander_v_ = r.gain_wander_v * wander_rng_->normal();
+  wander_omega_ = r.gain_wander_omega * wander_rng_->normal();
+}
+
 void DiffDriveRobot::advance_response(double dt_s) {
   const CommandResponseDef& r = def_.command_response;
+  if (r.wanders()) {
+    if (!wander_rng_) throw std::logic_error("a wandering command response needs seed_response");
+    const double phi = std::exp(-dt_s / r.gain_wander_correlation_s);
+    const double renewal = std::sqrt(1.0 - phi * phi);
+    wander_v_ = phi * wander_v_ + r.gain_wander_v * renewal * wander_rng_->normal();
+    wander_omega_ = phi * wander_omega_ + r.gain_wander_omega * renewal * wander_rng_->normal();
+  }
   pending_.emplace_back(given_v_mps_, given_w_radps_);
   // The dead time in whole steps: the physics steps at a fixed rate.
   const auto delay_steps = static_cast<std::size_t>(std::lround(r.dead_time_s / dt_s));
@@ -68,9 +84,11 @@ void DiffDriveRobot::advance_response(double dt_s) {
   const auto share = [dt_s](double tau_s) {
     return tau_s > 0.0 ? -std::expm1(-dt_s / tau_s) : 1.0;
   };
-  acting_v_mps_ += share(r.time_constant_v_s) * (r.gain_v * acting.first - acting_v_mps_);
+  const double gain_v = r.gain_v * (1.0 + wander_v_);
+  const double gain_omega = r.gain_omega * (1.0 + wander_omega_);
+  acting_v_mps_ += share(r.time_constant_v_s) * (gain_v * acting.first - acting_v_mps_);
   acting_w_radps_ +=
-      share(r.time_constant_omega_s) * (r.gain_omega * acting.second - acting_w_radps_);
+      share(r.time_constant_omega_s) * (gain_omega * acting.second - acting_w_radps_);
   set_wheel_targets(acting_v_mps_, acting_w_radps_);
 }
 

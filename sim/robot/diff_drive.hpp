@@ -12,8 +12,10 @@
 #include <box2d/box2d.h>
 
 #include <deque>
+#include <optional>
 #include <utility>
 
+#include "sim/common/random.hpp"
 #include "sim/robot/robot_def.hpp"
 #include "sim/world/physics_world.hpp"
 
@@ -40,6 +42,9 @@ class DiffDriveRobot {
   /// robot's command_response (dead time, lag, gain; from the next apply_drive on when it is not
   /// the identity). [m/s, rad/s]
   void command(double v_mps, double w_radps);
+  /// The stream the command response's gain wander draws from (Simulation gives each robot
+  /// its own, derived from the run's seed); needed only when the response wanders.
+  void seed_response(RandomStream stream);
   /// The latest command as given (what a base that logs its command reports). [m/s], [rad/s]
   double given_v_mps() const { return given_v_mps_; }
   double given_omega_radps() const { return given_w_radps_; }
@@ -82,6 +87,8 @@ class DiffDriveRobot {
   // was at rest before its first), and the lag's output. [m/s], [rad/s]
   std::deque<std::pair<double, double>> pending_;
   double acting_v_mps_ = 0.0, acting_w_radps_ = 0.0;
+  std::optional<RandomStream> wander_rng_;
+  double wander_v_ = 0.0, wander_omega_ = 0.0;  // the gains' errors g
   bool carried_ = false;
 };
 

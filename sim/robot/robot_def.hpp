@@ -61,9 +61,19 @@ struct CommandResponseDef {
   double gain_v = 1.0;      // forward speed reached per commanded [-]
   double gain_omega = 1.0;  // turn rate reached per commanded [-]
   static constexpr Range kGainRange{0.01, 100.0, ""};
+  // The gains wander about gain_v and gain_omega, as (1 + g) times them, each g a first-order
+  // Gauss-Markov process of this standard deviation [-] (sdk::GainWander: a floor, a load, a
+  // tyre that make the base drive a few per cent more or less for seconds; MRCLAM's about 0.15
+  // over 1-3 s) and time constant [s], drawn from the robot's own stream ("response/" + name).
+  double gain_wander_v = 0.0;
+  double gain_wander_omega = 0.0;
+  static constexpr Range kGainWanderRange{0.0, 10.0, ""};
+  double gain_wander_correlation_s = 1.0;
+  static constexpr Range kGainWanderCorrelationRange{1e-3, 1e6, "s"};
+  bool wanders() const { return gain_wander_v > 0.0 || gain_wander_omega > 0.0; }
   bool identity() const {
     return dead_time_s == 0.0 && time_constant_v_s == 0.0 && time_constant_omega_s == 0.0 &&
-           gain_v == 1.0 && gain_omega == 1.0;
+           gain_v == 1.0 && gain_omega == 1.0 && !wanders();
   }
 };
 

@@ -466,16 +466,26 @@ void OmniCameraSensor::apply_bias(ReadingData& data, double bias) const {
 }
 
 // ---------------------------------------------------------------------------------------------
-double RangeBearingSensor::correlated(std::vector<std::pair<double, double>>& state,
-                                      std::size_t target, double t_s, double draw) const {
-  if (def_.noise_correlation_s <= 0.0) return draw;
-  if (state.size() <= target) state.resize(target + 1, {-1.0, 0.0});
-  auto& [last_t, last] = state[target];
+double RangeBearingSensor::correlated(std::vector<TargetNoise>& state, std::size_t target,
+                                      double t_s, double draw, double slow_draw) const {
+  const double share = def_.noise_correlation_slow_share;
+  if (def_.noise_correlation_s <= 0.0 && share <= 0.0) return draw;
+  if (state.size() <= target) state.resize(target + 1);
+  TargetNoise& s = state[target];
   // The first detection of a target, or one after a long gap, is a fresh draw (rho ~ 0).
-  const double rho = last_t < 0.0 ? 0.0 : std::exp(-(t_s - last_t) / def_.noise_correlation_s);
-  last = rho * last + std::sqrt(1.0 - rho * rho) * draw;
-  last_t = t_s;
-  return last;
+  const auto rho = [&](double tau_s) {
+    return s.last_t_s < 0.0 || !(tau_s > 0.0) ? 0.0 : std::exp(-(t_s - s.last_t_s) / tau_s);
+  };
+  const double rho_fast = rho(def_.noise_correlation_s);
+  s.fast = rho_fast * s.fast + std::sqrt(1.0 - rho_fast * rho_fast) * draw;
+  if (share <= 0.0) {
+    s.last_t_s = t_s;
+    return s.fast;
+  }
+  const double rho_slow = rho(def_.noise_correlation_slow_s);
+  s.slow = rho_slow * s.slow + std::sqrt(1.0 - rho_slow * rho_slow) * slow_draw;
+  s.last_t_s = t_s;
+  return std::sqrt(1.0 - share) * s.fast + std::sqrt(share) * s.slow;
 }
 
 std::optional<Detection> RangeBearingSensor::observe(const SensorContext& context,
@@ -499,16 +509,22 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   // With noise_correlation_s, the same draws become the innovations of each target's process.
   const double range_draw = rng().normal(0.0, 1.0);
   const double bearing_draw = rng().normal(0.0, 1.0);
+  // The slow part's own draws, only when there is one: other worlds keep their numbers.
+  const bool slow = def_.noise_correlation_slow_share > 0.0;
+  const double range_slow_draw = slow ? rng().normal(0.0, 1.0) : 0.0;
+  const double bearing_slow_draw = slow ? rng().normal(0.0, 1.0) : 0.0;
   // The value reported before noise, in which the bias and spread lines are: the distance, or
   // the distance along the sensor's axis (depth mode; the loader keeps the field of view below
   // 180 deg, so it is positive). In distance mode it is `range` itself, bit for bit, so that a
   // world without the key keeps its outputs.
   const double reported =
       def_.range_model == RangeBearingDef::RangeModel::kDepth ? range * std::cos(bearing) : range;
-  const double range_noise_m = (def_.sigma_range_m + def_.sigma_range_per_m * reported) *
-                               correlated(range_noise_, target, context.t_s, range_draw);
+  const double range_noise_m =
+      (def_.sigma_range_m + def_.sigma_range_per_m * reported) *
+      correlated(range_noise_, target, context.t_s, range_draw, range_slow_draw);
   const double bearing_noise_rad =
-      def_.sigma_bearing_rad * correlated(bearing_noise_, target, context.t_s, bearing_draw);
+      def_.sigma_bearing_rad *
+      correlated(bearing_noise_, target, context.t_s, bearing_draw, bearing_slow_draw);
   // A range is never negative, however large the noise.
   const double measured_range = std::max(
       0.0, reported + def_.range_bias_m + def_.range_bias_per_m * reported + range_noise_m);

@@ -122,13 +122,17 @@ class RangeBearingSensor final : public Sensor {
                                    const Vec2& position_m, double radius_m, std::size_t target);
   /// A false detection, uniform over the field of view and range interval.
   Detection phantom(const SensorContext& context);
+  /// Per target (landmarks, then robots): the time of its last noise and its processes' values.
+  struct TargetNoise {
+    double last_t_s = -1.0, fast = 0.0, slow = 0.0;
+  };
   /// Standard normal noise of a target's detection at `t_s`, correlated with its previous one
-  /// (noise_correlation_s); `draw` is this detection's fresh N(0, 1).
-  double correlated(std::vector<std::pair<double, double>>& state, std::size_t target, double t_s,
-                    double draw) const;
+  /// (noise_correlation_s, and the slow part's); `draw` and `slow_draw` are this detection's fresh
+  /// N(0, 1) for each process.
+  double correlated(std::vector<TargetNoise>& state, std::size_t target, double t_s, double draw,
+                    double slow_draw) const;
   RangeBearingDef def_;
-  // Per target (landmarks, then robots): the time and standard normal value of its last noise.
-  std::vector<std::pair<double, double>> range_noise_, bearing_noise_;
+  std::vector<TargetNoise> range_noise_, bearing_noise_;
 };
 
 /// Time-of-flight ranges from each receiver to each fixed beacon; blocked lines of sight give a

@@ -165,6 +165,12 @@ struct RangeBearingDef {
   // does (MRCLAM: 0.9 from one detection to the next); 0: independent. [s]
   double noise_correlation_s = 0.0;
   static constexpr Range kCorrelationRange{0.0, 1e6, "s"};
+  // A slower part of that noise (a second process per target, of its own draws): this share of
+  // the variance persists over noise_correlation_slow_s (MRCLAM: about half for a minute, as the
+  // view of a landmark changes slowly; `locsim calibrate` fits both); 0: none. [-], [s]
+  double noise_correlation_slow_share = 0.0;
+  static constexpr Range kSlowShareRange{0.0, 0.99, ""};
+  double noise_correlation_slow_s = 0.0;
   bool report_ids = true;
   bool sees_robots = false;  // other robots are detected too (target robot, id = index)
 };

@@ -250,10 +250,26 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
   if (const auto n = node.find("range_bearing")) {
     sensors.range_bearing = parse_section(
         *n, RangeBearingDef{}, step_hz,
-        {"fov", "fov_deg", "min_range_m", "max_range_m", "sigma_range_m", "sigma_range_per_m",
-         "range_bias_m", "range_bias_per_m", "range_model", "sigma_bearing", "sigma_bearing_deg",
-         "bearing_bias", "bearing_bias_deg", "miss_probability", "false_detections",
-         "noise_correlation_s", "report_ids", "sees_robots"},
+        {"fov",
+         "fov_deg",
+         "min_range_m",
+         "max_range_m",
+         "sigma_range_m",
+         "sigma_range_per_m",
+         "range_bias_m",
+         "range_bias_per_m",
+         "range_model",
+         "sigma_bearing",
+         "sigma_bearing_deg",
+         "bearing_bias",
+         "bearing_bias_deg",
+         "miss_probability",
+         "false_detections",
+         "noise_correlation_s",
+         "noise_correlation_slow_s",
+         "noise_correlation_slow_share",
+         "report_ids",
+         "sees_robots"},
         [&](RangeBearingDef& d) {
           using D = RangeBearingDef;
           d.fov_rad = n->get_angle("fov", d.fov_rad, D::kFovRange);
@@ -288,6 +304,10 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_double("false_detections", d.false_detections, D::kFalseDetectionsRange);
           d.noise_correlation_s =
               n->get_double("noise_correlation_s", d.noise_correlation_s, D::kCorrelationRange);
+          d.noise_correlation_slow_s = n->get_double(
+              "noise_correlation_slow_s", d.noise_correlation_slow_s, D::kCorrelationRange);
+          d.noise_correlation_slow_share = n->get_double(
+              "noise_correlation_slow_share", d.noise_correlation_slow_share, D::kSlowShareRange);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
           d.sees_robots = n->get_bool("sees_robots", d.sees_robots);
         });

@@ -211,8 +211,9 @@ FootprintDef parse_footprint(const YamlNode& node) {
 
 CommandResponseDef parse_command_response(const YamlNode& node) {
   using D = CommandResponseDef;
-  node.allow_keys(
-      {"dead_time_s", "time_constant_v_s", "time_constant_omega_s", "gain_v", "gain_omega"});
+  node.allow_keys({"dead_time_s", "time_constant_v_s", "time_constant_omega_s", "gain_v",
+                   "gain_omega", "gain_wander_v", "gain_wander_omega",
+                   "gain_wander_correlation_s"});
   D d;
   d.dead_time_s = node.get_double("dead_time_s", d.dead_time_s, D::kDeadTimeRange);
   d.time_constant_v_s =
@@ -221,6 +222,11 @@ CommandResponseDef parse_command_response(const YamlNode& node) {
       node.get_double("time_constant_omega_s", d.time_constant_omega_s, D::kTimeConstantRange);
   d.gain_v = node.get_double("gain_v", d.gain_v, D::kGainRange);
   d.gain_omega = node.get_double("gain_omega", d.gain_omega, D::kGainRange);
+  d.gain_wander_v = node.get_double("gain_wander_v", d.gain_wander_v, D::kGainWanderRange);
+  d.gain_wander_omega =
+      node.get_double("gain_wander_omega", d.gain_wander_omega, D::kGainWanderRange);
+  d.gain_wander_correlation_s = node.get_double(
+      "gain_wander_correlation_s", d.gain_wander_correlation_s, D::kGainWanderCorrelationRange);
   return d;
 }
 

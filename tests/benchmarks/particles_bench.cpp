@@ -148,6 +148,50 @@ void BM_CommandFollowerThenTracker(benchmark::State& state) {
 }
 BENCHMARK(BM_CommandFollowerThenTracker);
 
+// A Kalman prediction by one odometry reading's wheel travel: the pose alone
+// (predict_by_wheels), and the pose with the base's wandering gains (x, y, theta, g_v, g_omega):
+// what ekf_landmarks pays per reading for gain_wander_*.
+void BM_PredictByWheels(benchmark::State& state) {
+  const bool gains = state.range(0) != 0;
+  Pose x(1.0, 2.0, 0.3);
+  Eigen::Matrix3d P = Eigen::Matrix3d::Identity() * 1e-3;
+  PoseGains xg;
+  xg << x, 0.01, -0.02;
+  PoseGainsCovariance Pg = PoseGainsCovariance::Identity() * 1e-3;
+  const GainWander wander{0.15, 0.15, 2.0};
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const double dl = 0.004 + 1e-4 * static_cast<double>(++k % 7), dr = 0.005;
+    if (gains) {
+      predict_by_wheels_and_gains(xg, Pg, dl, dr, 0.35, 0.03, 0.03, 0.0, wander, 0.015);
+      benchmark::DoNotOptimize(Pg.data());
+    } else {
+      predict_by_wheels(x, P, dl, dr, 0.35, 0.03, 0.03);
+      benchmark::DoNotOptimize(P.data());
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PredictByWheels)->ArgName("gains")->Arg(0)->Arg(1);
+
+// CorrelatedDetections per detection, eight landmarks seen in turn every 0.1 s: the first-order
+// rule (arg 0) and the slow part's per-target Kalman filter (arg 1).
+void BM_CorrelatedDetections(benchmark::State& state) {
+  CorrelatedDetections seen =
+      state.range(0) != 0 ? CorrelatedDetections(0.4, 40.0, 0.5) : CorrelatedDetections(1.0);
+  locsim_detection d{};
+  double t_s = 0.0, sum = 0.0;
+  std::int32_t k = 0;
+  for (auto _ : state) {
+    d.id = ++k % 8;
+    t_s += 0.1;
+    sum += seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s);
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_CorrelatedDetections)->ArgName("slow")->Arg(0)->Arg(1);
+
 // The SDK's OdometryFollower per odometry reading and the IMU's two readings before it (as the
 // host streams them: 50 and 100 Hz), with the gyro turning the odometry (Arg 1) or not (0).
 void BM_OdometryFollowerGyro(benchmark::State& state) {

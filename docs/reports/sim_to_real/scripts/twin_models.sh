@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # The real logs of MRCLAM Dataset 6 against their twins with and without each modelled effect
-# (README.md, "Real against twin, one model at a time"). Calibrates all five robots' 900 s, writes
-# four calibration files that differ only in what the twin is given (none; the depth range model;
-# the command response; both), makes 5 robots x 3 seeds of twin recordings for each, and sweeps
+# (README.md, "Real against twin"). Calibrates all five robots' 900 s, writes five calibration
+# files that differ only in what the twin is given (none; the depth range model; the command
+# response; both; all: both with the gains' wander and the detections' slow part), makes
+# 5 robots x 3 seeds of twin recordings for each, and sweeps
 # the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
 # twins, with the calibration's localizer parameters. Prints the table of the README.
 #
 #   MRCLAM_DIR=/path/to/MRCLAM_Dataset6 [OUT=/tmp/s2r] [LOCSIM=build/locsim] ./twin_models.sh
 #
-# About 4 minutes on the 2-core VM. Needs pandas (for the table only).
+# About 5 minutes on the 2-core VM. Needs pandas (for the table only).
 set -euo pipefail
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=mrclam_logs.sh
@@ -17,7 +18,8 @@ source "$HERE/mrclam_logs.sh" /tmp/s2r
 
 # The variants: the calibration file with the twin's models taken out one at a time. Without the
 # response the encoders get the raw odometry's k; without the depth model the camera gets the
-# distance model's lines (both from calibration.json).
+# distance model's lines (both from calibration.json); without "all" the robot's gains do not
+# wander and the camera's errors have one time constant (the single one calibration.json fits).
 "${PYTHON:-python3}" - <<'PY'
 import json, re
 text = open("cal6/calibration.yaml").read()
@@ -30,17 +32,25 @@ distance_lines = (f"    range_model: distance\n    sigma_range_m: {distance['spr
                   f"    range_bias_m: {distance['bias']['m']:.4g}\n"
                   f"    range_bias_per_m: {distance['bias']['per_m']:.4g}\n")
 depth_lines = re.search(r"    range_model: depth\n(    .*\n){4}", text).group(0)
-def variant(response, depth):
+single_tau = fits["cameras"][0]["noise_correlation"]["tau_s"]
+def variant(response, depth, rest):
     t = text
+    if not rest:
+        t = re.sub(r", gain_wander_v: [^,]*, gain_wander_omega: [^,]*, gain_wander_correlation_s: [^}]*",
+                   "", t)
+        t = re.sub(r"    noise_correlation_s: .*\n    noise_correlation_slow_s: .*\n"
+                   r"    noise_correlation_slow_share: .*\n",
+                   f"    noise_correlation_s: {single_tau:.4g}\n", t)
     if not response:
         t = re.sub(r"robot: .*\n  command_response: .*\n", "", t)
         t = re.sub(r"  encoders: \{.*\}", raw_encoders, t)
     if not depth:
         t = t.replace(depth_lines, distance_lines)
     return t
-for name, response, depth in (("none", False, False), ("depth", False, True),
-                              ("response", True, False), ("both", True, True)):
-    open(f"cal_{name}.yaml", "w").write(variant(response, depth))
+for name, response, depth, rest in (("none", False, False, False), ("depth", False, True, False),
+                                    ("response", True, False, False), ("both", True, True, False),
+                                    ("all", True, True, True)):
+    open(f"cal_{name}.yaml", "w").write(variant(response, depth, rest))
 PY
 
 localizers="localizers:
@@ -56,7 +66,7 @@ $localizers
 EOF
 rm -rf runs && mkdir runs
 "$LOCSIM" sweep real.yaml --jobs 2 --out runs/real > /dev/null
-for v in none depth response both; do
+for v in none depth response both all; do
   mkdir -p twin_$v
   logs=""
   for n in 1 2 3 4 5; do
@@ -72,12 +82,13 @@ for v in none depth response both; do
     "$v" "$logs" "$localizers" > twin_$v.yaml
   "$LOCSIM" sweep twin_$v.yaml --jobs 2 --out runs/twin_$v > /dev/null
 done
-"$LOCSIM" compare runs/real runs/twin_both --out runs/real_vs_twin --labels real,twin > /dev/null
+"$LOCSIM" compare runs/real runs/twin_all --out runs/real_vs_twin --labels real,twin > /dev/null
 
 "${PYTHON:-python3}" - <<'PY'
 import pandas as pd
 sets = [("real", "runs/real"), ("twin, none", "runs/twin_none"), ("twin, depth", "runs/twin_depth"),
-        ("twin, response", "runs/twin_response"), ("twin, both", "runs/twin_both")]
+        ("twin, response", "runs/twin_response"), ("twin, both", "runs/twin_both"),
+        ("twin, all", "runs/twin_all")]
 filters = ["ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl"]
 real = pd.read_csv("runs/real/summary.csv").set_index("config")
 print("| set | config | position RMS [m] | x real | heading RMS [deg] | truth in 95 % ellipse | median NEES |")

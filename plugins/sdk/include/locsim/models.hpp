@@ -175,7 +175,12 @@ struct DetectionNoise {
   {"noise_correlation_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1e6, nullptr,                            \
    "how long a target's detection errors persist (locsim calibrate): a detection of a target "     \
    "seen dt before counts (1 - rho) / (1 + rho) of an independent one, rho = exp(-dt / this); "    \
-   "0: independent [s]"}
+   "0: independent [s]"},                                                                          \
+  {"noise_correlation_slow_s", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1e6, nullptr,                       \
+   "... a slower part of the errors persists this long (locsim calibrate; 0: none) [s]"},          \
+  {"noise_correlation_slow_share", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 0.99, nullptr,                  \
+   "... the slow part's share of the errors' variance: however often a target is seen, its "      \
+   "detections together weigh at most 1 / this of one [-]"}
 // clang-format on
 
 struct DetectionBias {
@@ -221,27 +226,76 @@ struct DetectionBias {
 /// two detections this gives exactly the variance of their mean, sigma^2 (1 + rho) / 2; for a
 /// long run at a steady interval, the mean's asymptotic variance; the first after a long gap
 /// counts in full. Targets are told apart by camera and id, or (a camera without ids) colour.
+///
+/// Real errors also have a slow part (MRCLAM's camera: about half the variance persists for a
+/// minute, the view of a landmark changing slowly): a share w of the variance that decorrelates
+/// over tau_slow, the rest over tau. Then a run of detections of a target tells, about anything
+/// they all measure alike, the information of generalised least squares: a Kalman filter per
+/// target over (m, s, f), m what is measured (no prior), s and f the slow and fast errors (unit
+/// Gauss-Markov processes), each detection m + sqrt(w) s + sqrt(1 - w) f. A detection adds the
+/// growth of 1 / P_mm: exact for any intervals, never more than an independent detection, and
+/// at most about (1 + T / (2 tau_slow)) / w over a run of T seconds however dense.
 class CorrelatedDetections {
  public:
-  explicit CorrelatedDetections(double correlation_s = 0.0) : tau_s_(correlation_s) {}
+  explicit CorrelatedDetections(double correlation_s = 0.0, double slow_correlation_s = 0.0,
+                                double slow_share = 0.0)
+      : tau_s_(correlation_s),
+        slow_tau_s_(slow_correlation_s),
+        slow_share_(slow_correlation_s > 0.0 ? slow_share : 0.0) {}
+  /// From a plugin's parameters LOCSIM_DETECTION_BIAS_PARAMS declares.
+  template <class Params>
+  static CorrelatedDetections from(const Params& params) {
+    return CorrelatedDetections(params.number("noise_correlation_s"),
+                                params.number("noise_correlation_slow_s"),
+                                params.number("noise_correlation_slow_share"));
+  }
   /// The factor on the variances of this detection at t_s (1 without correlation, or for a
   /// target not seen before); remembers the time.
   double inflation(std::int32_t camera, const locsim_detection& detection, double t_s) {
-    if (!(tau_s_ > 0.0)) return 1.0;
+    if (!(tau_s_ > 0.0) && !(slow_share_ > 0.0)) return 1.0;
     const auto key =
         std::tuple{camera, detection.id,
                    detection.id >= 0 || detection.color == nullptr ? std::string()
                                                                    : std::string(detection.color)};
-    const auto [it, first] = last_s_.try_emplace(key, t_s);
+    const auto [it, first] = seen_.try_emplace(key);
+    Seen& seen = it->second;
+    const double dt_s = first ? 0.0 : std::max(t_s - seen.last_s, 0.0);
+    seen.last_s = t_s;
+    if (!(slow_share_ > 0.0)) {
+      if (first) return 1.0;
+      const double rho = std::exp(-dt_s / tau_s_);
+      return (1.0 + rho) / std::max(1.0 - rho, 1e-12);
+    }
+    // Prediction: m stays, the errors decay (a target not seen before: their stationary spread).
+    const double rho_slow = first ? 0.0 : std::exp(-dt_s / slow_tau_s_);
+    const double rho_fast = first || !(tau_s_ > 0.0) ? 0.0 : std::exp(-dt_s / tau_s_);
+    if (first) {
+      seen.P = Eigen::Matrix3d::Zero();
+      seen.P(0, 0) = kNoPrior;
+    }
+    const Eigen::DiagonalMatrix<double, 3> F(1.0, rho_slow, rho_fast);
+    seen.P = F * seen.P * F;
+    seen.P(1, 1) += 1.0 - rho_slow * rho_slow;
+    seen.P(2, 2) += 1.0 - rho_fast * rho_fast;
+    // Update by one detection, y = H (m, s, f), no noise beside the errors in the state.
+    const Eigen::RowVector3d H(1.0, std::sqrt(slow_share_), std::sqrt(1.0 - slow_share_));
+    const double before = 1.0 / seen.P(0, 0);
+    const Eigen::Vector3d PHt = seen.P * H.transpose();
+    seen.P -= PHt * PHt.transpose() / H.dot(PHt);
+    seen.P = 0.5 * (seen.P + seen.P.transpose()).eval();
     if (first) return 1.0;
-    const double rho = std::exp(-std::max(t_s - it->second, 0.0) / tau_s_);
-    it->second = t_s;
-    return (1.0 + rho) / std::max(1.0 - rho, 1e-12);
+    const double added = 1.0 / seen.P(0, 0) - before;
+    return 1.0 / std::clamp(added, 1e-12, 1.0);
   }
 
  private:
-  double tau_s_;
-  std::map<std::tuple<std::int32_t, std::int32_t, std::string>, double> last_s_;
+  static constexpr double kNoPrior = 1e8;  // P_mm before the first detection (unit variances)
+  struct Seen {
+    double last_s = 0.0;                          // the target's last detection
+    Eigen::Matrix3d P = Eigen::Matrix3d::Zero();  // of (m, s, f), with a slow part
+  };
+  double tau_s_, slow_tau_s_, slow_share_;
+  std::map<std::tuple<std::int32_t, std::int32_t, std::string>, Seen> seen_;
 };
 
 /// Pose composition a (+) b: b expressed in a's frame, mapped to a's parent frame.
@@ -420,6 +474,110 @@ class CommandFollower {
   std::deque<Command> pending_;
   locsim_odometry out_{};
 };
+
+/// How the base's gains wander (`locsim calibrate` measures it; the simulated robot's
+/// command_response makes it): the base drives (1 + g_v) times the distance its odometry (through
+/// the response) says and turns (1 + g_omega) times its turn, each g a first-order Gauss-Markov
+/// process of standard deviation sigma and time constant tau,
+///   g(t + dt) = phi g(t) + e,  phi = exp(-dt / tau),  e ~ N(0, sigma^2 (1 - phi^2)).
+/// The wheel noise k is independent from one reading to the next, so its errors average out over
+/// a run; a gain that is off for seconds (a floor, a load, a tyre) moves the robot the wrong way
+/// for all of them. Zero sigma (the defaults): no wander.
+// clang-format off
+#define LOCSIM_GAIN_WANDER_PARAMS                                                                  \
+  {"gain_wander_v", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                                  \
+   "the base drives (1 + g) times the distance its odometry says, g wandering about 0 with this "  \
+   "standard deviation (locsim calibrate; 0: no wander) [-]"},                                     \
+  {"gain_wander_omega", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 10.0, nullptr,                              \
+   "... and turns (1 + g) times its turn, g with this standard deviation [-]"},                    \
+  {"gain_wander_correlation_s", LOCSIM_PARAM_DOUBLE, 1.0, 1e-3, 1e6, nullptr,                      \
+   "... both wandering with this time constant [s]"}
+// clang-format on
+
+struct GainWander {
+  double sigma_v = 0.0;        // [-]
+  double sigma_omega = 0.0;    // [-]
+  double correlation_s = 1.0;  // tau [s]
+
+  bool active() const { return sigma_v > 0.0 || sigma_omega > 0.0; }
+  /// phi = exp(-dt / tau): how much of the gains is left after dt_s.
+  double phi(double dt_s) const { return std::exp(-std::max(dt_s, 0.0) / correlation_s); }
+  /// From a plugin's parameters LOCSIM_GAIN_WANDER_PARAMS declares.
+  template <class Params>
+  static GainWander from(const Params& params) {
+    return {params.number("gain_wander_v"), params.number("gain_wander_omega"),
+            params.number("gain_wander_correlation_s")};
+  }
+};
+
+/// The wheel travel of a base whose gains are off by (g_v, g_omega) when its wheels say (dl, dr):
+///   D' = (1 + g_v) D, a' b / 2 = (1 + g_omega) a b / 2  ->  dl' = D' - a' b / 2, dr' = D' + a' b
+///   / 2.
+inline std::pair<double, double> wheels_with_gains(double d_left, double d_right, double g_v,
+                                                   double g_omega) {
+  const double D = 0.5 * (d_left + d_right), half_turn = 0.5 * (d_right - d_left);
+  return {(1.0 + g_v) * D - (1.0 + g_omega) * half_turn,
+          (1.0 + g_v) * D + (1.0 + g_omega) * half_turn};
+}
+
+/// A pose and the base's gain errors, (x, y, theta, g_v, g_omega): the state of a Kalman filter
+/// that carries the gain wander.
+using PoseGains = Eigen::Matrix<double, 5, 1>;
+using PoseGainsCovariance = Eigen::Matrix<double, 5, 5>;
+
+/// One step of the state with gains by the wheels' travel (dl, dr) and phi = GainWander::phi(dt):
+///   pose' = diff_drive_motion(pose, wheels_with_gains(dl, dr, g_v, g_omega)),  g' = phi g.
+/// F = d x' / d x (5x5), L = d x' / d (dl, dr) (5x2), when asked for.
+inline PoseGains move_with_gains(const PoseGains& x, double d_left, double d_right,
+                                 double wheel_base, double phi,
+                                 Eigen::Matrix<double, 5, 5>* F = nullptr,
+                                 Eigen::Matrix<double, 5, 2>* L = nullptr) {
+  const auto [dl, dr] = wheels_with_gains(d_left, d_right, x(3), x(4));
+  Eigen::Matrix3d F_pose;
+  Eigen::Matrix<double, 3, 2> G;  // d pose' / d (dl', dr')
+  const Pose moved = diff_drive_motion(x.head<3>(), dl, dr, wheel_base, &F_pose, &G);
+  if (F != nullptr) {
+    const double D = 0.5 * (d_left + d_right), half_turn = 0.5 * (d_right - d_left);
+    Eigen::Matrix2d by_gains;   // d (dl', dr') / d (g_v, g_omega)
+    by_gains << D, -half_turn,  //
+        D, half_turn;
+    F->setZero();
+    F->topLeftCorner<3, 3>() = F_pose;
+    F->topRightCorner<3, 2>() = G * by_gains;
+    F->bottomRightCorner<2, 2>() = phi * Eigen::Matrix2d::Identity();
+  }
+  if (L != nullptr) {
+    const double v = 0.5 * (1.0 + x(3)), w = 0.5 * (1.0 + x(4));
+    Eigen::Matrix2d by_wheels;  // d (dl', dr') / d (dl, dr)
+    by_wheels << v + w, v - w,  //
+        v - w, v + w;
+    L->setZero();
+    L->topRows<3>() = G * by_wheels;
+  }
+  PoseGains out;
+  out << moved, phi * x(3), phi * x(4);
+  return out;
+}
+
+/// predict_by_wheels for the state with gains over dt_s: P' = F P F^T + L Q L^T + the gains' own
+/// noise sigma^2 (1 - phi^2), Q paper 002's wheel noise (and slip) as predict_by_wheels takes it.
+inline void predict_by_wheels_and_gains(PoseGains& x, PoseGainsCovariance& P, double d_left,
+                                        double d_right, double wheel_base, double k_left,
+                                        double k_right, double slip_m, const GainWander& wander,
+                                        double dt_s) {
+  const double phi = wander.phi(dt_s);
+  Eigen::Matrix<double, 5, 5> F;
+  Eigen::Matrix<double, 5, 2> L;
+  x = move_with_gains(x, d_left, d_right, wheel_base, phi, &F, &L);
+  const double slip_m2 = slip_m * slip_m;
+  const Eigen::Matrix2d Q = Eigen::Vector2d(k_left * k_left * std::abs(d_left) + slip_m2,
+                                            k_right * k_right * std::abs(d_right) + slip_m2)
+                                .asDiagonal();
+  P = F * P * F.transpose() + L * Q * L.transpose();
+  const double renewal = 1.0 - phi * phi;
+  P(3, 3) += wander.sigma_v * wander.sigma_v * renewal;
+  P(4, 4) += wander.sigma_omega * wander.sigma_omega * renewal;
+}
 
 /// The wheel travel (left, right) [m] of a differential drive with wheel base b [m] that moves
 /// it by the pose increment `delta` (in the start pose's frame, as between() gives it), taking

@@ -160,6 +160,49 @@ inline void sample_wheel_motion(ParticleSet& p, double d_left_m, double d_right_
   }
 }
 
+/// Each particle's own gain errors (GainWander): a hypothesis about how far the base's gains are
+/// off, weighed with its pose; resample them with the particles (ParticleFilter::resample(v,
+/// omega)) and draw a new particle's from the prior (draw()).
+struct ParticleGains {
+  std::vector<double> v, omega;
+  /// One particle's gains from the process's stationary distribution N(0, sigma^2).
+  std::pair<double, double> draw(const GainWander& wander, Random& random) const {
+    const double g_v = random.normal(wander.sigma_v);
+    return {g_v, random.normal(wander.sigma_omega)};
+  }
+  /// As many as `n` particles, the new ones drawn from the prior.
+  void fit(std::size_t n, const GainWander& wander, Random& random) {
+    while (v.size() < n) {
+      const auto [g_v, g_omega] = draw(wander, random);
+      v.push_back(g_v), omega.push_back(g_omega);
+    }
+    v.resize(n), omega.resize(n);
+  }
+};
+
+/// sample_wheel_motion for a base whose gains wander: each particle's gains first move on by
+/// dt_s of their process; its noisy wheel travel (as sample_wheel_motion draws it) is then scaled
+/// by them (wheels_with_gains), as predict_by_wheels_and_gains predicts.
+inline void sample_wheel_motion(ParticleSet& p, ParticleGains& gains, const GainWander& wander,
+                                double dt_s, double d_left_m, double d_right_m, double wheel_base_m,
+                                double k_left, double k_right, Random& random,
+                                double slip_m = 0.0) {
+  gains.fit(p.size(), wander, random);
+  const double phi = wander.phi(dt_s), renewal = std::sqrt(1.0 - phi * phi);
+  const double step_v = wander.sigma_v * renewal, step_omega = wander.sigma_omega * renewal;
+  const double spread_left = std::sqrt(k_left * k_left * std::abs(d_left_m) + slip_m * slip_m);
+  const double spread_right = std::sqrt(k_right * k_right * std::abs(d_right_m) + slip_m * slip_m);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    gains.v[i] = phi * gains.v[i] + random.normal(step_v);
+    gains.omega[i] = phi * gains.omega[i] + random.normal(step_omega);
+    const double left = d_left_m + random.normal(spread_left);
+    const double right = d_right_m + random.normal(spread_right);
+    const auto [dl, dr] = wheels_with_gains(left, right, gains.v[i], gains.omega[i]);
+    const Pose moved = diff_drive_motion(Pose(p.x[i], p.y[i], p.theta[i]), dl, dr, wheel_base_m);
+    p.x[i] = moved(0), p.y[i] = moved(1), p.theta[i] = moved(2);
+  }
+}
+
 /// log of the landmark likelihood below scaled to 1 at a perfect match:
 ///   -e_r^2 / (2 sigma_r^2) - (1 - cos e_phi) / sigma_phi^2,
 /// e_r = r - r^ the range error, e_phi = phi - phi^ the bearing error. The bearing term is the
