@@ -254,14 +254,19 @@ TEST(Twin, OfASimulatedRunFollowsItsPathSeesAsMuchAndCalibratesToTheSameNoise) {
               0.2 * original.cameras[0].bearing_spread_rad);
 }
 
+/// `world` with the first `from` replaced by `to` (a test's edit of a world's text).
+void replace_once(std::string& world, const std::string& from, const std::string& to) {
+  const std::size_t at = world.find(from);
+  ASSERT_NE(at, std::string::npos) << from;
+  world.replace(at, from.size(), to);
+}
+
 /// The noisy world with a base that reports its command (50 Hz velocities, as MRCLAM's robots
 /// log them) and follows it through a response.
 std::string commanded_world(double noise_correlation_s = 0.0) {
   std::string world = testing::noisy_world(noise_correlation_s);
   const auto replace = [&](const std::string& from, const std::string& to) {
-    const std::size_t at = world.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    world.replace(at, from.size(), to);
+    replace_once(world, from, to);
   };
   replace("    wheel_radius_m: 0.05\n",
           "    wheel_radius_m: 0.05\n    max_wheel_accel_radps2: 200\n"
@@ -402,17 +407,12 @@ TEST(Twin, CalibratedFiltersFollowTheResponseAndTakeTheCamerasBiasOutAndStayHone
 TEST(Twin, AWanderingBaseAndSlowCameraErrorsAreMeasuredAndTheFiltersStayHonestUnderThem) {
   const fs::path dir = testing::temp_dir("twin_wander");
   std::string world = commanded_world(0.3);
-  const auto replace = [&](const std::string& from, const std::string& to) {
-    const std::size_t at = world.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    world.replace(at, from.size(), to);
-  };
-  replace("gain_omega: 0.96}",
-          "gain_omega: 0.96, gain_wander_v: 0.15, gain_wander_omega: 0.15, "
-          "gain_wander_correlation_s: 2}");
-  replace("\nscenario:",
-          "\n        noise_correlation_slow_s: 30\n        noise_correlation_slow_share: 0.5"
-          "\nscenario:");
+  replace_once(world, "gain_omega: 0.96}",
+               "gain_omega: 0.96, gain_wander_v: 0.15, gain_wander_omega: 0.15, "
+               "gain_wander_correlation_s: 2}");
+  replace_once(world, "\nscenario:",
+               "\n        noise_correlation_slow_s: 30\n        noise_correlation_slow_share: 0.5"
+               "\nscenario:");
   std::ofstream(dir / "world.yaml") << world;
   record(dir / "world.yaml", 3, dir / "run3", dir / "a.locsimlog");
   record(dir / "world.yaml", 4, dir / "run4", dir / "b.locsimlog");
