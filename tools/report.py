@@ -714,7 +714,54 @@ def calibration_lines(cal, out_dir):
         image = f"{name}_errors.png".replace("/", "_")
         save_figure(fig, os.path.join(out_dir, image))
         lines += ["", f"![{name} errors against range](report/{image})"]
-    return lines + [""]
+    return lines + recordings_lines(cal) + [""]
+
+
+def recordings_lines(cal):
+    """calibrate's check across recordings (several logs): the widest spreads and, per localizer,
+    the RMS of every recording with every recording's calibration (calibration_check.hpp)."""
+    recordings = cal.get("recordings")
+    if not recordings:
+        return []
+    names = [r["name"] for r in recordings]
+    lines = ["", f"## Across {len(names)} recordings", "",
+             "Each recording calibrated alone: " + ", ".join(f"`{escaped(n)}`" for n in names) + "."]
+    transfer = cal.get("transfer")
+    flag = transfer["flag_above"] if transfer else 0.25
+    wide = sorted((p for p in cal.get("spread", []) if p["relative_spread"] > flag),
+                  key=lambda p: -p["relative_spread"])
+    if wide:
+        lines += ["", f"Values spread beyond {flag:.0%} of the pooled one:", "",
+                  "| parameter | group | " + " | ".join(escaped(n) for n in names) + " | pooled | spread |",
+                  "|---|---|" + "---|" * len(names) + "---|---|"]
+        for p in wide:
+            key = (p["plugin"] + "." if p["plugin"] else "") + p["key"]
+            values = " | ".join("" if v is None else f"{v:.4g}" for v in p["values"])
+            pooled = "" if p["pooled"] is None else f"{p['pooled']:.4g}"
+            lines.append(f"| {escaped(key)} | {escaped(p['group'])} | {values} | {pooled} | {p['relative_spread']:.0%} |")
+    if not transfer:
+        return lines
+    for localizer in transfer["localizers"]:
+        lines += ["", f"### {escaped(localizer)}: position RMS [m] on each recording (columns) with each "
+                  "calibration (rows), change against the recording's own (**bold**: flagged)", "",
+                  "| calibration | " + " | ".join(escaped(n) for n in names) + " |",
+                  "|---|" + "---|" * len(names)]
+        rows = {}
+        for c in transfer["cells"]:
+            if c["localizer"] != localizer:
+                continue
+            text = "–" if c["position_rms_m"] is None else f"{c['position_rms_m']:.3f}"
+            if c["change"] is not None and c["from"] != c["on"]:
+                text += f" ({c['change']:+.0%})"
+            rows.setdefault(c["from"], []).append(f"**{text}**" if c["flagged"] else text)
+        for source, cells in rows.items():
+            lines.append(f"| {escaped(source)} | " + " | ".join(cells) + " |")
+    if transfer["flags"]:
+        lines += ["", f"Flagged (RMS moved by more than {flag:.0%}):", ""]
+        lines += [f"- {escaped(line)}" for line in transfer["flags"]]
+    else:
+        lines += ["", f"No calibration moves a localizer's RMS on another recording by more than {flag:.0%}."]
+    return lines
 
 
 def read_compared_sweep(root):

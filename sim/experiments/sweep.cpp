@@ -680,11 +680,16 @@ std::string segments_csv(const std::vector<json>& results) {
 
 }  // namespace
 
-void write_tables(const fs::path& out_dir) {
+std::vector<json> read_sweep_results(const fs::path& out_dir) {
   std::vector<json> results = read_results(out_dir / "results.jsonl");
   std::sort(results.begin(), results.end(), [](const json& a, const json& b) {
     return a["index"].get<std::size_t>() < b["index"].get<std::size_t>();
   });
+  return results;
+}
+
+void write_tables(const fs::path& out_dir) {
+  std::vector<json> results = read_sweep_results(out_dir);
   // Each table whole or not at all (write_file): a full disk leaves no table cut mid-row.
   {
     std::ostringstream csv;
@@ -1031,7 +1036,7 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
                    std::string(static_cast<std::size_t>(filled), '#').c_str(),
                    std::string(static_cast<std::size_t>(width - filled), '.').c_str(), finished,
                    summary.total, summary.not_ok, left);
-    } else {
+    } else if (options.progress_lines) {
       // A glance at the reason (its first line, 200 bytes at most): the rest is in results.csv
       // and the run's log.
       const std::string reason = result.value("reason", "");

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@ struct SweepOptions {
   bool retry_failed = false;                 // with resume: run `failed` ones again too
   std::optional<std::pair<int, int>> shard;  // (K, N): runs whose index % N == K - 1
   bool progress_bar = false;                 // else plain lines
+  bool progress_lines = true;                // without the bar, a line per run (else nothing)
   std::filesystem::path locsim_binary;       // the `locsim` that runs each run (default: this one)
 };
 
@@ -47,6 +49,10 @@ SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* int
 /// shard a live sweep still writes.
 void merge_sweeps(const std::filesystem::path& out_dir,
                   const std::vector<std::filesystem::path>& parts);
+
+/// A sweep folder's results (results.jsonl: each run's newest line, as the tables take them), in
+/// run order. Throws InputError for a corrupt results.jsonl, naming the file and line.
+std::vector<nlohmann::ordered_json> read_sweep_results(const std::filesystem::path& out_dir);
 
 /// Rewrites results.csv, summary.csv and summary.md of a folder from its results.jsonl.
 void write_tables(const std::filesystem::path& out_dir);

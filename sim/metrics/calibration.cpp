@@ -11,6 +11,8 @@
 #include <numbers>
 #include <numeric>
 #include <set>
+#include <string_view>
+#include <utility>
 
 #include "sim/common/errors.hpp"
 #include "sim/common/format.hpp"
@@ -1676,6 +1678,52 @@ json Calibration::to_json() const {
     j["cameras"].push_back(cj);
   }
   return j;
+}
+
+std::string_view parameter_group(std::string_view key) {
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 37> kGroupOf{{
+      {"command_dead_time_s", "command response"},
+      {"command_time_constant_v_s", "command response"},
+      {"command_time_constant_omega_s", "command response"},
+      {"command_gain_v", "command response"},
+      {"command_gain_omega", "command response"},
+      {"motion_model", "wheel noise"},
+      {"k_left", "wheel noise"},
+      {"k_right", "wheel noise"},
+      {"motion_floor_m", "wheel noise"},
+      {"motion_floor_deg", "wheel noise"},
+      {"gain_wander_v", "gain wander"},
+      {"gain_wander_omega", "gain wander"},
+      {"gain_wander_correlation_s", "gain wander"},
+      {"alpha1", "odometry model"},
+      {"alpha2", "odometry model"},
+      {"alpha3", "odometry model"},
+      {"alpha4", "odometry model"},
+      {"variance_form", "odometry model"},
+      {"range_model", "detection bias"},
+      {"range_bias_m", "detection bias"},
+      {"range_bias_per_m", "detection bias"},
+      {"bearing_bias_deg", "detection bias"},
+      {"sigma_range_m", "detection spread"},
+      {"sigma_range_per_m", "detection spread"},
+      {"sigma_range_per_m2", "detection spread"},
+      {"sigma_bearing_deg", "detection spread"},
+      {"noise_correlation_s", "detection correlation"},
+      {"noise_correlation_slow_s", "detection correlation"},
+      {"noise_correlation_slow_share", "detection correlation"},
+      {"threshold", "resetting levels"},
+      {"p_t", "resetting levels"},
+      {"reset_min_detections", "resetting levels"},
+      {"injection_level", "resetting levels"},
+      {"alpha_slow", "resetting levels"},
+      {"alpha_fast", "resetting levels"},
+      {"outlier_likelihood", "false detections"},
+      {"regularization", "regularization"},
+  }};
+  for (const auto& [k, group] : kGroupOf) {
+    if (k == key) return group;
+  }
+  return {};
 }
 
 std::string Calibration::to_yaml() const {

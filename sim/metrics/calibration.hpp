@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace locsim {
@@ -214,6 +215,11 @@ struct Calibration {
   /// settings for a world (`sensors:`), with a header saying what was measured on what.
   std::string to_yaml() const;
 };
+
+/// The group of a localizer parameter `locsim calibrate` writes ("wheel noise", "detection
+/// bias", ...: what one measurement decides together), by key, a plugin section's too; empty for
+/// a key calibrate does not write. Checks of a calibration swap parameters a group at a time.
+std::string_view parameter_group(std::string_view key);
 
 /// Reads every log (each with its own world) and fits the noise over the chosen robots together.
 /// Throws InputError for unreadable logs, unknown robot names, or logs without ground truth, and

@@ -1,6 +1,8 @@
 #include "sim/plugin_host/param_file.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
@@ -44,6 +46,44 @@ const ParamFileSection* ParamFile::section(const std::string& plugin) const {
   const auto it = std::find_if(sections.begin(), sections.end(),
                                [&](const ParamFileSection& s) { return s.plugin == plugin; });
   return it == sections.end() ? nullptr : &*it;
+}
+
+std::vector<ParamFileValue> values_for(const ParamFile& file, const std::string& plugin) {
+  std::vector<ParamFileValue> out = file.common;
+  if (const ParamFileSection* own = file.section(plugin)) {
+    for (const ParamFileValue& value : own->values) {
+      const auto it = std::find_if(out.begin(), out.end(),
+                                   [&](const ParamFileValue& v) { return v.key == value.key; });
+      if (it == out.end()) {
+        out.push_back(value);
+      } else {
+        *it = value;
+      }
+    }
+  }
+  return out;
+}
+
+std::string param_file_text(const std::vector<std::pair<std::string, std::string>>& values,
+                            const std::vector<std::string>& comment) {
+  std::string text;
+  for (const std::string& line : comment) text += "# " + line + "\n";
+  text += "localizer_params:\n";
+  // A word or a number as it is (YAML reads it back as the same scalar); anything else, and a
+  // word YAML reads as null, quoted (JSON's escapes are YAML's).
+  const auto scalar = [](const std::string& word) {
+    const auto plain_char = [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-' ||
+             c == '+';
+    };
+    const bool plain = !word.empty() && std::all_of(word.begin(), word.end(), plain_char) &&
+                       (std::isalnum(static_cast<unsigned char>(word[0])) ||
+                        (word.size() > 1 && std::isdigit(static_cast<unsigned char>(word[1])))) &&
+                       word != "null" && word != "Null" && word != "NULL";
+    return plain ? word : nlohmann::json(word).dump();
+  };
+  for (const auto& [key, value] : values) text += "  " + scalar(key) + ": " + scalar(value) + "\n";
+  return text;
 }
 
 ParamFile load_param_file(const std::filesystem::path& file) {

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "locsim/localizer.h"
@@ -35,6 +36,15 @@ struct ParamFile {
   /// The section of the plugin named `plugin`, or null.
   const ParamFileSection* section(const std::string& plugin) const;
 };
+
+/// The values the plugin named `plugin` takes from `file`: the common ones, then its section's
+/// (one replaces a common value of the same key), in file order.
+std::vector<ParamFileValue> values_for(const ParamFile& file, const std::string& plugin);
+
+/// A parameter file's text: `values` (key, text) as common values, after `comment` (lines
+/// without their "# "), so that load_param_file reads them back as given.
+std::string param_file_text(const std::vector<std::pair<std::string, std::string>>& values,
+                            const std::vector<std::string>& comment);
 
 /// Whether the plugin of `table` declares a parameter named `key`.
 bool declares(const locsim_localizer& table, const std::string& key);

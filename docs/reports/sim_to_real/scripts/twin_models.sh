@@ -2,14 +2,15 @@
 # The real logs of MRCLAM Dataset 6 against their twins with and without each modelled effect
 # (README.md, "Real against twin"). Calibrates all five robots' 900 s, writes five calibration
 # files that differ only in what the twin is given (none; the depth range model; the command
-# response; both; all: both with the gains' wander and the detections' slow part), makes
-# 5 robots x 3 seeds of twin recordings for each, and sweeps
+# response; both; all: both with the gains' wander and the detections' slow part) and one per
+# robot (own: all, from that robot's log alone), makes 5 robots x 3 seeds of twin recordings for
+# each, and sweeps
 # the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
 # twins, with the calibration's localizer parameters. Prints the table of the README.
 #
 #   MRCLAM_DIR=/path/to/MRCLAM_Dataset6 [OUT=/tmp/s2r] [LOCSIM=build/locsim] ./twin_models.sh
 #
-# About 5 minutes on the 2-core VM. Needs pandas (for the table only).
+# About 6 minutes on the 2-core VM. Needs pandas (for the table only).
 set -euo pipefail
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=mrclam_logs.sh
@@ -66,11 +67,16 @@ $localizers
 EOF
 rm -rf runs && mkdir runs
 "$LOCSIM" sweep real.yaml --jobs 2 --out runs/real > /dev/null
-for v in none depth response both all; do
+for n in 1 2 3 4 5; do
+  "$LOCSIM" calibrate ds6_r$n.locsimlog --out cal_own_r$n --overwrite -q
+done
+for v in none depth response both all own; do
   mkdir -p twin_$v
   logs=""
   for n in 1 2 3 4 5; do
-    "$LOCSIM" twin ds6_r$n.locsimlog --calibration cal_$v.yaml --out twin_$v/ds6_r$n.yaml --overwrite > /dev/null
+    calibration=cal_$v.yaml
+    [ $v = own ] && calibration=cal_own_r$n/calibration.yaml
+    "$LOCSIM" twin ds6_r$n.locsimlog --calibration $calibration --out twin_$v/ds6_r$n.yaml --overwrite > /dev/null
     for s in 1 2 3; do
       "$LOCSIM" run twin_$v/ds6_r$n.yaml --seed $s --log twin_$v/ds6_r${n}_s$s.locsimlog \
         --out twin_$v/run_r${n}_s$s --no-readings -q --overwrite
@@ -88,7 +94,7 @@ done
 import pandas as pd
 sets = [("real", "runs/real"), ("twin, none", "runs/twin_none"), ("twin, depth", "runs/twin_depth"),
         ("twin, response", "runs/twin_response"), ("twin, both", "runs/twin_both"),
-        ("twin, all", "runs/twin_all")]
+        ("twin, all", "runs/twin_all"), ("twin, own robot", "runs/twin_own")]
 filters = ["ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl"]
 real = pd.read_csv("runs/real/summary.csv").set_index("config")
 print("| set | config | position RMS [m] | x real | heading RMS [deg] | truth in 95 % ellipse | median NEES |")
