@@ -184,6 +184,15 @@ TEST(CalibrationCheck, RefusesLogsOfOneNameAndBadLocalizerNamesBeforeWriting) {
                         (dir / "cal2").string() + " --check 'Ekf Landmarks'");
   EXPECT_EQ(out.exit_code, 2) << out.output;
   EXPECT_NE(out.output.find("--check"), std::string::npos) << out.output;
+  out = testing::locsim("calibrate " + a.string() + " " + b.string() + " --out " +
+                        (dir / "cal2").string() + " --check ekf_landmarks,,mcl");
+  EXPECT_EQ(out.exit_code, 2) << out.output;
+  EXPECT_NE(out.output.find("--check: an empty name"), std::string::npos) << out.output;
+  // "all" is no plugin: refused as one, not taken for every localizer or none.
+  out = testing::locsim("calibrate " + a.string() + " " + b.string() + " --out " +
+                        (dir / "cal2").string() + " --check all");
+  EXPECT_EQ(out.exit_code, 3) << out.output;
+  EXPECT_FALSE(fs::exists(dir / "cal2"));
 }
 
 TEST(ParamFileText, ReadsBackAsWrittenAndASectionReplacesACommonValue) {
