@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,20 +29,6 @@ struct State {
   double flag_above = 0.25;
   bool overwrite = false, quiet = false;
 };
-
-/// --check's list: plugin names separated by commas, or none.
-std::vector<std::string> check_names(const std::string& list) {
-  if (list == "none") return {};
-  std::vector<std::string> names;
-  std::istringstream items(list);
-  std::string item;
-  while (std::getline(items, item, ',')) {
-    if (item.empty()) throw InputError("--check: an empty name in '" + list + "'");
-    names.push_back(item);
-  }
-  if (names.empty()) throw InputError("--check: no localizer given (name one, or none)");
-  return names;
-}
 
 /// The calibration file with the check's flags in its header, where a user of the file reads.
 std::string with_flags(const std::string& yaml, const std::vector<std::string>& flags) {
@@ -69,7 +54,8 @@ int execute(State& s) {
   }
   const std::vector<std::filesystem::path> logs(s.logs.begin(), s.logs.end());
   const bool checked = logs.size() >= 2;
-  const std::vector<std::string> localizers = check_names(s.check);
+  const std::vector<std::string> localizers =
+      s.check == "none" ? std::vector<std::string>{} : comma_names(s.check, "--check");
   // The check's folders are its own outputs: replaced whole with --overwrite, never holding an
   // input.
   for (const char* name : {"recordings", "transfer"}) {

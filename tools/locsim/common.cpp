@@ -303,17 +303,21 @@ int exit_code(const std::string& status, const std::vector<std::string>& failed_
   return kExitOk;
 }
 
-std::vector<std::string> robot_names(const std::string& list) {
+std::vector<std::string> comma_names(const std::string& list, const std::string& option) {
   std::vector<std::string> names;
-  if (list == "all") return names;
   std::istringstream items(list);
   std::string item;
   while (std::getline(items, item, ',')) {
-    if (item.empty()) throw InputError("--robots: an empty name in '" + list + "'");
+    if (item.empty()) throw InputError(option + ": an empty name in '" + list + "'");
     names.push_back(item);
   }
-  if (names.empty()) throw InputError("--robots: no robot given");
+  if (names.empty()) throw InputError(option + ": no name given");
   return names;
+}
+
+std::vector<std::string> robot_names(const std::string& list) {
+  if (list == "all") return {};
+  return comma_names(list, "--robots");
 }
 
 void exec_report(const std::vector<std::string>& arguments) {

@@ -79,6 +79,10 @@ void add_session_options(CLI::App* command, SessionCli& cli, SessionOptions& ses
 /// A finished run's (or replay's) exit code: interrupted, a localizer failed, or all well.
 int exit_code(const std::string& status, const std::vector<std::string>& failed_localizers);
 
+/// An option's comma-separated names ("a,b"); InputError naming `option` for an empty name or
+/// none at all.
+std::vector<std::string> comma_names(const std::string& list, const std::string& option);
+
 /// `--robots a,b` of replay, calibrate and twin: the names; empty for "all".
 std::vector<std::string> robot_names(const std::string& list);
 
