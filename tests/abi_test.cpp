@@ -535,8 +535,9 @@ TEST(Readings, EachBuiltInFilterSaysWhatItReads) {
     EXPECT_EQ(readings(landmarks), odometry | imu | bit(LOCSIM_READING_LANDMARKS)) << landmarks;
   }
   EXPECT_EQ(readings("amcl"), odometry | imu | bit(LOCSIM_READING_LASER));
-  EXPECT_EQ(readings("ultrasonic_ekf"),
-            bit(LOCSIM_READING_IMU) | bit(LOCSIM_READING_BEACON_RANGES));
+  // Without an IMU the ultrasonic EKF and the beacon particle filter move by the wheels.
+  EXPECT_EQ(readings("ultrasonic_ekf"), odometry | imu | bit(LOCSIM_READING_BEACON_RANGES));
+  EXPECT_EQ(readings("beacon_mcl"), odometry | imu | bit(LOCSIM_READING_BEACON_RANGES));
   EXPECT_EQ(readings("ultrasonic_amcl"), odometry | bit(LOCSIM_READING_IMU) |
                                              bit(LOCSIM_READING_BEACON_RANGES) |
                                              bit(LOCSIM_READING_LASER));

@@ -36,6 +36,7 @@ const std::map<std::string, std::string> kBuiltins = {
     {"omni_kf", "omni_kf"},
     {"ultrasonic_ekf", "ultrasonic_ekf"},
     {"ultrasonic_amcl", "ultrasonic_amcl:min_particles=50,max_particles=200"},
+    {"beacon_mcl", "beacon_mcl:particles=100"},
     {"fastslam", "fastslam:particles=5"},
     {"fastslam_afsa", "fastslam_afsa:particles=5"},
     {"pso_pf", "pso_pf:particles=5"},
@@ -45,7 +46,7 @@ const std::map<std::string, std::string> kBuiltins = {
 // out. (The SLAM filters, meant for `landmarks_known: false` worlds such as fastslam/, are created
 // on every world and run there too: they are tested everywhere.)
 const std::set<std::string> kNeedLandmarks = {"mcl", "srl", "asrl", "augmented_mcl", "omni_kf"};
-const std::set<std::string> kNeedBeacons = {"ultrasonic_ekf", "ultrasonic_amcl"};
+const std::set<std::string> kNeedBeacons = {"ultrasonic_ekf", "ultrasonic_amcl", "beacon_mcl"};
 
 struct WorldCase {
   std::string file;                 // under worlds/

@@ -85,6 +85,7 @@ class UltrasonicAmcl final : public sdk::Localizer {
       seeded_this_stop_ = false;
     }
     last_odom_ = odom;
+    ekf_.on_odometry(t_s, odometry);
     amcl_.on_odometry(t_s, odometry);
   }
 

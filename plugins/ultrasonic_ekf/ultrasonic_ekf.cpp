@@ -15,6 +15,9 @@ class UltrasonicEkfPlugin final : public sdk::Localizer {
       : ekf_(ultrasonic::ultrasonic_def(sdk::Params(init)), init) {}
 
   void on_imu(double t_s, const locsim_imu& imu) override { ekf_.on_imu(t_s, imu); }
+  void on_odometry(double t_s, const locsim_odometry& odometry) override {
+    ekf_.on_odometry(t_s, odometry);
+  }
   void on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading) override {
     ekf_.on_beacon_ranges(t_s, reading);
   }
@@ -31,5 +34,5 @@ class UltrasonicEkfPlugin final : public sdk::Localizer {
 
 LOCSIM_LOCALIZER(UltrasonicEkfPlugin, "ultrasonic_ekf",
                  "Ultrasonic beacons + IMU EKF over (x, y, vx, vy, theta) (paper 003); "
-                 "trilateration or gated raw ranges",
+                 "trilateration or gated raw ranges; by the wheels without an IMU",
                  ultrasonic::kUltrasonicParams)

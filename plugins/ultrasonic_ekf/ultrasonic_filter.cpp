@@ -27,13 +27,33 @@ UltrasonicEkfDef ultrasonic_def(const sdk::Params& params) {
   def.sigma_yaw_rad = params.number("sigma_yaw_deg") * std::numbers::pi / 180.0;
   def.sigma_velocity = params.number("sigma_velocity");
   def.sigma_range_m = params.number("sigma_range_m");
+  def.range_bias_m = params.number("range_bias_m");
+  def.range_bias_per_m = params.number("range_bias_per_m");
   def.gate_chi2 = params.number("gate_chi2");
   def.fix_gate_chi2 = params.number("fix_gate_chi2");
   def.lost_after_rounds = static_cast<int>(params.integer("lost_after_rounds"));
+  const std::string motion = params.string("motion");
+  if (motion == "auto")
+    def.motion = UltrasonicEkfDef::Motion::kAuto;
+  else if (motion == "imu")
+    def.motion = UltrasonicEkfDef::Motion::kImu;
+  else if (motion == "wheels")
+    def.motion = UltrasonicEkfDef::Motion::kWheels;
+  else
+    throw std::invalid_argument("motion must be auto, imu or wheels, not '" + motion + "'");
+  def.k_left = params.number("k_left");
+  def.k_right = params.number("k_right");
+  def.motion_floor_m = params.number("motion_floor_m");
+  def.motion_floor_rad = params.number("motion_floor_deg") * std::numbers::pi / 180.0;
   return def;
 }
 
-UltrasonicEkf::UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& init) : def_(def) {
+UltrasonicEkf::UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& init)
+    : def_(def),
+      wheel_base_m_(init.robot != nullptr ? init.robot->wheel_base_m : 0.0),
+      wheels_(wheel_base_m_) {
+  if (def_.motion != UltrasonicEkfDef::Motion::kImu && !(wheel_base_m_ > 0.0))
+    throw std::invalid_argument("motion by the wheels needs the robot's wheel base");
   if (init.map == nullptr || init.map->beacon_count < 3)
     throw std::invalid_argument("needs at least three ultrasonic beacons on the map");
   for (std::size_t i = 0; i < init.map->beacon_count; ++i) {
@@ -49,6 +69,7 @@ UltrasonicEkf::UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& ini
 }
 
 void UltrasonicEkf::on_imu(double t_s, const locsim_imu& imu) {
+  if (def_.motion == UltrasonicEkfDef::Motion::kWheels) return;
   if (last_imu_s_ && initialised_) {
     const double dt = t_s - *last_imu_s_;
     if (dt > 0.0) predict(dt);
@@ -59,6 +80,35 @@ void UltrasonicEkf::on_imu(double t_s, const locsim_imu& imu) {
   accel_ = {c * imu.accel_x_mps2 - sn * imu.accel_y_mps2,
             sn * imu.accel_x_mps2 + c * imu.accel_y_mps2};
   yaw_rate_ = imu.yaw_rate_radps;
+}
+
+void UltrasonicEkf::on_odometry(double t_s, const locsim_odometry& odometry) {
+  if (def_.motion == UltrasonicEkfDef::Motion::kImu) return;
+  const std::optional<sdk::OdometryStep> step = wheels_.update(t_s, odometry);
+  if (step && initialised_ && by_wheels()) predict_by_wheels(*step);
+}
+
+bool UltrasonicEkf::by_wheels() const {
+  return def_.motion == UltrasonicEkfDef::Motion::kWheels ||
+         (def_.motion == UltrasonicEkfDef::Motion::kAuto && !last_imu_s_);
+}
+
+void UltrasonicEkf::predict_by_wheels(const sdk::OdometryStep& step) {
+  constexpr int kPose[3] = {0, 1, 4};
+  Eigen::Matrix3d f_pose;
+  Eigen::Matrix<double, 3, 2> g_pose;
+  const sdk::Pose moved = sdk::diff_drive_motion(pose(), step.d_left_m, step.d_right_m,
+                                                 wheel_base_m_, &f_pose, &g_pose);
+  Covariance f = Covariance::Identity();
+  Eigen::Matrix<double, 5, 2> g = Eigen::Matrix<double, 5, 2>::Zero();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) f(kPose[i], kPose[j]) = f_pose(i, j);
+    g.row(kPose[i]) = g_pose.row(i);
+  }
+  const Eigen::Vector2d noise(sq(def_.k_left) * std::abs(step.d_left_m),
+                              sq(def_.k_right) * std::abs(step.d_right_m));
+  state_(0) = moved(0), state_(1) = moved(1), state_(4) = moved(2);
+  covariance_ = f * covariance_ * f.transpose() + g * noise.asDiagonal() * g.transpose();
 }
 
 void UltrasonicEkf::predict(double dt) {
@@ -76,10 +126,17 @@ void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& rea
     const auto beacon = beacons_.find(r.beacon_id);
     if (!std::isfinite(r.range_m) || beacon == beacons_.end()) continue;
     ranges.push_back({Eigen::Vector2d(r.receiver_x, r.receiver_y), r.receiver, &beacon->second,
-                      beacon->second.height_m - r.receiver_height_m, r.range_m});
+                      beacon->second.height_m - r.receiver_height_m,
+                      def_.corrected_range_m(r.range_m)});
   }
   round_ranges_ = static_cast<int>(ranges.size());
   round_accepted_ = 0;
+  // The floor is measured per round (between perception steps), as it is added here.
+  if (initialised_ && by_wheels() && (def_.motion_floor_m > 0.0 || def_.motion_floor_rad > 0.0)) {
+    covariance_(0, 0) += sq(def_.motion_floor_m);
+    covariance_(1, 1) += sq(def_.motion_floor_m);
+    covariance_(4, 4) += sq(def_.motion_floor_rad);
+  }
   if (def_.mode == UltrasonicEkfDef::Mode::kTrilateration) {
     update_trilateration(t_s, ranges);
   } else if (!initialised_) {
@@ -90,7 +147,7 @@ void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& rea
 }
 
 int UltrasonicEkf::explained(const sdk::Pose& pose, const std::vector<Range>& ranges) const {
-  const double tolerance = std::sqrt(def_.gate_chi2) * def_.sigma_range_m;
+  const double tolerance = std::sqrt(def_.gate_chi2) * def_.corrected_sigma_m();
   int inliers = 0;
   for (const Range& r : ranges) {
     const double predicted =
@@ -124,7 +181,7 @@ bool UltrasonicEkf::restart(const std::vector<Range>& ranges) {
 
 std::optional<std::pair<sdk::Pose, int>> UltrasonicEkf::echo_robust_fix(
     const std::vector<Range>& ranges) const {
-  const double tolerance = std::sqrt(def_.gate_chi2) * def_.sigma_range_m;
+  const double tolerance = std::sqrt(def_.gate_chi2) * def_.corrected_sigma_m();
   struct Found {
     Eigen::Vector2d world, in_robot;
     int inliers;
@@ -268,7 +325,7 @@ void UltrasonicEkf::update_trilateration(double t_s, const std::vector<Range>& r
 void UltrasonicEkf::update_ranges(const std::vector<Range>& ranges) {
   // Each range gated alone against the prediction, then the accepted ones in one update.
   const sdk::Pose prior = pose();
-  const double r = sq(def_.sigma_range_m);
+  const double r = sq(def_.corrected_sigma_m());
   std::vector<Eigen::Matrix<double, 1, 5>> rows;
   std::vector<double> innovations;
   for (const Range& range : ranges) {

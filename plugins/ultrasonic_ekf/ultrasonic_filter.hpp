@@ -1,6 +1,8 @@
 // Paper 003's ultrasonic + IMU EKF over s = (x, y, vx, vy, theta), shared by the ultrasonic_ekf
 // plugin and the ultrasonic_amcl fusion. It predicts with the IMU (body-frame acceleration, yaw
-// rate; sdk::imu_motion) and updates on each ultrasonic round in one of two ways:
+// rate; sdk::imu_motion), or, on a robot without one (a lawnmower ranging to UWB anchors), by the
+// wheels' odometry (sdk::diff_drive_motion with paper 002's wheel noise), and updates on each
+// ultrasonic round in one of two ways:
 //  - trilateration (the paper): every receiver's position from the beacons (least squares with
 //    more than three), the pose from the two receivers, velocities by finite difference; the EKF
 //    observes (x, y, theta, vx, vy). No gate: a range lengthened by a person in the beam moves
@@ -30,15 +32,30 @@ namespace sdk = locsim::sdk;
 struct UltrasonicEkfDef {
   enum class Mode { kTrilateration, kRanges };
   Mode mode = Mode::kRanges;
+  // What predicts: the IMU, the wheels, or the wheels until the first IMU reading (a robot
+  // without an IMU never gives one).
+  enum class Motion { kAuto, kImu, kWheels };
+  Motion motion = Motion::kAuto;
+  double k_left = 0.0013, k_right = 0.0012;  // wheel noise, motion by the wheels [m^1/2]
+  // Motion by the wheels: noise of every round whatever the motion (locsim calibrate's floor).
+  double motion_floor_m = 0.0, motion_floor_rad = 0.0;
   double sigma_accel = 0.3;        // process noise of the forward acceleration [m/s^2]
   double sigma_gyro = 0.02;        // process noise of the yaw rate [rad/s]
   double sigma_position_m = 0.05;  // trilaterated position [m]
   double sigma_yaw_rad = 0.26;     // yaw from the two receivers [rad]
   double sigma_velocity = 1.0;     // finite-difference velocity [m/s]
   double sigma_range_m = 0.03;     // one slant range (ranges mode) [m]
-  double gate_chi2 = 9.0;          // squared Mahalanobis distance accepted per range [-]
-  double fix_gate_chi2 = 0.0;      // trilateration: the same for a fix's (x, y); 0: no gate [-]
-  int lost_after_rounds = 10;      // rounds with most ranges gated out before a restart [-]
+  // The ranging system's systematic error, taken out of each range as it comes:
+  // d = (range - range_bias_m) / (1 + range_bias_per_m).
+  double range_bias_m = 0.0, range_bias_per_m = 0.0;
+  double corrected_range_m(double range_m) const {
+    return (range_m - range_bias_m) / (1.0 + range_bias_per_m);
+  }
+  /// sigma_range_m of a corrected range.
+  double corrected_sigma_m() const { return sigma_range_m / (1.0 + range_bias_per_m); }
+  double gate_chi2 = 9.0;      // squared Mahalanobis distance accepted per range [-]
+  double fix_gate_chi2 = 0.0;  // trilateration: the same for a fix's (x, y); 0: no gate [-]
+  int lost_after_rounds = 10;  // rounds with most ranges gated out before a restart [-]
 };
 
 /// The parameters both plugins declare, and the definition read back from them.
@@ -64,7 +81,22 @@ inline constexpr locsim_param_decl kUltrasonicParams[] = {
      "dropped (lost_after_rounds refused in a row: restart); 0: no gate, as the paper [-]"},
     {"lost_after_rounds", LOCSIM_PARAM_INT, 10, 1, 100000, nullptr,
      "rounds in a row with most ranges (or the fix) gated out before restarting from "
-     "trilateration [-]"}};
+     "trilateration [-]"},
+    {"range_bias_m", LOCSIM_PARAM_DOUBLE, 0.0, -100.0, 100.0, nullptr,
+     "added to every range by the ranging system (an antenna's delay; locsim calibrate), taken "
+     "out of each range [m]"},
+    {"range_bias_per_m", LOCSIM_PARAM_DOUBLE, 0.0, -0.9, 10.0, nullptr,
+     "added per metre of distance (a scale error; locsim calibrate), taken out likewise [m/m]"},
+    {"motion", LOCSIM_PARAM_STRING, 0, 0, 0, "auto",
+     "what predicts the motion: imu (paper 003), wheels (the odometry, with k_left and k_right), "
+     "or auto: the wheels until the first IMU reading, the IMU from then on (a robot without an "
+     "IMU moves by its wheels)"},
+    LOCSIM_WHEEL_NOISE_PARAMS,
+    {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,
+     "motion by the wheels: position noise added at every round of ranges whatever the motion, "
+     "per axis (locsim calibrate) [m]"},
+    {"motion_floor_deg", LOCSIM_PARAM_DOUBLE, 0.0, 0, 180, nullptr,
+     "motion by the wheels: heading noise added likewise (locsim calibrate) [deg]"}};
 
 UltrasonicEkfDef ultrasonic_def(const sdk::Params& params);
 
@@ -75,6 +107,8 @@ class UltrasonicEkf {
   UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& init);
 
   void on_imu(double t_s, const locsim_imu& imu);
+  /// Predicts by the wheels' travel since the last reading when the motion is the wheels'.
+  void on_odometry(double t_s, const locsim_odometry& odometry);
   void on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading);
 
   /// Another estimate of (x, y, theta) with its covariance (the fusion's AMCL pose), gated like
@@ -105,6 +139,11 @@ class UltrasonicEkf {
   };
 
   void predict(double dt);
+  /// The pose part (x, y, theta) moved by one odometry step with paper 002's wheel noise: the
+  /// EKF's F and G on those components (sdk::diff_drive_motion), the velocities left as they are.
+  void predict_by_wheels(const sdk::OdometryStep& step);
+  /// Whether the wheels move the estimate now (motion wheels, or auto before any IMU reading).
+  bool by_wheels() const;
   std::optional<sdk::Pose> trilaterate_pose(const std::vector<Range>& ranges) const;
   void update_trilateration(double t_s, const std::vector<Range>& ranges);
   void update_ranges(const std::vector<Range>& ranges);
@@ -130,6 +169,8 @@ class UltrasonicEkf {
   Covariance covariance_ = Covariance::Identity() * 100.0;
   bool initialised_ = false;
   std::optional<double> last_imu_s_;
+  double wheel_base_m_;
+  sdk::OdometryTracker wheels_;
   Eigen::Vector2d accel_ = Eigen::Vector2d::Zero();  // body frame (forward, left) [m/s^2]
   double yaw_rate_ = 0.0;
   std::optional<sdk::Pose> last_fix_;

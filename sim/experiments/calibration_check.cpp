@@ -198,8 +198,8 @@ std::vector<std::pair<std::string, std::string>> values_taken(
   return out;
 }
 
-std::string group_of(const std::string& key) {
-  const std::string_view group = parameter_group(key);
+std::string group_of(const std::string& key, const std::string& plugin) {
+  const std::string_view group = parameter_group(key, plugin);
   return group.empty() ? key : std::string(group);
 }
 
@@ -311,7 +311,7 @@ CalibrationCheck check_calibration(const CalibrationCheckOptions& options,
       ParameterSpread p;
       p.plugin = plugin;
       p.key = key;
-      p.group = std::string(parameter_group(key));
+      p.group = std::string(parameter_group(key, plugin));
       p.pooled = value_in(pooled, plugin, key);
       bool any = false;
       double largest = 0.0;
@@ -428,7 +428,7 @@ CalibrationCheck check_calibration(const CalibrationCheckOptions& options,
       };
       for (const auto* values : {&own, &other}) {
         for (const auto& [key, text] : *values) {
-          const std::string group = group_of(key);
+          const std::string group = group_of(key, cell.localizer);
           if (differs(key) && std::find(groups.begin(), groups.end(), group) == groups.end())
             groups.push_back(group);
         }
@@ -436,10 +436,10 @@ CalibrationCheck check_calibration(const CalibrationCheckOptions& options,
       for (const std::string& group : groups) {
         std::vector<std::pair<std::string, std::string>> mixed;
         for (const auto& kv : own) {
-          if (group_of(kv.first) != group) mixed.push_back(kv);
+          if (group_of(kv.first, cell.localizer) != group) mixed.push_back(kv);
         }
         for (const auto& kv : other) {
-          if (group_of(kv.first) == group) mixed.push_back(kv);
+          if (group_of(kv.first, cell.localizer) == group) mixed.push_back(kv);
         }
         const std::string label = label_of(cell.localizer, cell.from) + "." + slug(group);
         const fs::path file = dir / "params" / (label + ".yaml");

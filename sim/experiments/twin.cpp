@@ -116,6 +116,37 @@ std::optional<CommandResponseDef> read_calibration_robot(const fs::path& file) {
   return parse_command_response(*response);
 }
 
+/// Headroom over the path's demand on the motors: the trajectory drive's feedback needs some.
+constexpr double kDriveMargin = 1.5;
+
+/// The path's demand on a differential drive's wheels: the 99.5th percentile of |v| + |omega| b / 2
+/// over the wheel radius between samples, and of its change per second (a percentile: a truth
+/// sample off by a glitch would otherwise set the limit). [rad/s], [rad/s^2]
+std::pair<double, double> wheel_demand(const std::vector<StampedPose>& path, double wheel_base_m,
+                                       double wheel_radius_m) {
+  std::vector<double> speed, accel;
+  double last_speed = 0.0, last_t = 0.0;
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    const double dt = path[k].t_s - path[k - 1].t_s;
+    if (!(dt > 0.0)) continue;
+    const double v = (path[k].pose.position() - path[k - 1].pose.position()).norm() / dt;
+    const double omega = std::abs(wrap_angle(path[k].pose.theta - path[k - 1].pose.theta)) / dt;
+    const double wheel = (v + 0.5 * wheel_base_m * omega) / wheel_radius_m;
+    const double t = 0.5 * (path[k].t_s + path[k - 1].t_s);
+    if (!speed.empty() && t > last_t) accel.push_back(std::abs(wheel - last_speed) / (t - last_t));
+    speed.push_back(wheel);
+    last_speed = wheel, last_t = t;
+  }
+  const auto percentile = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    const auto at =
+        v.begin() + static_cast<std::ptrdiff_t>(0.995 * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), at, v.end());
+    return *at;
+  };
+  return {percentile(std::move(speed)), percentile(std::move(accel))};
+}
+
 }  // namespace
 
 Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
@@ -216,6 +247,11 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
         ++in_view_samples;
       }
     }
+    const auto [speed, accel] = wheel_demand(out.path, robot.wheel_base_m, robot.wheel_radius_m);
+    if (kDriveMargin * speed > robot.max_wheel_speed_radps)
+      out.max_wheel_speed_radps = kDriveMargin * speed;
+    if (kDriveMargin * accel > robot.max_wheel_accel_radps2)
+      out.max_wheel_accel_radps2 = kDriveMargin * accel;
     twin.robots.push_back(std::move(out));
   }
 
@@ -285,6 +321,15 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     pose["y"] = seven_digits(start.y);
     pose["theta"] = seven_digits(start.theta);
     robot["start"] = pose;
+    if (t.max_wheel_speed_radps)
+      robot["max_wheel_speed_radps"] = seven_digits(*t.max_wheel_speed_radps);
+    if (t.max_wheel_accel_radps2) {
+      // The torque in proportion, so that the motor can give the acceleration.
+      robot["max_wheel_accel_radps2"] = seven_digits(*t.max_wheel_accel_radps2);
+      robot["max_wheel_torque_nm"] =
+          seven_digits(world.robots[i].max_wheel_torque_nm * *t.max_wheel_accel_radps2 /
+                       world.robots[i].max_wheel_accel_radps2);
+    }
     if (response) {
       YAML::Node r(YAML::NodeType::Map);
       r.SetStyle(YAML::EmitterStyle::Flow);

@@ -54,6 +54,10 @@ struct TwinRobot {
   std::vector<StampedPose> path;     // the true path, thinned to the pose rate
   double from_s = 0.0, to_s = 0.0;
   double path_length_m = 0.0;
+  // The motor limits the path needs (its wheels' speeds and accelerations with a margin), where
+  // they are beyond the world's: a twin that cannot drive as fast as the recording falls behind
+  // and whips round to catch up, and its odometry with it.
+  std::optional<double> max_wheel_speed_radps, max_wheel_accel_radps2;
 };
 
 struct Twin {

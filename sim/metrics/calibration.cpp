@@ -199,9 +199,25 @@ struct CameraData {
   double max_abs_bearing_rad = 0.0;
 };
 
+/// One range to a beacon against the true slant range from its receiver.
+struct RangeSample {
+  double true_m, error_m;  // measured - true [m]
+  int beacon;
+  double t_s;
+  std::size_t track;
+  bool inlier = true;
+};
+
+struct RangingData {
+  std::vector<RangeSample> samples;
+  std::size_t readings = 0, receiver_readings = 0;
+  std::set<int> beacons;  // on the maps
+};
+
 struct Pooled {
   std::vector<MotionSample> motion;
   std::map<SensorKind, CameraData> cameras;
+  RangingData ranging;
   std::size_t tracks = 0;  // robots collected so far
 };
 
@@ -215,6 +231,11 @@ struct RobotLog {
     std::vector<Detection> detections;
   };
   std::vector<Seen> seen;
+  struct Round {
+    double t_s;
+    std::vector<BeaconRange> ranges;
+  };
+  std::vector<Round> rounds;  // ranges to beacons
   std::vector<double> steps;  // times of the perception steps (perception_steps)
 };
 
@@ -246,12 +267,22 @@ bool counts_as_step(const RobotLog::Seen& seen, const WorldDef& world) {
 }
 
 /// The times of the readings with a detection of a landmark on the map (a landmark particle
-/// filter's steps), increasing.
+/// filter's steps), increasing; without any, those of the readings with a range to a beacon on
+/// the map (range-only data: a beacon filter's steps).
 std::vector<double> perception_steps(const RobotLog& robot, const WorldDef& world) {
   std::vector<double> steps;
   for (const RobotLog::Seen& seen : robot.seen) {
     if (counts_as_step(seen, world) && (steps.empty() || seen.t_s > steps.back()))
       steps.push_back(seen.t_s);
+  }
+  if (!steps.empty()) return steps;
+  for (const RobotLog::Round& round : robot.rounds) {
+    const bool ranged = std::any_of(round.ranges.begin(), round.ranges.end(), [&](const auto& r) {
+      return std::isfinite(r.range_m) &&
+             std::any_of(world.beacons.begin(), world.beacons.end(),
+                         [&](const BeaconDef& b) { return b.id == r.beacon_id; });
+    });
+    if (ranged && (steps.empty() || round.t_s > steps.back())) steps.push_back(round.t_s);
   }
   return steps;
 }
@@ -385,6 +416,38 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
           landmarks_in_view(world, walls, *fov_sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)});
       camera.visibility.push_back(std::move(visibility));
     }
+  }
+}
+
+/// Each finite range to a beacon on the map, at a time with a true pose, against the true slant
+/// range from its receiver (the true pose, the receiver's mount and height, the beacon's height).
+void collect_ranges(const RobotLog& robot, const WorldDef& world, std::size_t track,
+                    RangingData& data) {
+  const std::optional<UltrasonicDef>& sensor = robot.def.sensors.ultrasonic;
+  if (!sensor) return;
+  for (const BeaconDef& b : world.beacons) data.beacons.insert(b.id);
+  for (const RobotLog::Round& round : robot.rounds) {
+    const auto pose = robot.truth.at(round.t_s);
+    if (!pose) continue;
+    ++data.readings;
+    std::set<int> receivers;
+    for (const BeaconRange& r : round.ranges) {
+      const auto beacon = std::find_if(world.beacons.begin(), world.beacons.end(),
+                                       [&](const BeaconDef& b) { return b.id == r.beacon_id; });
+      if (!std::isfinite(r.range_m) || beacon == world.beacons.end() || r.receiver < 0 ||
+          static_cast<std::size_t>(r.receiver) >= sensor->receivers.size())
+        continue;
+      const UltrasonicDef::Receiver& receiver =
+          sensor->receivers[static_cast<std::size_t>(r.receiver)];
+      const sdk::BeaconRangeModel model = sdk::beacon_range(
+          *pose, Eigen::Vector2d(receiver.position_m.x(), receiver.position_m.y()),
+          Eigen::Vector2d(beacon->position_m.x(), beacon->position_m.y()),
+          beacon->height_m - receiver.height_m);
+      data.samples.push_back(
+          {model.range_m, r.range_m - model.range_m, r.beacon_id, round.t_s, track});
+      receivers.insert(r.receiver);
+    }
+    data.receiver_readings += receivers.size();
   }
 }
 
@@ -522,17 +585,56 @@ void outlier_likelihood(const CameraData& data, DetectionCalibration& c) {
   c.outlier_likelihood = std::min(eps / (1.0 - eps) * uniform / peak, 1.0);
 }
 
+/// Consecutive errors of one target farther apart than this are unrelated at any time constant the
+/// scans can find. [s]
+constexpr double kMaxCorrelationGapS = 60.0;
+
+/// Two standardised errors of one target a time dt apart: range (r) and bearing (b; 0 for a
+/// sensor without one).
+struct ErrorPair {
+  double dt_s, r1, r2, b1, b2;
+};
+
+/// The time constant tau over which `pairs` decorrelate (jointly normal per channel with
+/// correlation exp(-dt / tau); `channels` 2 for range and bearing, 1 for a range alone), by
+/// maximum likelihood on a logarithmic grid 1 ms .. 1000 s (one parameter; the likelihood is
+/// cheap). 0 (independent errors) unless the correlation explains the pairs significantly better
+/// (likelihood ratio, chi-square with one degree of freedom at 95 %: 3.84 / 2 nats). With it, the
+/// negative log-likelihood of the best tau (of independent errors when none beats them).
+struct TimeConstantFit {
+  double tau_s = 0.0;
+  double nll = 0.0;
+};
+TimeConstantFit single_time_constant(const std::vector<ErrorPair>& pairs, int channels) {
+  const auto nll = [&](double tau_s) {
+    double sum = 0.0;
+    for (const ErrorPair& p : pairs) {
+      const double rho = std::exp(-p.dt_s / tau_s);
+      const double v = std::max(1.0 - rho * rho, 1e-12);
+      sum += 0.5 * channels * std::log(v) + ((p.r2 - rho * p.r1) * (p.r2 - rho * p.r1) +
+                                             (p.b2 - rho * p.b1) * (p.b2 - rho * p.b1)) /
+                                                (2.0 * v);
+    }
+    return sum;
+  };
+  double independent = 0.0;
+  for (const ErrorPair& p : pairs) independent += 0.5 * (p.r2 * p.r2 + p.b2 * p.b2);
+  double best_tau = 0.0, best = independent;
+  for (int k = 0; k <= 300; ++k) {
+    const double tau_s = std::pow(10.0, -3.0 + 6.0 * k / 300.0);
+    const double value = nll(tau_s);
+    if (value < best) best = value, best_tau = tau_s;
+  }
+  return {independent - best > 1.92 ? best_tau : 0.0, best};
+}
+
 /// The time constant tau of each target's noise, as the simulated sensor's noise_correlation_s
 /// models it (a Gauss-Markov process per target): by maximum likelihood over consecutive inlier
 /// detections of the same landmark by the same robot, their standardised range and bearing errors
 /// z1, z2 a time dt apart being jointly normal with correlation exp(-dt / tau). Scanned on a
 /// logarithmic grid (one parameter; the likelihood is cheap).
 void noise_correlation(const CameraData& data, DetectionCalibration& c) {
-  constexpr double kMaxGapS = 60.0;  // farther apart: unrelated at any tau the scan can find
-  struct Pair {
-    double dt_s, r1, r2, b1, b2;
-  };
-  std::vector<Pair> pairs;
+  std::vector<ErrorPair> pairs;
   std::map<std::pair<std::size_t, std::size_t>, std::size_t> last;  // (track, landmark) -> index
   const double sigma_b = std::max(c.bearing_spread_rad, 1e-9);
   // About the chosen range model, whose noise the sensor's process carries: about the other, the
@@ -551,7 +653,7 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
     if (const auto found = last.find(key); found != last.end()) {
       const Residual& p = data.residuals[found->second];
       const double dt = x.t_s - p.t_s;
-      if (dt > 0.0 && dt <= kMaxGapS) {
+      if (dt > 0.0 && dt <= kMaxCorrelationGapS) {
         pairs.push_back({dt, z_range(p), z_range(x),
                          (p.bearing_error_rad - c.bearing_bias_rad) / sigma_b,
                          (x.bearing_error_rad - c.bearing_bias_rad) / sigma_b});
@@ -560,29 +662,9 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
     last[key] = i;
   }
   if (pairs.size() < 20) return;
-  const auto nll = [&](double tau_s) {
-    double sum = 0.0;
-    for (const Pair& p : pairs) {
-      const double rho = std::exp(-p.dt_s / tau_s);
-      const double v = std::max(1.0 - rho * rho, 1e-12);
-      sum += std::log(v) + ((p.r2 - rho * p.r1) * (p.r2 - rho * p.r1) +
-                            (p.b2 - rho * p.b1) * (p.b2 - rho * p.b1)) /
-                               (2.0 * v);
-    }
-    return sum;
-  };
-  // The grid 1 ms .. 1000 s against independent errors (tau -> 0), which stay unless the
-  // correlation explains the pairs significantly better (likelihood ratio, chi-square with one
-  // degree of freedom at 95 %: 3.84 / 2 nats).
-  double independent = 0.0;
-  for (const Pair& p : pairs) independent += 0.5 * (p.r2 * p.r2 + p.b2 * p.b2);
-  double best_tau = 0.0, best = independent;
-  for (int k = 0; k <= 300; ++k) {
-    const double tau_s = std::pow(10.0, -3.0 + 6.0 * k / 300.0);
-    const double value = nll(tau_s);
-    if (value < best) best = value, best_tau = tau_s;
-  }
-  c.noise_correlation_s = independent - best > 1.92 ? best_tau : 0.0;
+  const TimeConstantFit single = single_time_constant(pairs, 2);
+  const double best = single.nll;
+  c.noise_correlation_s = single.tau_s;
   c.noise_correlation_pairs = pairs.size();
   if (*c.noise_correlation_s == 0.0) return;
 
@@ -607,7 +689,7 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
         const double w = 0.05 * step;
         double sum = 0.0;
         for (std::size_t i = 0; i < pairs.size(); ++i) {
-          const Pair& p = pairs[i];
+          const ErrorPair& p = pairs[i];
           const double rho = w * decay[l][i] + (1.0 - w) * decay[f][i];
           const double v = std::max(1.0 - rho * rho, 1e-12);
           sum += std::log(v) + ((p.r2 - rho * p.r1) * (p.r2 - rho * p.r1) +
@@ -1457,6 +1539,128 @@ std::string four_digits(double value) {
   return rounded_number(value, 4);
 }
 
+/// The ranges' bias line and spread, as the detections' (fit_camera): outliers against the median
+/// and MAD of each bin of true range (the bias grows with range), then the least-squares line
+/// through the inliers and their standard deviation about it; the long outliers' excess (echoes)
+/// for the simulated sensor's non-line-of-sight path; each beacon's mean residual about the line;
+/// the errors' time constant over consecutive ranges to a beacon.
+RangingCalibration fit_ranging(RangingData& data, const CalibrationOptions& options) {
+  RangingCalibration c;
+  std::vector<RangeSample>& r = data.samples;
+  c.readings = data.readings;
+  c.ranges = r.size();
+  c.beacons = data.beacons.size();
+  c.ranges_per_reading =
+      data.receiver_readings > 0
+          ? static_cast<double>(r.size()) / static_cast<double>(data.receiver_readings)
+          : 0.0;
+  std::vector<std::size_t> order(r.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return r[a].true_m < r[b].true_m; });
+  std::vector<double> bin_median(r.size());
+  for (const auto& [begin, end] : equal_bins(order.size(), options.range_bins)) {
+    std::vector<double> e;
+    for (std::size_t i = begin; i < end; ++i) e.push_back(r[order[i]].error_m);
+    const double m = median(e);
+    for (double& v : e) v = std::abs(v - m);
+    const double sigma = std::max(1.4826 * median(e), 1e-9);
+    for (std::size_t i = begin; i < end; ++i) {
+      RangeSample& x = r[order[i]];
+      x.inlier = std::abs(x.error_m - m) <= options.outlier_sigmas * sigma;
+      bin_median[order[i]] = m;
+    }
+  }
+  std::vector<double> x, y;
+  for (const std::size_t i : order) {
+    if (r[i].inlier) x.push_back(r[i].true_m), y.push_back(r[i].error_m);
+  }
+  c.inliers = x.size();
+  if (x.empty()) return c;
+  c.bias_m = fit_line(x, y);
+  double about_line = 0.0, about_zero = 0.0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    about_line += std::pow(y[k] - c.bias_m.at(x[k]), 2);
+    about_zero += y[k] * y[k];
+  }
+  const double n = static_cast<double>(x.size());
+  c.spread_m = std::sqrt(about_line / std::max(1.0, n - 2.0));
+  c.rms_m = std::sqrt(about_zero / n);
+  std::vector<double> excess;
+  for (const RangeSample& s : r) {
+    if (s.inlier) continue;
+    const double beyond = s.error_m - c.bias_m.at(s.true_m);
+    if (beyond > 0.0) {
+      ++c.long_outliers;
+      excess.push_back(beyond);
+    } else {
+      ++c.short_outliers;
+    }
+  }
+  c.outlier_share = static_cast<double>(r.size() - c.inliers) / static_cast<double>(r.size());
+  if (excess.size() >= 5) {
+    c.excess_min_m = *std::min_element(excess.begin(), excess.end());
+    c.excess_mean_m =
+        std::accumulate(excess.begin(), excess.end(), 0.0) / static_cast<double>(excess.size());
+  }
+  std::map<int, RangingCalibration::Beacon> beacons;
+  std::map<int, double> sum2;
+  for (const RangeSample& s : r) {
+    if (!s.inlier) continue;
+    RangingCalibration::Beacon& b = beacons[s.beacon];
+    b.id = s.beacon;
+    const double e = s.error_m - c.bias_m.at(s.true_m);
+    ++b.inliers;
+    b.mean_residual_m += e;
+    sum2[s.beacon] += e * e;
+  }
+  for (auto& [id, b] : beacons) {
+    const double count = static_cast<double>(b.inliers);
+    b.mean_residual_m /= count;
+    b.spread_m = std::sqrt(std::max(0.0, sum2[id] / count - b.mean_residual_m * b.mean_residual_m));
+    c.by_beacon.push_back(b);
+  }
+  std::vector<std::size_t> kept;
+  for (const std::size_t i : order)
+    if (r[i].inlier) kept.push_back(i);
+  for (const auto& [begin, end] : equal_bins(kept.size(), options.range_bins)) {
+    RangingCalibration::Bin bin;
+    bin.count = end - begin;
+    double s = 0.0, e = 0.0, ee = 0.0;
+    for (std::size_t k = begin; k < end; ++k) {
+      const RangeSample& v = r[kept[k]];
+      const double about = v.error_m - c.bias_m.at(v.true_m);
+      s += v.true_m, e += about, ee += about * about;
+    }
+    const double count = static_cast<double>(bin.count);
+    bin.range_m = s / count;
+    bin.mean_residual_m = e / count;
+    bin.spread_m = std::sqrt(std::max(0.0, ee / count - bin.mean_residual_m * bin.mean_residual_m));
+    c.bins.push_back(bin);
+  }
+  // The samples are in the logs' order, each robot's in time.
+  std::vector<ErrorPair> pairs;
+  std::map<std::pair<std::size_t, int>, std::size_t> last;  // (track, beacon) -> index
+  const auto z = [&](const RangeSample& s) {
+    return (s.error_m - c.bias_m.at(s.true_m)) / std::max(c.spread_m, 1e-9);
+  };
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (!r[i].inlier) continue;
+    const auto key = std::pair{r[i].track, r[i].beacon};
+    if (const auto found = last.find(key); found != last.end()) {
+      const RangeSample& p = r[found->second];
+      const double dt = r[i].t_s - p.t_s;
+      if (dt > 0.0 && dt <= kMaxCorrelationGapS) pairs.push_back({dt, z(p), z(r[i]), 0.0, 0.0});
+    }
+    last[key] = i;
+  }
+  if (pairs.size() >= 20) {
+    c.noise_correlation_s = single_time_constant(pairs, 1).tau_s;
+    c.noise_correlation_pairs = pairs.size();
+  }
+  return c;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -1501,6 +1705,9 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
             const locsim_reading& translated =
                 translators[static_cast<std::size_t>(index)]->translate(record.reading);
             robot.odometry.emplace_back(record.reading.t_s, translated.data.odometry);
+          } else if (record.reading.kind == SensorKind::kUltrasonic) {
+            robot.rounds.push_back(
+                {record.reading.t_s, std::get<UltrasonicReading>(record.reading.data).ranges});
           } else if (const auto* detections = detections_of(record.reading.data)) {
             robot.seen.push_back({record.reading.t_s, record.reading.kind, *detections});
           }
@@ -1522,6 +1729,7 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
       }
       robot.steps = perception_steps(robot, world);
       collect_motion(robot, robot.odometry, TruthView{robot.truth}, pooled.motion);
+      collect_ranges(robot, world, pooled.tracks, pooled.ranging);
       collect_detections(robot, world, walls, pooled);
       used_robots.push_back(std::move(robot));
     }
@@ -1540,10 +1748,12 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   for (auto& [kind, data] : pooled.cameras) {
     if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
   }
-  if (!out.motion && out.cameras.empty()) {
+  if (pooled.ranging.samples.size() >= 10) out.ranging = fit_ranging(pooled.ranging, options);
+  if (!out.motion && out.cameras.empty() && !out.ranging) {
     throw InputError(
         "calibrate: nothing to measure: fewer than 10 odometry intervals between detections of "
-        "landmarks on the map, and fewer than 10 such detections with a true pose");
+        "landmarks on the map (or ranges to beacons), and fewer than 10 such detections or "
+        "ranges with a true pose");
   }
   return out;
 }
@@ -1677,10 +1887,49 @@ json Calibration::to_json() const {
     }
     j["cameras"].push_back(cj);
   }
+  if (ranging) {
+    const RangingCalibration& r = *ranging;
+    json rj = {{"readings", r.readings},
+               {"ranges", r.ranges},
+               {"beacons", r.beacons},
+               {"ranges_per_reading", r.ranges_per_reading},
+               {"inliers", r.inliers},
+               {"long_outliers", r.long_outliers},
+               {"short_outliers", r.short_outliers},
+               {"outlier_share", r.outlier_share},
+               {"range_bias", line_json(r.bias_m, "m", "per_m")},
+               {"spread_m", r.spread_m},
+               {"rms_m", r.rms_m}};
+    if (r.excess_min_m)
+      rj["outlier_excess"] = {{"min_m", *r.excess_min_m}, {"mean_m", *r.excess_mean_m}};
+    if (r.noise_correlation_s) {
+      rj["noise_correlation"] = {{"tau_s", *r.noise_correlation_s},
+                                 {"pairs", r.noise_correlation_pairs}};
+    }
+    rj["by_beacon"] = json::array();
+    for (const auto& b : r.by_beacon) {
+      rj["by_beacon"].push_back({{"id", b.id},
+                                 {"inliers", b.inliers},
+                                 {"mean_residual_m", b.mean_residual_m},
+                                 {"spread_m", b.spread_m}});
+    }
+    rj["bins"] = json::array();
+    for (const auto& b : r.bins) {
+      rj["bins"].push_back({{"count", b.count},
+                            {"range_m", b.range_m},
+                            {"mean_residual_m", b.mean_residual_m},
+                            {"spread_m", b.spread_m}});
+    }
+    j["ranging"] = rj;
+  }
   return j;
 }
 
-std::string_view parameter_group(std::string_view key) {
+std::string_view parameter_group(std::string_view key, std::string_view plugin) {
+  if (std::find(kBeaconFilters.begin(), kBeaconFilters.end(), plugin) != kBeaconFilters.end()) {
+    if (key == "range_bias_m" || key == "range_bias_per_m") return "ranging bias";
+    if (key == "sigma_range_m") return "ranging spread";
+  }
   static constexpr std::array<std::pair<std::string_view, std::string_view>, 37> kGroupOf{{
       {"command_dead_time_s", "command response"},
       {"command_time_constant_v_s", "command response"},
@@ -1872,6 +2121,18 @@ std::string Calibration::to_yaml() const {
     }
     y += "}\n";
   }
+  if (ranging) {
+    // In the beacon filters' own sections: the landmark filters' keys of the same names are the
+    // camera's.
+    const RangingCalibration& r = *ranging;
+    y += "  # ranges to beacons: the bias line taken out of each range, the spread about it\n";
+    for (const std::string_view plugin : kBeaconFilters) {
+      y += "  " + std::string(plugin) +
+           ": {sigma_range_m: " + four_digits(std::max(r.spread_m, 1e-6)) +
+           ", range_bias_m: " + four_digits(r.bias_m.at_zero) +
+           ", range_bias_per_m: " + four_digits(r.bias_m.per_unit) + "}\n";
+    }
+  }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
   if (command != nullptr) {
     // The simulated base reports its command, which the robot follows through the response
@@ -1905,6 +2166,22 @@ std::string Calibration::to_yaml() const {
     } else if (c.noise_correlation_s) {
       y += "    noise_correlation_s: " + four_digits(*c.noise_correlation_s) + "\n";
     }
+  }
+  if (ranging) {
+    const RangingCalibration& r = *ranging;
+    y += "  ultrasonic:\n    sigma_m: " + four_digits(r.spread_m) +
+         "\n    range_bias_m: " + four_digits(r.bias_m.at_zero) +
+         "\n    range_bias_per_m: " + four_digits(r.bias_m.per_unit) +
+         "\n    outlier_probability: " +
+         four_digits(static_cast<double>(r.long_outliers) / static_cast<double>(r.ranges)) + "\n";
+    if (r.excess_min_m) {
+      y += "    nlos_bias_min_m: " + four_digits(*r.excess_min_m) +
+           "\n    nlos_bias_mean_m: " + four_digits(*r.excess_mean_m) + "\n";
+    }
+    // A tag that ranges one beacon (or a few) at a time polls them in turn.
+    const auto polled = static_cast<long>(std::lround(r.ranges_per_reading));
+    if (polled >= 1 && static_cast<std::size_t>(polled) < r.beacons)
+      y += "    beacons_per_reading: " + std::to_string(polled) + "\n";
   }
   return y;
 }
@@ -1962,6 +2239,22 @@ std::string describe(const Calibration& c) {
                           "noise (windows of 2-20 s)\n");
       }
     }
+  }
+  if (c.ranging) {
+    const RangingCalibration& r = *c.ranging;
+    text += "  ranges to beacons: " + std::to_string(r.ranges) + " in " +
+            std::to_string(r.readings) + " readings (" + four_digits(r.ranges_per_reading) +
+            " per reading and receiver, " + std::to_string(r.beacons) + " beacons), " +
+            std::to_string(r.long_outliers) + " long and " + std::to_string(r.short_outliers) +
+            " short outliers: bias " + four_digits(r.bias_m.at_zero) + " m + " +
+            four_digits(r.bias_m.per_unit) + " r, spread " + four_digits(r.spread_m) +
+            " m (rms about zero " + four_digits(r.rms_m) + " m)" +
+            (r.noise_correlation_s
+                 ? (*r.noise_correlation_s > 0.0
+                        ? "; errors correlated over " + four_digits(*r.noise_correlation_s) + " s"
+                        : std::string("; errors independent"))
+                 : std::string()) +
+            "\n";
   }
   for (const DetectionCalibration& d : c.cameras) {
     text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +

@@ -20,8 +20,14 @@
 //   in range (for a range-bearing sensor also in depth, the true range times the cosine of the true
 //   bearing, and the model that explains the ranges better is chosen); missed: landmarks in a
 //   range-bearing sensor's field of view and range, not hidden by walls, that no inlier reported.
+// - ranges to beacons (the world's `ultrasonic` sensor: UWB, ultrasonic): each range against the
+//   true slant range from its receiver. Ranges farther than `outlier_sigmas` robust standard
+//   deviations from the bias line are outliers (echoes); the rest give the bias line (an antenna's
+//   delay, a clock's rate) and the spread. A log without landmark detections (range-only data)
+//   takes its perception steps, for the motion, at the readings with ranges.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -126,6 +132,38 @@ struct DetectionCalibration {
   std::optional<TwoCorrelations> noise_correlation_two;
 };
 
+/// A ranging sensor's ranges (the world's `ultrasonic`).
+struct RangingCalibration {
+  std::size_t readings = 0;         // with a true pose
+  std::size_t ranges = 0;           // finite ones, to beacons on the map
+  std::size_t beacons = 0;          // on the map
+  double ranges_per_reading = 0.0;  // per receiver, mean [-]
+  std::size_t inliers = 0;
+  std::size_t long_outliers = 0, short_outliers = 0;  // beyond the gate, either way
+  double outlier_share = 0.0;                         // of the ranges [-]
+  LineFit bias_m;                                     // measured - true against the true range
+  double spread_m = 0.0;  // standard deviation of the inliers about the bias line [m]
+  double rms_m = 0.0;     // of the inliers about zero: what a filter ignoring the bias allows [m]
+  // The long outliers' excess over the bias line: the simulated sensor's non-line-of-sight
+  // extra path (minimum + exponential with this mean). Unset with fewer than 5.
+  std::optional<double> excess_min_m, excess_mean_m;
+  struct Beacon {
+    int id = 0;
+    std::size_t inliers = 0;
+    double mean_residual_m = 0.0, spread_m = 0.0;  // about the common bias line [m]
+  };
+  std::vector<Beacon> by_beacon;  // a beacon of its own bias shows as a mean residual
+  struct Bin {
+    std::size_t count = 0;
+    double range_m = 0.0, mean_residual_m = 0.0, spread_m = 0.0;
+  };
+  std::vector<Bin> bins;  // by true range, equal counts: whether the spread grows with range
+  // Time constant of a beacon's errors between consecutive ranges to it (0: independent), from
+  // this many pairs.
+  std::optional<double> noise_correlation_s;
+  std::size_t noise_correlation_pairs = 0;
+};
+
 struct OdometryModelFit {
   double alpha1 = 0.0, alpha2 = 0.0, alpha3 = 0.0, alpha4 = 0.0;
   // The error of an interval that no motion explains (fitted beside the alphas; no localizer
@@ -209,6 +247,7 @@ struct Calibration {
   std::vector<std::string> sources;  // "LOG (robot, robot)"
   std::optional<MotionCalibration> motion;
   std::vector<DetectionCalibration> cameras;  // those with landmark detections
+  std::optional<RangingCalibration> ranging;  // with ranges to beacons on the map
   /// Everything, with the bins for plots (calibration.json).
   nlohmann::ordered_json to_json() const;
   /// The parameter file for localizers (`localizer_params:`, for --params) and the sensor
@@ -216,10 +255,16 @@ struct Calibration {
   std::string to_yaml() const;
 };
 
+/// The beacon filters: calibrate writes the ranges' noise in their own sections of the parameter
+/// file (the landmark filters' keys of the same names are the camera's).
+inline constexpr std::array<std::string_view, 3> kBeaconFilters{"ultrasonic_ekf", "ultrasonic_amcl",
+                                                                "beacon_mcl"};
+
 /// The group of a localizer parameter `locsim calibrate` writes ("wheel noise", "detection
-/// bias", ...: what one measurement decides together), by key, a plugin section's too; empty for
+/// bias", ...: what one measurement decides together), by key, a plugin section's too (the
+/// ranges' bias and spread in a beacon filter's: "ranging bias", "ranging spread"); empty for
 /// a key calibrate does not write. Checks of a calibration swap parameters a group at a time.
-std::string_view parameter_group(std::string_view key);
+std::string_view parameter_group(std::string_view key, std::string_view plugin = {});
 
 /// Reads every log (each with its own world) and fits the noise over the chosen robots together.
 /// Throws InputError for unreadable logs, unknown robot names, or logs without ground truth, and

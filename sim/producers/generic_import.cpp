@@ -24,6 +24,8 @@ using Layout = TextTable::Layout;
 
 /// The landmarks of map.csv: id -> colour ("" when it has no color column).
 using LandmarkColors = std::map<int, std::string>;
+/// The ids of beacons.csv.
+using BeaconIds = std::set<int>;
 
 /// Whether a sub-folder's name can name a robot: ASCII letters, digits, '_' and '-'. Stricter than
 /// the world format (no spaces, dots or slashes): the name also goes into the generated world's
@@ -41,11 +43,11 @@ bool has_file(const fs::path& file) {
   return dataset_file_type(file) != fs::file_type::not_found;
 }
 
-/// robot.yaml: the robot's geometry and its range-bearing sensor's field of view and ranges, where
-/// the data cannot tell them.
+/// robot.yaml: the robot's geometry, its range-bearing sensor's field of view and ranges, and its
+/// ranging sensor's receivers, where the data cannot tell them.
 void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
   const YamlNode root = YamlNode::load_file(file);
-  root.allow_keys({"radius_m", "wheel_base_m", "wheel_radius_m", "range_bearing"});
+  root.allow_keys({"radius_m", "wheel_base_m", "wheel_radius_m", "range_bearing", "ultrasonic"});
   robot.radius_m = root.get_double("radius_m", robot.radius_m, FootprintDef::kRadiusRange);
   robot.wheel_base_m =
       root.get_double("wheel_base_m", robot.wheel_base_m, RobotDef::kWheelBaseRange);
@@ -60,6 +62,25 @@ void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
     if (sensor->has("max_range_m"))
       robot.max_range_m = sensor->get_double("max_range_m", 0.0, RangeBearingDef::kRangeRange);
   }
+  // The world's keys (docs/worlds.md, ultrasonic): a receiver's position on the robot and height.
+  if (const auto sensor = root.find("ultrasonic")) {
+    sensor->allow_keys({"receivers", "max_range_m"});
+    if (const auto receivers = sensor->find("receivers")) {
+      robot.receivers.clear();
+      for (const YamlNode& item : receivers->items()) {
+        item.allow_keys({"position", "height_m"});
+        if (robot.receivers.size() == UltrasonicDef::kMaxReceivers)
+          item.fail("at most " + std::to_string(UltrasonicDef::kMaxReceivers) + " receivers");
+        robot.receivers.push_back({item["position"].as_vec2(kBodyFrameRange),
+                                   item.get_double("height_m", 0.0, kHeightRange)});
+      }
+      if (robot.receivers.empty()) receivers->fail("give at least one receiver");
+    }
+    if (sensor->has("max_range_m")) {
+      robot.ranging_max_range_m =
+          sensor->get_double("max_range_m", 0.0, UltrasonicDef::kMaxRangeRange);
+    }
+  }
 }
 
 /// The stream's source, and the file among those the import read.
@@ -73,7 +94,7 @@ SamplePlace place_of(const TextTable& table, const TextTable::Row& row, int colu
 }
 
 ImportedRobot read_robot(const fs::path& dir, const std::string& name,
-                         const LandmarkColors& landmarks,
+                         const LandmarkColors& landmarks, const BeaconIds& beacons,
                          const std::vector<std::string>& robot_names,
                          std::vector<fs::path>& files_read) {
   ImportedRobot robot;
@@ -206,6 +227,36 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
       robot.imu.push_back(sample);
     }
   }
+
+  if (has_file(dir / "ranges.csv")) {
+    const TextTable ranges(dir / "ranges.csv", Layout::kCsv, {"t", "beacon", "range"},
+                           {"receiver"});
+    const int rt = ranges.column("t"), beacon = ranges.column("beacon");
+    const int range = ranges.column("range"), receiver = ranges.column("receiver");
+    ranges.check_times(rt, kDatasetTimeRange);
+    robot.ranges_source = source_of(ranges, rt, files_read);
+    for (const auto& row : ranges.rows()) {
+      const double t_s = ranges.number(row, rt);
+      BeaconRange r;
+      r.beacon_id =
+          static_cast<int>(ranges.whole(row, beacon, 0, static_cast<long long>(kIdRange.max)));
+      if (!beacons.contains(r.beacon_id)) {
+        ranges.fail(row, beacon,
+                    "beacon " + std::to_string(r.beacon_id) +
+                        (beacons.empty() ? " is not in beacons.csv (the dataset has none)"
+                                         : " is not in beacons.csv"));
+      }
+      r.range_m = ranges.number(row, range, kReadingRangeRange);
+      if (receiver >= 0) {
+        // robot.yaml's receivers, in order; without one the robot has a single receiver.
+        r.receiver = static_cast<int>(
+            ranges.whole(row, receiver, 0, static_cast<long long>(robot.receivers.size()) - 1));
+      }
+      if (robot.ranges.empty() || robot.ranges.back().t_s != t_s)
+        robot.ranges.push_back({t_s, {}, place_of(ranges, row, rt)});
+      robot.ranges.back().ranges.push_back(r);
+    }
+  }
   return robot;
 }
 
@@ -240,6 +291,22 @@ ImportedDataset read_generic(const fs::path& dir) {
           {id,
            {map.number(row, x, kWorldCoordinateRange), map.number(row, y, kWorldCoordinateRange)},
            c});
+    }
+  }
+  BeaconIds beacon_ids;
+  if (has_file(dir / "beacons.csv")) {
+    const TextTable beacons(dir / "beacons.csv", Layout::kCsv, {"id", "x", "y"}, {"z"});
+    dataset.files.push_back(beacons.file());
+    const int id_column = beacons.column("id"), x = beacons.column("x"), y = beacons.column("y");
+    const int z = beacons.column("z");
+    for (const auto& row : beacons.rows()) {
+      const int id =
+          static_cast<int>(beacons.whole(row, id_column, 0, static_cast<long long>(kIdRange.max)));
+      if (!beacon_ids.insert(id).second) beacons.fail(row, id_column, "beacon id listed twice");
+      dataset.beacons.push_back({id,
+                                 {beacons.number(row, x, kWorldCoordinateRange),
+                                  beacons.number(row, y, kWorldCoordinateRange)},
+                                 z >= 0 ? beacons.number(row, z, kHeightRange) : 0.0});
     }
   }
   std::vector<std::pair<std::string, fs::path>> robots;
@@ -278,7 +345,7 @@ ImportedDataset read_generic(const fs::path& dir) {
   for (const auto& [name, path] : robots) names.push_back(name);
   dataset.source = {{"format", "generic"}, {"path", absolute.string()}, {"robots", names}};
   for (const auto& [name, path] : robots)
-    dataset.robots.push_back(read_robot(path, name, landmarks, names, dataset.files));
+    dataset.robots.push_back(read_robot(path, name, landmarks, beacon_ids, names, dataset.files));
   return dataset;
 }
 

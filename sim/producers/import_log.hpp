@@ -15,6 +15,7 @@
 #include "sim/common/math.hpp"
 #include "sim/common/range.hpp"
 #include "sim/sensors/readings.hpp"
+#include "sim/sensors/sensor_defs.hpp"
 
 namespace locsim {
 
@@ -41,6 +42,14 @@ struct ImportedLandmark {
   int id = 0;
   Vec2 position_m{0.0, 0.0};
   std::string color = {};  // a named colour (world_loader named_colors); empty: one in turn
+};
+
+/// A beacon that robots range to (a UWB anchor, an ultrasonic transmitter): the world's
+/// `beacons[]`.
+struct ImportedBeacon {
+  int id = 0;
+  Vec2 position_m{0.0, 0.0};
+  double height_m = 0.0;  // above the floor; ranges are slant ranges from the receiver [m]
 };
 
 /// One robot's data; times as the dataset gives them (absolute or relative) [s].
@@ -79,11 +88,22 @@ struct ImportedRobot {
   std::vector<Truth> truth;
   std::vector<Detections> detections;
   std::vector<Imu> imu;  // none: the robot has no IMU
-  StreamSource odometry_source, truth_source, detections_source, imu_source;
+  /// A round of ranges to beacons (the rows of one time).
+  struct Ranges {
+    double t_s = 0.0;
+    std::vector<BeaconRange> ranges;
+    SamplePlace at;  // the first of the rows of its time
+  };
+  std::vector<Ranges> ranges;  // none: the robot has no ranging sensor
+  StreamSource odometry_source, truth_source, detections_source, imu_source, ranges_source;
   std::optional<Pose2> start;  // default: the first true pose in the window
   // The range-bearing sensor's settings; unset ones are taken from the imported detections
   // (every robot's: one camera model), or the sensor's defaults when there are none.
   std::optional<double> fov_rad, min_range_m, max_range_m;
+  // The ranging sensor (the world's `ultrasonic`): where its receivers sit on the robot, and the
+  // longest range it reports (unset: the longest the data hold).
+  std::vector<UltrasonicDef::Receiver> receivers{{{0.0, 0.0}, 0.0}};
+  std::optional<double> ranging_max_range_m;
 };
 
 struct ImportedDataset {
@@ -91,6 +111,7 @@ struct ImportedDataset {
   nlohmann::ordered_json source;  // the header's "source"; t0 is added under `t0_key`
   std::string t0_key = "t0_s";
   std::vector<ImportedLandmark> landmarks;
+  std::vector<ImportedBeacon> beacons;
   std::vector<ImportedRobot> robots;
   // Detections dropped while reading: when, and why (counted by reason within the window, for
   // the summary and the header).
@@ -119,7 +140,8 @@ struct ImportWindow {
 
 struct ImportSummary {
   std::size_t records = 0;  // written, the end record not counted
-  std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0, imu = 0;
+  std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0, imu = 0,
+              range_readings = 0, ranges = 0;
   std::vector<std::string> robots;
   double t0_s = 0.0;        // the log's time 0 in the dataset's times
   double duration_s = 0.0;  // of the log

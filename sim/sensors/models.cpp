@@ -600,15 +600,31 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
   if (context.robot.carried()) return reading;
   const Pose2 body = context.robot.pose();
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  // The beacons this reading ranges: all, or the next beacons_per_reading in turn.
+  const std::vector<BeaconDef>& beacons = context.world.beacons;
+  std::vector<const BeaconDef*> polled;
+  const std::size_t count =
+      def_.beacons_per_reading > 0
+          ? std::min(beacons.size(), static_cast<std::size_t>(def_.beacons_per_reading))
+          : beacons.size();
+  for (std::size_t i = 0; i < count; ++i) {
+    polled.push_back(
+        &beacons[def_.beacons_per_reading > 0 ? (next_beacon_ + i) % beacons.size() : i]);
+  }
+  if (def_.beacons_per_reading > 0 && !beacons.empty())
+    next_beacon_ = (next_beacon_ + count) % beacons.size();
   for (std::size_t r = 0; r < def_.receivers.size(); ++r) {
     const UltrasonicDef::Receiver& receiver = def_.receivers[r];
     const Vec2 at = body.transform(receiver.position_m);
-    for (const BeaconDef& beacon : context.world.beacons) {
+    for (const BeaconDef* polled_beacon : polled) {
+      const BeaconDef& beacon = *polled_beacon;
       BeaconRange range;
       range.receiver = static_cast<int>(r);
       range.beacon_id = beacon.id;
       const double dz = beacon.height_m - receiver.height_m;
       const double distance = std::sqrt((beacon.position_m - at).squaredNorm() + dz * dz);
+      // What the system reports for the direct path, its systematic error included.
+      const double reported = distance + def_.range_bias_m + def_.range_bias_per_m * distance;
       if (distance > def_.max_range_m) {
         range.range_m = nan;
         range.truth_status = RangeStatus::kOutOfRange;
@@ -616,7 +632,7 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
                                       context.robot.body())) {
         if (rng().uniform() < def_.nlos_probability) {
           const double extra = reflected_extra_m();  // drawn before the noise: sequenced
-          range.range_m = distance + extra + rng().normal(0.0, def_.sigma_m);
+          range.range_m = reported + extra + rng().normal(0.0, def_.sigma_m);
           range.truth_status = RangeStatus::kNonLineOfSight;
         } else {
           range.range_m = nan;
@@ -628,10 +644,10 @@ std::optional<ReadingData> UltrasonicSensor::measure(const SensorContext& contex
       } else if (def_.outlier_probability > 0.0 && rng().uniform() < def_.outlier_probability) {
         // Drawn only when asked for: worlds without injected errors keep their random streams.
         const double extra = reflected_extra_m();  // drawn before the noise: sequenced
-        range.range_m = distance + extra + rng().normal(0.0, def_.sigma_m);
+        range.range_m = reported + extra + rng().normal(0.0, def_.sigma_m);
         range.truth_status = RangeStatus::kNonLineOfSight;
       } else {
-        range.range_m = distance + rng().normal(0.0, def_.sigma_m);
+        range.range_m = reported + rng().normal(0.0, def_.sigma_m);
         range.truth_status = RangeStatus::kLineOfSight;
       }
       reading.ranges.push_back(range);

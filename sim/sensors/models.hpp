@@ -149,6 +149,7 @@ class UltrasonicSensor final : public Sensor {
  private:
   double reflected_extra_m();  // a reflected path's extra length [m]
   UltrasonicDef def_;
+  std::size_t next_beacon_ = 0;  // beacons_per_reading: the first beacon of the next reading
 };
 
 /// Beams against everything (people included) with the beam-model mixture.

@@ -187,6 +187,16 @@ struct UltrasonicDef {
   static constexpr std::size_t kMaxReceivers = 64;  // each ranges every beacon at every sample
   double sigma_m = 0.02;                            // time-of-flight noise, "+-5 cm" class [m]
   static constexpr Range kSigmaRange{0.0, 1000.0, "m"};
+  // A ranging system's systematic error (a clock's rate, an antenna's delay: a UWB radio's ranges
+  // are a few per cent long): range = d + range_bias_m + range_bias_per_m d + noise.
+  double range_bias_m = 0.0;  // [m]
+  static constexpr Range kRangeBiasRange{-1000.0, 1000.0, "m"};
+  double range_bias_per_m = 0.0;  // a scale error [m/m]
+  static constexpr Range kRangeBiasPerMRange{-0.9, 10.0, "m/m"};
+  // How many beacons one reading ranges: 0 every beacon (paper 003's ultrasonic, all at once), n
+  // the next n of the world's beacons in turn (a UWB tag polling its anchors one at a time).
+  int beacons_per_reading = 0;
+  static constexpr Range kBeaconsPerReadingRange{0.0, 1000000.0, ""};
   double max_range_m = 30.0;  // [m]
   static constexpr Range kMaxRangeRange{0.01, 100000.0, "m"};
   double dropout_probability = 0.01;  // a line-of-sight reading lost anyway [-]

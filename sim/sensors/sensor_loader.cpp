@@ -192,8 +192,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
   if (const auto n = node.find("ultrasonic")) {
     sensors.ultrasonic = parse_section(
         *n, UltrasonicDef{}, step_hz,
-        {"receivers", "sigma_m", "max_range_m", "dropout_probability", "nlos_probability",
-         "nlos_bias_min_m", "nlos_bias_mean_m", "outlier_probability"},
+        {"receivers", "sigma_m", "range_bias_m", "range_bias_per_m", "beacons_per_reading",
+         "max_range_m", "dropout_probability", "nlos_probability", "nlos_bias_min_m",
+         "nlos_bias_mean_m", "outlier_probability"},
         [&](UltrasonicDef& d) {
           if (const auto receivers = n->find("receivers")) {
             d.receivers.clear();
@@ -209,6 +210,13 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
             if (d.receivers.empty()) receivers->fail("give at least one receiver");
           }
           d.sigma_m = n->get_double("sigma_m", d.sigma_m, UltrasonicDef::kSigmaRange);
+          d.range_bias_m =
+              n->get_double("range_bias_m", d.range_bias_m, UltrasonicDef::kRangeBiasRange);
+          d.range_bias_per_m = n->get_double("range_bias_per_m", d.range_bias_per_m,
+                                             UltrasonicDef::kRangeBiasPerMRange);
+          d.beacons_per_reading =
+              static_cast<int>(n->get_int("beacons_per_reading", d.beacons_per_reading,
+                                          UltrasonicDef::kBeaconsPerReadingRange));
           d.max_range_m =
               n->get_double("max_range_m", d.max_range_m, UltrasonicDef::kMaxRangeRange);
           d.dropout_probability =

@@ -23,7 +23,7 @@ struct State {
   std::vector<std::string> logs;
   std::string out, robots = "all";
   CalibrationOptions options;
-  std::string check = "ekf_landmarks";  // --check: localizers that replay; "none"
+  std::string check = "auto";  // --check: localizers that replay; "none"; "auto"
   std::uint64_t check_seeds = 0;        // --check-seeds: 0, each log's own seed
   int jobs = 1;
   double flag_above = 0.25;
@@ -54,8 +54,11 @@ int execute(State& s) {
   }
   const std::vector<std::filesystem::path> logs(s.logs.begin(), s.logs.end());
   const bool checked = logs.size() >= 2;
-  const std::vector<std::string> localizers =
-      s.check == "none" ? std::vector<std::string>{} : comma_names(s.check, "--check");
+  // auto: chosen by what the logs hold, once calibrated (built-in plugins: nothing to refuse).
+  const bool auto_check = s.check == "auto";
+  const std::vector<std::string> localizers = s.check == "none" || auto_check
+                                                  ? std::vector<std::string>{}
+                                                  : comma_names(s.check, "--check");
   // The check's folders are its own outputs: replaced whole with --overwrite, never holding an
   // input.
   for (const char* name : {"recordings", "transfer"}) {
@@ -82,8 +85,17 @@ int execute(State& s) {
   for (std::uint64_t seed = 1; seed <= s.check_seeds; ++seed) check.seeds.push_back(seed);
   check.jobs = s.jobs;
   check.flag_above = s.flag_above;
-  if (checked) checked_recordings(check);  // its bad input refused before anything is written
+  // Its bad input refused before anything is written.
+  if (checked && !auto_check) checked_recordings(check);
   const Calibration result = calibrate(logs, s.options);
+  if (auto_check) {
+    // The landmark EKF where there are detections, else the beacon EKF where there are ranges.
+    if (!result.cameras.empty())
+      check.localizers = {"ekf_landmarks"};
+    else if (result.ranging)
+      check.localizers = {"ultrasonic_ekf"};
+    if (checked) checked_recordings(check);
+  }
   make_output_folder(out, "--out");
   for (const char* name : {"recordings", "transfer"}) {
     if (checked) std::filesystem::remove_all(out / name);
@@ -145,7 +157,8 @@ Command add_calibrate(CLI::App& app) {
   calibrate
       ->add_option("--check", state->check,
                    "With several logs: the localizers that replay each log with each log's "
-                   "calibration (comma-separated names), or none")
+                   "calibration (comma-separated names), none, or auto: ekf_landmarks for logs "
+                   "with detections, ultrasonic_ekf for logs with ranges to beacons only")
       ->capture_default_str();
   calibrate
       ->add_option("--check-seeds", state->check_seeds,
