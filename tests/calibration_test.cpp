@@ -476,6 +476,12 @@ TEST(Calibrate, RecoversARangingSystemsBiasSpreadPollingAndEchoesWithin15Percent
   EXPECT_EQ(sensor["beacons_per_reading"].as<int>(), 1);
   EXPECT_DOUBLE_EQ(sensor["range_bias_per_m"].as<double>(),
                    yaml["localizer_params"]["ultrasonic_ekf"]["range_bias_per_m"].as<double>());
+  const auto report = testing::locsim("report " + (dir / "cal").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const std::string report_md = testing::read_file(dir / "cal/report.md");
+  testing::expect_contains(report_md, "## Ranges to beacons");
+  testing::expect_contains(report_md, "| 4 | ");  // beacon 4's row
+  EXPECT_TRUE(fs::exists(dir / "cal/report/ranging_errors.png"));
   // The camera's keys stay the camera's: the beacon filters' are in their sections.
   EXPECT_NE(yaml["localizer_params"]["range_bias_per_m"].as<double>(),
             sensor["range_bias_per_m"].as<double>());

@@ -714,7 +714,46 @@ def calibration_lines(cal, out_dir):
         image = f"{name}_errors.png".replace("/", "_")
         save_figure(fig, os.path.join(out_dir, image))
         lines += ["", f"![{name} errors against range](report/{image})"]
+    lines += ranging_lines(cal.get("ranging"), out_dir)
     return lines + recordings_lines(cal) + [""]
+
+
+def ranging_lines(ranging, out_dir):
+    """The ranges to beacons (calibration.hpp RangingCalibration): the bias line, the spread, the
+    outliers, each beacon's mean residual, and a plot of the residuals per range bin."""
+    if not ranging:
+        return []
+    rb = ranging["range_bias"]
+    lines = ["", "## Ranges to beacons", "",
+             f"{ranging['ranges']} ranges in {ranging['readings']} readings "
+             f"({ranging['ranges_per_reading']:.3f} per reading and receiver, {ranging['beacons']} beacons); "
+             f"{ranging['long_outliers']} long and {ranging['short_outliers']} short outliers "
+             f"({ranging['outlier_share']:.3%}).", "",
+             f"Range bias {rb['m']:.4g} m + {rb['per_m']:.4g} d, spread {ranging['spread_m']:.4g} m about it "
+             f"(rms about zero {ranging['rms_m']:.4g} m)"
+             + (f"; the long outliers' excess {ranging['outlier_excess']['min_m']:.3g} m and more, mean "
+                f"{ranging['outlier_excess']['mean_m']:.3g} m" if "outlier_excess" in ranging else "")
+             + (f"; errors correlated over {ranging['noise_correlation']['tau_s']:.3g} s"
+                if ranging.get("noise_correlation", {}).get("tau_s") else "; errors independent"
+                if "noise_correlation" in ranging else "") + "."]
+    if ranging["by_beacon"]:
+        lines += ["", "| beacon | inliers | mean residual [m] | spread [m] |", "|---|---|---|---|"]
+        lines += [f"| {b['id']} | {b['inliers']} | {b['mean_residual_m']:+.4f} | {b['spread_m']:.4f} |"
+                  for b in ranging["by_beacon"]]
+    bins = ranging["bins"]
+    if bins:
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.errorbar([b["range_m"] for b in bins], [b["mean_residual_m"] for b in bins],
+                    yerr=[b["spread_m"] for b in bins], fmt="o", color=COLORS[0],
+                    label="bins: mean ± std about the bias line")
+        ax.axhline(0.0, color=COLORS[1], label="the bias line")
+        ax.set_xlabel("true range [m]")
+        ax.set_ylabel("measured − bias line [m]")
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        save_figure(fig, os.path.join(out_dir, "ranging_errors.png"))
+        lines += ["", "![range errors against range](report/ranging_errors.png)"]
+    return lines
 
 
 def recordings_lines(cal):

@@ -141,10 +141,14 @@ class TrajectoryDriver final : public Driver {
     const double e_theta = wrap_angle(reference.theta - pose.theta);
     // Gains from the reference's speed (critically damped linearisation, damping kDamping); a
     // floor so that the robot still closes along-track and heading errors while the reference
-    // stands still.
-    const double gain =
-        std::max(2.0 * kDamping * std::sqrt(w_ref * w_ref + kLateralGainPerM2 * v_ref * v_ref),
-                 kMinGainPerS);
+    // stands still. The lateral error's natural frequency, v sqrt(b), is held below
+    // kMaxNaturalFrequency: faster, the loop outruns what the motors' ramp and the physics step
+    // carry, and a fast robot's path (4 m/s: 18 rad/s) is followed by growing oscillations.
+    const double lateral_gain =
+        std::min(kLateralGainPerM2,
+                 kMaxNaturalFrequency * kMaxNaturalFrequency / std::max(v_ref * v_ref, 1e-12));
+    const double gain = std::max(
+        2.0 * kDamping * std::sqrt(w_ref * w_ref + lateral_gain * v_ref * v_ref), kMinGainPerS);
     const double sinc = std::abs(e_theta) < 1e-9 ? 1.0 : std::sin(e_theta) / e_theta;
     double v_ahead = v_ref, w_ahead = w_ref;
     double gain_v = 1.0, gain_w = 1.0;
@@ -158,8 +162,7 @@ class TrajectoryDriver final : public Driver {
       gain_w = r.gain_omega;
     }
     const double v = (v_ahead * std::cos(e_theta) + gain * e_along) / gain_v;
-    const double w =
-        (w_ahead + kLateralGainPerM2 * v_ref * sinc * e_across + gain * e_theta) / gain_w;
+    const double w = (w_ahead + lateral_gain * v_ref * sinc * e_across + gain * e_theta) / gain_w;
     return {t_s, v, w};
   }
 
@@ -180,9 +183,10 @@ class TrajectoryDriver final : public Driver {
     return {(step_m.x() * std::cos(mid_rad) + step_m.y() * std::sin(mid_rad)) / dt_s,
             turn_rad / dt_s};
   }
-  static constexpr double kDamping = 0.7;            // [-]
-  static constexpr double kLateralGainPerM2 = 20.0;  // [1/m^2]
-  static constexpr double kMinGainPerS = 0.5;        // [1/s]
+  static constexpr double kDamping = 0.7;              // [-]
+  static constexpr double kLateralGainPerM2 = 20.0;    // [1/m^2]
+  static constexpr double kMaxNaturalFrequency = 4.0;  // of the lateral error [rad/s]
+  static constexpr double kMinGainPerS = 0.5;          // [1/s]
   DriveDef def_;
   std::size_t next_ = 0;
 };
