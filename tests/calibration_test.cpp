@@ -506,5 +506,52 @@ TEST(Calibrate, RecoversARangingSystemsBiasSpreadPollingAndEchoesWithin15Percent
             calibrated["consistency"]["inside_95_ellipse"].get<double>());
 }
 
+/// A laser in the office map with every branch of its beam model set apart from the defaults:
+/// calibrate recovers each, and the twin of the log scans with them.
+TEST(Calibrate, RecoversALasersBeamModelWithin15PercentAndTheTwinTakesIt) {
+  const fs::path dir = testing::temp_dir("calibrate_laser");
+  const fs::path world = testing::office_world(
+      dir,
+      "{encoders: {rate_hz: 50}, laser: {rate_hz: 10, fov_deg: 270, beams: 181, max_range_m: 8, "
+      "sigma_m: 0.03, p_short: 0.06, lambda_short: 0.7, p_max: 0.03, p_random: 0.04}}",
+      60);
+  const fs::path log = dir / "laser.locsimlog";
+  const auto record =
+      testing::locsim("run " + (dir / "world.yaml").string() + " --no-readings -q --out " +
+                      (dir / "run").string() + " --log " + log.string());
+  ASSERT_EQ(record.exit_code, 0) << record.output;
+  const Calibration c = calibrate({log}, {});
+  ASSERT_TRUE(c.laser);
+  const LaserCalibration& l = *c.laser;
+  EXPECT_EQ(l.scans, 601u);
+  EXPECT_EQ(l.beams, 601u * 61u);  // every third beam
+  EXPECT_GT(l.beams_mapped, l.beams / 2);
+  expect_within(l.sigma_m, 0.03, "sigma_m");
+  expect_within(l.p_short, 0.06, "p_short");
+  expect_within(l.lambda_short, 0.7, "lambda_short");
+  expect_within(l.p_max, 0.03, "p_max");
+  expect_within(l.p_random, 0.04, "p_random");
+  EXPECT_LT(std::abs(l.hit_bias_m), 0.005);
+
+  const auto cal =
+      testing::locsim("calibrate " + log.string() + " -q --out " + (dir / "cal").string());
+  ASSERT_EQ(cal.exit_code, 0) << cal.output;
+  const YAML::Node sensor =
+      YAML::LoadFile((dir / "cal/calibration.yaml").string())["sensors"]["laser"];
+  EXPECT_NEAR(sensor["sigma_m"].as<double>(), l.sigma_m, 1e-3 * l.sigma_m);
+  const auto report = testing::locsim("report " + (dir / "cal").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  testing::expect_contains(testing::read_file(dir / "cal/report.md"), "| short (unmapped) | 0.0");
+  const auto twin = testing::locsim("twin " + log.string() + " --calibration " +
+                                    (dir / "cal/calibration.yaml").string() + " --out " +
+                                    (dir / "twin/twin.yaml").string());
+  ASSERT_EQ(twin.exit_code, 0) << twin.output;
+  const YAML::Node twin_laser =
+      YAML::LoadFile((dir / "twin/twin.yaml").string())["robots"][0]["sensors"]["laser"];
+  for (const char* key : {"sigma_m", "p_short", "lambda_short", "p_max", "p_random"})
+    EXPECT_EQ(twin_laser[key].as<std::string>(), sensor[key].as<std::string>()) << key;
+  EXPECT_TRUE(fs::exists(dir / "twin" / "office.pgm"));
+}
+
 }  // namespace
 }  // namespace locsim

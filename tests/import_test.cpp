@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "noisy_world.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/log_source.hpp"
@@ -940,6 +941,184 @@ TEST(GenericImport, RangeOnlyBeaconsAndWheelsTrackARobotWithoutAnImu) {
   }
   // Without motion the estimate stays where it started.
   EXPECT_GT(imu["position_error_m"]["rms"].get<double>(), 5.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Laser scans and an occupancy map: a simulated run written out in the generic format, as a
+// converter of a ROS recording would (its scans as text, its map as map_server files), and
+// imported again.
+
+/// The world of the laser tests: the office map, one robot wandering with a 240 deg laser mounted
+/// off-centre and turned, odometry that reports its pose, the start known exactly (as an
+/// import's).
+fs::path write_laser_world(const fs::path& dir) {
+  return testing::office_world(
+      dir,
+      "{encoders: {rate_hz: 50, reports: [pose]}, laser: {rate_hz: 10, fov_deg: 240, beams: 121, "
+      "max_range_m: 6, mount: {x: 0.1, y: 0.05, theta_deg: 20}}}",
+      30, "  localization: {initial_pose: known, sigma_xy_m: 0, sigma_theta: 0}\n");
+}
+
+/// The log's robot-0 records of `kind` (readings) or its true poses.
+std::vector<Record> records_of(const fs::path& log, std::optional<SensorKind> kind) {
+  LogSource source(log);
+  std::vector<Record> out;
+  for (const Record& r : read_all(source)) {
+    if (kind ? r.type == Record::Type::kReading && r.reading.kind == *kind
+             : r.type == Record::Type::kGroundTruth)
+      out.push_back(r);
+  }
+  return out;
+}
+
+/// The generic dataset of a simulated log of write_laser_world's: odometry, truth and scans at
+/// full precision, the laser described by a LaserScan's first and last angles (the mount's own
+/// heading folded into them), the map's image in a sub-folder.
+void write_generic_laser_dataset(const fs::path& log, const fs::path& world_dir,
+                                 const fs::path& dir) {
+  std::string odometry = "t,x,y,theta\n", truth = "# t x y z qx qy qz qw\n", scans = "t,ranges\n";
+  for (const Record& r : records_of(log, SensorKind::kEncoders)) {
+    const auto& o = std::get<OdometryReading>(r.reading.data).odometry;
+    odometry += line("%.17g,%.17g,%.17g,%.17g\n", r.reading.t_s, o.x, o.y, o.theta);
+  }
+  for (const Record& r : records_of(log, std::nullopt)) {
+    truth += line("%.17g %.17g %.17g 0 0 0 %.17g %.17g\n", r.t_s, r.pose.x, r.pose.y,
+                  std::sin(r.pose.theta / 2), std::cos(r.pose.theta / 2));
+  }
+  for (const Record& r : records_of(log, SensorKind::kLaser)) {
+    scans += line("%.17g,", r.reading.t_s);
+    for (const float range : std::get<LaserScan>(r.reading.data).ranges_m)
+      scans += line("%.9g ", static_cast<double>(range));
+    scans.back() = '\n';
+  }
+  std::ofstream(dir / "odometry.csv") << odometry;
+  std::ofstream(dir / "groundtruth.tum") << truth;
+  std::ofstream(dir / "scans.csv") << scans;
+  const double mount_rad = 20.0 * std::numbers::pi / 180.0,
+               half_fov = 120.0 * std::numbers::pi / 180.0;
+  std::ofstream(dir / "robot.yaml") << line(
+      "laser: {angle_min: %.17g, angle_max: %.17g, min_range_m: 0.05, max_range_m: 6, "
+      "mount: {x: 0.1, y: 0.05}}\n",
+      mount_rad - half_fov, mount_rad + half_fov);
+  fs::create_directories(dir / "maps");
+  fs::copy_file(world_dir / "office.pgm", dir / "maps" / "office.pgm",
+                fs::copy_options::overwrite_existing);
+  std::string map = testing::read_file(world_dir / "office.yaml");
+  map.replace(map.find("image: office.pgm"), 17, "image: maps/office.pgm");
+  std::ofstream(dir / "occupancy.yaml") << map;
+}
+
+TEST(GenericImport, LaserScansAndAnOccupancyMapImportAsTheSimulationRecordedThem) {
+  const fs::path dir = testing::temp_dir("laser");
+  const fs::path world = write_laser_world(dir);
+  const fs::path simulated = dir / "simulated.locsimlog";
+  const auto run = testing::locsim("run " + world.string() + " --seed 3 --no-variation --out " +
+                                   (dir / "run").string() + " -q --log " + simulated.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const fs::path data = dir / "data";
+  fs::create_directories(data);
+  write_generic_laser_dataset(simulated, dir, data);
+  const fs::path imported = dir / "imported.locsimlog";
+  const ImportSummary summary = write_import(read_generic(data), {}, imported);
+  EXPECT_NE(describe(summary).find("301 laser scans"), std::string::npos) << describe(summary);
+
+  // The laser as the simulation had it: 121 beams over 240 deg, the mount turned 20 deg.
+  const LogSource source(imported);
+  ASSERT_TRUE(source.world().map);
+  EXPECT_EQ(source.world().map->occupied, LogSource(simulated).world().map->occupied);
+  const LaserDef& laser = *source.world().robots.at(0).sensors.laser;
+  EXPECT_EQ(laser.beams, 121);
+  EXPECT_NEAR(laser.fov_rad, 240.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(laser.common.mount.theta, 20.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(laser.common.mount.x, 0.1, 1e-15);
+  EXPECT_NEAR(laser.common.mount.y, 0.05, 1e-15);
+  EXPECT_EQ(laser.max_range_m, 6.0);
+  // Every scan, bit for bit, at its time.
+  const std::vector<Record> original = records_of(simulated, SensorKind::kLaser);
+  const std::vector<Record> scans = records_of(imported, SensorKind::kLaser);
+  ASSERT_EQ(scans.size(), original.size());
+  ASSERT_EQ(scans.size(), 301u);  // at 0, 0.1, ... 30 s
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_EQ(scans[i].reading.t_s, original[i].reading.t_s);
+    ASSERT_EQ(std::get<LaserScan>(scans[i].reading.data).ranges_m,
+              std::get<LaserScan>(original[i].reading.data).ranges_m)
+        << "scan " << i;
+  }
+
+  // AMCL localizes on the import as on the simulation: the same readings and map.
+  const auto replay = [&](const fs::path& log, const std::string& name) {
+    const fs::path out = dir / name;
+    const auto o = testing::locsim("replay " + log.string() + " --out " + out.string() +
+                                   " -q --seed 1 --localizer amcl");
+    EXPECT_EQ(o.exit_code, 0) << o.output;
+    const auto metrics = nlohmann::json::parse(testing::read_file(out / "metrics.json"));
+    return metrics["localizers"][0]["position_error_m"]["rms"].get<double>();
+  };
+  const double simulated_rms = replay(simulated, "replay_simulated");
+  const double imported_rms = replay(imported, "replay_imported");
+  EXPECT_LT(simulated_rms, 0.15);
+  // Equal but for the beams' angles, rebuilt from the scan's first and last (1e-16 rad apart).
+  EXPECT_NEAR(imported_rms, simulated_rms, 1e-6);
+
+  // The twin of the import writes the map beside its world (where the world names it) and runs.
+  const fs::path twin = dir / "twin" / "twin.yaml";
+  const auto made = testing::locsim("twin " + imported.string() + " --out " + twin.string());
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  EXPECT_EQ(testing::read_file(dir / "twin" / "maps" / "office.pgm"),
+            testing::read_file(dir / "office.pgm"));
+  const auto twin_run = testing::locsim("run " + twin.string() + " --duration 5 -q --out " +
+                                        (dir / "twin_run").string() + " --localizer amcl");
+  EXPECT_EQ(twin_run.exit_code, 0) << twin_run.output;
+}
+
+TEST(GenericImport, BadScansAndMapsAreRefusedNamingFileLineAndColumn) {
+  const fs::path good = testing::temp_dir("laser_bad_good");
+  write_generic_robot(good);
+  const auto refused = [&](const std::map<std::string, std::string>& files,
+                           const std::string& expected) {
+    const fs::path bad = testing::temp_dir("laser_bad");
+    fs::copy(good, bad, fs::copy_options::overwrite_existing | fs::copy_options::recursive);
+    for (const auto& [name, text] : files) std::ofstream(bad / name) << text;
+    const std::string message = refusal([&] { return read_generic(bad); });
+    EXPECT_NE(message.find(expected), std::string::npos) << message << "\nexpected: " << expected;
+  };
+  const std::string laser = "laser: {angle_min: -1, angle_max: 1, max_range_m: 5}\n";
+  refused({{"scans.csv", "t,ranges\n0.5,1 2 3\n"}},
+          "scans.csv:1: laser scans need the scanner's angles and ranges");
+  refused({{"robot.yaml", laser}, {"scans.csv", "t,ranges\n0.5,1 2 3\n0.6,1 2\n"}},
+          "scans.csv:3:5: 'ranges': a scan of 2 ranges; the first (line 2) has 3");
+  refused({{"robot.yaml", laser}, {"scans.csv", "t,ranges\n0.5,1 2x 3\n"}},
+          "scans.csv:2:7: 'ranges': beam 1: '2x' is not a range");
+  refused({{"robot.yaml", laser}, {"scans.csv", "t,ranges\n0.5,\n"}},
+          "scans.csv:2:5: 'ranges': a scan without ranges");
+  refused({{"robot.yaml", "laser: {angle_min: 1, angle_max: 0.5, max_range_m: 5}\n"}},
+          "robot.yaml:1:34: 'laser.angle_max': must not be below angle_min");
+  refused({{"robot.yaml", "laser: {angle_min: 1, max_range_m: 5}\n"}},
+          "'laser': give angle_max or angle_increment");
+  std::string seventy = "t,ranges\n0.5,";
+  for (int i = 0; i < 70; ++i) seventy += "1 ";
+  refused({{"robot.yaml", "laser: {angle_min: 0, angle_increment: 0.1, max_range_m: 5}\n"},
+           {"scans.csv", seventy + "\n"}},
+          "scans.csv:2:5: 'ranges': 70 beams from angle_min 0 to 6.9 rad span more than a full "
+          "turn (");
+  refused({{"occupancy.yaml", "image: ../outside.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"}},
+          "occupancy.yaml:1:8: 'image': the image must be a file in the dataset's folder");
+  refused({{"occupancy.yaml", "image: /etc/passwd\nresolution: 0.1\norigin: [0, 0, 0]\n"}},
+          "occupancy.yaml:1:8: 'image': the image must be a file in the dataset's folder");
+  {
+    // A symbolic link in the folder that leads out of it.
+    const fs::path bad = testing::temp_dir("laser_bad_link");
+    fs::copy(good, bad, fs::copy_options::overwrite_existing | fs::copy_options::recursive);
+    std::ofstream(bad.parent_path() / "secret.pgm") << "P2\n1 1\n255\n0\n";
+    fs::create_symlink(bad.parent_path() / "secret.pgm", bad / "map.pgm");
+    std::ofstream(bad / "occupancy.yaml") << "image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n";
+    const std::string message = refusal([&] { return read_generic(bad); });
+    EXPECT_NE(message.find("'image': the image leads out of the dataset's folder"),
+              std::string::npos)
+        << message;
+  }
+  refused({{"occupancy.yaml", "image: none.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"}},
+          "occupancy.yaml:1:8: 'image'");
 }
 
 }  // namespace

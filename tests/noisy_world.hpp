@@ -2,6 +2,8 @@
 // for the calibration and twin tests.
 #pragma once
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace locsim::testing {
@@ -52,6 +54,27 @@ scenario:
     loop: true
     speed_mps: 0.5
 )";
+}
+
+/// The office map (worlds/maps, copied into `dir`) and one robot wandering in it for `duration_s`
+/// at 0.4 m/s with `sensors` (the YAML of its sensors' map, e.g. "{laser: {beams: 181}}") and the
+/// scenario's extra `scenario` lines; no movers, so what the laser sees is the map. Returns the
+/// world file.
+inline std::filesystem::path office_world(const std::filesystem::path& dir,
+                                          const std::string& sensors, double duration_s,
+                                          const std::string& scenario = "") {
+  const std::filesystem::path maps = std::filesystem::path(LOCSIM_SOURCE_DIR) / "worlds" / "maps";
+  for (const char* file : {"office.yaml", "office.pgm"}) {
+    std::filesystem::copy_file(maps / file, dir / file,
+                               std::filesystem::copy_options::overwrite_existing);
+  }
+  std::ofstream(dir / "world.yaml")
+      << "name: office_laser\nmap: office.yaml\nrobots:\n  - name: robot\n"
+         "    start: {x: 2.0, y: 2.0, theta_deg: 30}\n    sensors: "
+      << sensors << "\nscenario:\n  name: wander\n  duration_s: " << duration_s
+      << "\n  drive: {mode: wander, speed_mps: 0.4}\n"
+      << scenario;
+  return dir / "world.yaml";
 }
 
 }  // namespace locsim::testing

@@ -715,6 +715,7 @@ def calibration_lines(cal, out_dir):
         save_figure(fig, os.path.join(out_dir, image))
         lines += ["", f"![{name} errors against range](report/{image})"]
     lines += ranging_lines(cal.get("ranging"), out_dir)
+    lines += laser_lines(cal.get("laser"))
     return lines + recordings_lines(cal) + [""]
 
 
@@ -754,6 +755,23 @@ def ranging_lines(ranging, out_dir):
         save_figure(fig, os.path.join(out_dir, "ranging_errors.png"))
         lines += ["", "![range errors against range](report/ranging_errors.png)"]
     return lines
+
+
+def laser_lines(laser):
+    """The laser's beam model (calibration.hpp LaserCalibration): each branch's share, the hits'
+    noise and mean error."""
+    if not laser:
+        return []
+    return ["", "## Laser", "",
+            f"{laser['beams']} beams of {laser['scans']} scans, {laser['beams_mapped']} with a mapped "
+            f"wall within {laser['max_range_m']:.4g} m (EM, {laser['iterations']} iterations, "
+            f"{laser['log_likelihood_per_beam']:.4g} nats per beam).", "",
+            "| branch | share | its parameter |", "|---|---|---|",
+            f"| hit | {1 - laser['p_short'] - laser['p_max'] - laser['p_random']:.4f} | "
+            f"noise {laser['sigma_m']:.4g} m (mean error {laser['hit_bias_m']:+.4f} m) |",
+            f"| short (unmapped) | {laser['p_short']:.4f} | rate {laser['lambda_short']:.4g} /m |",
+            f"| at the maximum range | {laser['p_max']:.4f} | |",
+            f"| random | {laser['p_random']:.4f} | |"]
 
 
 def recordings_lines(cal):

@@ -10,6 +10,7 @@
 #include <memory>
 #include <set>
 
+#include "sim/common/base64.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/common/files.hpp"
 #include "sim/common/format.hpp"
@@ -306,6 +307,27 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
 
   // The world: the log's, with the robots chosen, the calibrated noise, and the scenario that
   // drives them along their paths.
+  // The map's files, from the log (it carries every file its world names), to be written where
+  // the twin's world names them: relative to its folder as to the log's.
+  if (world.map) {
+    const auto& header = source.header();
+    const fs::path world_dir = header.at("world_dir").get<std::string>();
+    const auto* files = header.contains("files") ? &header.at("files") : nullptr;
+    for (const fs::path& file : {world.map->yaml_file, world.map->image_file}) {
+      const fs::path relative = file.lexically_normal().lexically_relative(world_dir);
+      const std::string key = InputSandbox::key(file);
+      if (relative.empty() || *relative.begin() == ".." || files == nullptr ||
+          !files->contains(key)) {
+        throw InputError(SourceLocation{options.log.string()}, "",
+                         "the world's map file " + quote_input(file.string()) +
+                             " is not one the log carries within its world's folder, so the "
+                             "twin cannot write it beside its world");
+      }
+      // LogSource has decoded every carried file once: this one is valid base64.
+      twin.world_files.emplace_back(relative,
+                                    base64_decode(files->at(key).get<std::string>()).value());
+    }
+  }
   YAML::Node doc = YAML::Load(source.header().at("world_yaml").get<std::string>());
   YAML::Node robots(YAML::NodeType::Sequence);
   std::set<std::string> used_sensors;
@@ -424,6 +446,7 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
   check_output_folder(dir.empty() ? fs::path(".") : dir, "--out");
   std::vector<fs::path> files{world_file};
   for (const TwinRobot& r : twin.robots) files.push_back(dir / r.poses_file);
+  for (const auto& [relative, bytes] : twin.world_files) files.push_back(dir / relative);
   std::vector<fs::path> inputs{options.log};
   if (options.calibration) inputs.push_back(*options.calibration);
   for (const fs::path& f : files) {
@@ -449,6 +472,8 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
     }
     texts[InputSandbox::key(world_path.parent_path() / r.poses_file)] = std::move(tum);
   }
+  for (const auto& [relative, bytes] : twin.world_files)
+    texts[InputSandbox::key(world_path.parent_path() / relative)] = bytes;
   // Loaded as it will be, from memory, before anything is written: a twin refused leaves no file.
   try {
     const InputSandbox sandbox(texts, "the twin");
@@ -462,6 +487,7 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
   const fs::path made = dir.empty() ? fs::path() : make_output_folder(dir, "--out");
   // Every file written before any replaces an old one (write_files), the world renamed last: a
   // world file is never left naming paths that were not written.
+  std::vector<fs::path> made_folders{made};
   std::vector<std::pair<fs::path, std::string_view>> written;
   for (const TwinRobot& r : twin.robots) {
     written.emplace_back(dir / r.poses_file,
@@ -469,10 +495,17 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
   }
   written.emplace_back(world_file, twin.world_yaml);
   try {
+    for (const auto& [relative, bytes] : twin.world_files) {
+      // A map in a sub-folder of the log's world's folder goes into the same one of the twin's.
+      if (relative.has_parent_path())
+        made_folders.push_back(make_missing_folders(dir / relative.parent_path(), "--out: "));
+      written.insert(written.begin(), {dir / relative, bytes});
+    }
     write_files(written);
   } catch (...) {
     std::error_code ignored;
-    if (!made.empty()) fs::remove_all(made, ignored);
+    for (const fs::path& folder : made_folders)
+      if (!folder.empty()) fs::remove_all(folder, ignored);
     throw;
   }
   return twin;

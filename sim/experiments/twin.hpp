@@ -62,6 +62,9 @@ struct TwinRobot {
 
 struct Twin {
   std::string world_yaml;  // the world file's text
+  /// The files of the log's world the twin's needs beside it (a map's YAML and image), by their
+  /// paths relative to the world file's folder, with their bytes as the log carries them.
+  std::vector<std::pair<std::filesystem::path, std::string>> world_files;
   std::vector<TwinRobot> robots;
   std::optional<TwinCamera> camera;
   std::vector<std::string> warnings;

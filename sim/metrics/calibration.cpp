@@ -20,6 +20,7 @@
 #include "sim/common/minimize.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/producers/log_source.hpp"
+#include "sim/sensors/models.hpp"
 #include "sim/sensors/scene_rays.hpp"
 #include "sim/world/physics_world.hpp"
 
@@ -214,10 +215,23 @@ struct RangingData {
   std::set<int> beacons;  // on the maps
 };
 
+/// One laser beam against the range the map gives at the true pose (infinite: nothing mapped
+/// within the maximum range).
+struct BeamSample {
+  float measured_m, mapped_m;
+};
+
+struct LaserData {
+  std::vector<BeamSample> beams;
+  std::size_t scans = 0;
+  double max_range_m = 0.0;  // the first robot's; every laser's must be the same
+};
+
 struct Pooled {
   std::vector<MotionSample> motion;
   std::map<SensorKind, CameraData> cameras;
   RangingData ranging;
+  LaserData laser;
   std::size_t tracks = 0;  // robots collected so far
 };
 
@@ -236,6 +250,12 @@ struct RobotLog {
     std::vector<BeaconRange> ranges;
   };
   std::vector<Round> rounds;  // ranges to beacons
+  struct Scan {
+    double t_s;
+    std::vector<float> ranges_m;  // every `stride`-th beam of the scan, from the first
+  };
+  std::vector<Scan> scans;
+  std::size_t scan_stride = 1;
   std::vector<double> steps;  // times of the perception steps (perception_steps)
 };
 
@@ -284,6 +304,10 @@ std::vector<double> perception_steps(const RobotLog& robot, const WorldDef& worl
     });
     if (ranged && (steps.empty() || round.t_s > steps.back())) steps.push_back(round.t_s);
   }
+  if (!steps.empty()) return steps;
+  // A laser localizer's steps are its scans.
+  for (const RobotLog::Scan& scan : robot.scans)
+    if (steps.empty() || scan.t_s > steps.back()) steps.push_back(scan.t_s);
   return steps;
 }
 
@@ -448,6 +472,36 @@ void collect_ranges(const RobotLog& robot, const WorldDef& world, std::size_t tr
       receivers.insert(r.receiver);
     }
     data.receiver_readings += receivers.size();
+  }
+}
+
+/// Each kept beam of each scan at a time with a true pose, against the range the static geometry
+/// (walls, shapes, the map's cells) gives along it from the laser's true pose.
+void collect_beams(const RobotLog& robot, const StaticRaycaster& walls, LaserData& data) {
+  const std::optional<LaserDef>& laser = robot.def.sensors.laser;
+  if (!laser || robot.scans.empty()) return;
+  if (data.max_range_m == 0.0) data.max_range_m = laser->max_range_m;
+  if (laser->max_range_m != data.max_range_m) {
+    throw InputError("calibrate: robot '" + robot.def.name + "''s laser reaches " +
+                     short_number(laser->max_range_m) + " m, another's " +
+                     short_number(data.max_range_m) +
+                     " m: calibrate lasers of one maximum range together");
+  }
+  for (const RobotLog::Scan& scan : robot.scans) {
+    const auto pose = robot.truth.at(scan.t_s);
+    if (!pose) continue;
+    ++data.scans;
+    const Pose2& m = laser->common.mount;
+    const double c = std::cos((*pose)(2)), s = std::sin((*pose)(2));
+    const Vec2 origin((*pose)(0) + c * m.x - s * m.y, (*pose)(1) + s * m.x + c * m.y);
+    for (std::size_t k = 0; k < scan.ranges_m.size(); ++k) {
+      const int beam = static_cast<int>(k * robot.scan_stride);
+      const double angle =
+          (*pose)(2) + m.theta + laser_beam_angle(beam, laser->beams, laser->fov_rad);
+      const double mapped =
+          walls.cast(origin, Vec2(std::cos(angle), std::sin(angle)), laser->max_range_m);
+      data.beams.push_back({scan.ranges_m[k], static_cast<float>(mapped)});
+    }
   }
 }
 
@@ -1544,6 +1598,91 @@ std::string four_digits(double value) {
 /// through the inliers and their standard deviation about it; the long outliers' excess (echoes)
 /// for the simulated sensor's non-line-of-sight path; each beacon's mean residual about the line;
 /// the errors' time constant over consecutive ranges to a beacon.
+/// The beam model's parameters by EM on the simulated sensor's mixture. Per beam with a mapped
+/// range z* within the maximum M: a hit N(z*, sigma) (weight p_hit), a short reading from
+/// something unmapped in front, exponential of rate lambda on [0, z*) and the hit itself when the
+/// exponential falls beyond it (weight p_short; the sensor returns the nearer), M itself (p_max),
+/// uniform on [0, M] (p_random). With nothing mapped within M the hit reads M, and the short
+/// reading's exponential is cut at M. A reading at M is a probability, any other a density; every
+/// beam is one or the other whatever the parameters, so the likelihood is well defined.
+LaserCalibration fit_laser(const LaserData& data) {
+  LaserCalibration out;
+  out.scans = data.scans;
+  out.beams = data.beams.size();
+  out.max_range_m = data.max_range_m;
+  const double M = data.max_range_m;
+  const auto at_max = [&](const BeamSample& b) { return b.measured_m >= static_cast<float>(M); };
+  for (const BeamSample& b : data.beams) out.beams_mapped += std::isfinite(b.mapped_m) ? 1 : 0;
+  double p_hit = 0.91, p_short = 0.03, p_max = 0.03, p_random = 0.03;
+  double sigma = 0.05 * M / 8.0, lambda = 1.0;
+  const double sqrt_2pi = std::sqrt(2.0 * std::numbers::pi);
+  double previous = -std::numeric_limits<double>::infinity();
+  for (out.iterations = 1; out.iterations <= 500; ++out.iterations) {
+    // Expected counts of each branch; the hit's and the short's exact-hit share carry the error,
+    // the short's continuous share its range (and the exact hit's, beyond which it fell).
+    double n_hit = 0, n_short = 0, n_max = 0, n_random = 0;
+    double noisy = 0, noisy_e2 = 0, short_cont = 0, short_length = 0;
+    double log_likelihood = 0.0;
+    for (const BeamSample& b : data.beams) {
+      const double z = b.measured_m;
+      const bool mapped = std::isfinite(b.mapped_m) && b.mapped_m < M;
+      const double zs = mapped ? static_cast<double>(b.mapped_m) : M;  // where the short is cut
+      const double beyond = std::exp(-lambda * zs);  // the exponential falls beyond the cut
+      double hit = 0, cont = 0, atom = 0, mx = 0, rnd = 0;
+      if (at_max(b)) {
+        mx = p_max;
+        if (mapped) {
+          hit = p_hit * 0.5 * std::erfc((M - zs) / (sigma * std::sqrt(2.0)));
+        } else {
+          hit = p_hit;
+          atom = p_short * beyond;
+        }
+      } else {
+        rnd = p_random / M;
+        if (z < zs) cont = p_short * lambda * std::exp(-lambda * z);
+        if (mapped) {
+          const double e = (z - zs) / sigma;
+          const double g = std::exp(-0.5 * e * e) / (sigma * sqrt_2pi);
+          hit = p_hit * g;
+          atom = p_short * beyond * g;
+        }
+      }
+      const double total = hit + cont + atom + mx + rnd;
+      if (!(total > 0.0)) continue;
+      log_likelihood += std::log(total);
+      const double r_hit = hit / total, r_cont = cont / total, r_atom = atom / total;
+      n_hit += r_hit, n_short += r_cont + r_atom, n_max += mx / total, n_random += rnd / total;
+      if (mapped && !at_max(b)) {
+        const double e2 = (z - zs) * (z - zs);
+        noisy += r_hit + r_atom, noisy_e2 += (r_hit + r_atom) * e2;
+      }
+      short_cont += r_cont, short_length += r_cont * z + r_atom * zs;
+    }
+    const double n = n_hit + n_short + n_max + n_random;
+    if (!(n > 0.0)) break;
+    p_hit = n_hit / n, p_short = n_short / n, p_max = n_max / n, p_random = n_random / n;
+    if (noisy > 0.0) sigma = std::max(std::sqrt(noisy_e2 / noisy), 1e-6);
+    if (short_length > 0.0 && short_cont > 0.0)
+      lambda = std::clamp(short_cont / short_length, LaserDef::kLambdaShortRange.min,
+                          LaserDef::kLambdaShortRange.max);
+    out.log_likelihood = log_likelihood / n;
+    if (log_likelihood - previous < 1e-9 * std::abs(log_likelihood)) break;
+    previous = log_likelihood;
+  }
+  out.sigma_m = sigma, out.lambda_short = lambda;
+  out.p_short = p_short, out.p_max = p_max, out.p_random = p_random;
+  // The hits' mean error: a map drawn a few centimetres off shows here, not in the fit.
+  double sum = 0, weight = 0;
+  for (const BeamSample& b : data.beams) {
+    if (!std::isfinite(b.mapped_m) || b.mapped_m >= M || at_max(b)) continue;
+    const double e = static_cast<double>(b.measured_m) - b.mapped_m;
+    if (std::abs(e) > 3.0 * sigma) continue;
+    sum += e, weight += 1.0;
+  }
+  out.hit_bias_m = weight > 0.0 ? sum / weight : 0.0;
+  return out;
+}
+
 RangingCalibration fit_ranging(RangingData& data, const CalibrationOptions& options) {
   RangingCalibration c;
   std::vector<RangeSample>& r = data.samples;
@@ -1705,6 +1844,17 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
             const locsim_reading& translated =
                 translators[static_cast<std::size_t>(index)]->translate(record.reading);
             robot.odometry.emplace_back(record.reading.t_s, translated.data.odometry);
+          } else if (record.reading.kind == SensorKind::kLaser) {
+            // Every stride-th beam: a scan's neighbouring beams see nearly the same, and memory
+            // stays bounded on long recordings of dense scanners.
+            const auto& ranges = std::get<LaserScan>(record.reading.data).ranges_m;
+            robot.scan_stride =
+                std::max<std::size_t>(1, (ranges.size() + LaserCalibration::kMaxBeamsPerScan - 1) /
+                                             LaserCalibration::kMaxBeamsPerScan);
+            RobotLog::Scan scan{record.reading.t_s, {}};
+            for (std::size_t b = 0; b < ranges.size(); b += robot.scan_stride)
+              scan.ranges_m.push_back(ranges[b]);
+            robot.scans.push_back(std::move(scan));
           } else if (record.reading.kind == SensorKind::kUltrasonic) {
             robot.rounds.push_back(
                 {record.reading.t_s, std::get<UltrasonicReading>(record.reading.data).ranges});
@@ -1730,6 +1880,9 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
       robot.steps = perception_steps(robot, world);
       collect_motion(robot, robot.odometry, TruthView{robot.truth}, pooled.motion);
       collect_ranges(robot, world, pooled.tracks, pooled.ranging);
+      collect_beams(robot, walls, pooled.laser);
+      robot.scans.clear();
+      robot.scans.shrink_to_fit();
       collect_detections(robot, world, walls, pooled);
       used_robots.push_back(std::move(robot));
     }
@@ -1749,11 +1902,16 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
     if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
   }
   if (pooled.ranging.samples.size() >= 10) out.ranging = fit_ranging(pooled.ranging, options);
-  if (!out.motion && out.cameras.empty() && !out.ranging) {
+  // The laser's model needs beams that hit something mapped (the hits' noise, what is short of
+  // them) and enough of them.
+  std::size_t mapped = 0;
+  for (const BeamSample& b : pooled.laser.beams) mapped += std::isfinite(b.mapped_m) ? 1 : 0;
+  if (mapped >= 100) out.laser = fit_laser(pooled.laser);
+  if (!out.motion && out.cameras.empty() && !out.ranging && !out.laser) {
     throw InputError(
         "calibrate: nothing to measure: fewer than 10 odometry intervals between detections of "
-        "landmarks on the map (or ranges to beacons), and fewer than 10 such detections or "
-        "ranges with a true pose");
+        "landmarks on the map (or ranges to beacons), fewer than 10 such detections or ranges "
+        "with a true pose, and fewer than 100 laser beams that hit a mapped wall");
   }
   return out;
 }
@@ -1921,6 +2079,21 @@ json Calibration::to_json() const {
                             {"spread_m", b.spread_m}});
     }
     j["ranging"] = rj;
+  }
+  if (laser) {
+    const LaserCalibration& l = *laser;
+    j["laser"] = {{"scans", l.scans},
+                  {"beams", l.beams},
+                  {"beams_mapped", l.beams_mapped},
+                  {"max_range_m", l.max_range_m},
+                  {"sigma_m", l.sigma_m},
+                  {"p_short", l.p_short},
+                  {"lambda_short", l.lambda_short},
+                  {"p_max", l.p_max},
+                  {"p_random", l.p_random},
+                  {"hit_bias_m", l.hit_bias_m},
+                  {"log_likelihood_per_beam", l.log_likelihood},
+                  {"iterations", l.iterations}};
   }
   return j;
 }
@@ -2183,6 +2356,12 @@ std::string Calibration::to_yaml() const {
     if (polled >= 1 && static_cast<std::size_t>(polled) < r.beacons)
       y += "    beacons_per_reading: " + std::to_string(polled) + "\n";
   }
+  if (laser) {
+    const LaserCalibration& l = *laser;
+    y += "  laser: {sigma_m: " + four_digits(l.sigma_m) + ", p_short: " + four_digits(l.p_short) +
+         ", lambda_short: " + four_digits(l.lambda_short) + ", p_max: " + four_digits(l.p_max) +
+         ", p_random: " + four_digits(l.p_random) + "}\n";
+  }
   return y;
 }
 
@@ -2255,6 +2434,15 @@ std::string describe(const Calibration& c) {
                         : std::string("; errors independent"))
                  : std::string()) +
             "\n";
+  }
+  if (c.laser) {
+    const LaserCalibration& l = *c.laser;
+    text += "  laser: " + std::to_string(l.beams) + " beams of " + std::to_string(l.scans) +
+            " scans (" + std::to_string(l.beams_mapped) + " with a mapped wall within " +
+            four_digits(l.max_range_m) + " m): hits' noise " + four_digits(l.sigma_m) +
+            " m (their mean error " + four_digits(l.hit_bias_m) + " m), short " +
+            four_digits(l.p_short) + " (rate " + four_digits(l.lambda_short) + " /m), at max " +
+            four_digits(l.p_max) + ", random " + four_digits(l.p_random) + "\n";
   }
   for (const DetectionCalibration& d : c.cameras) {
     text += "  " + d.camera + ": " + std::to_string(d.detections) + " detections, " +

@@ -164,6 +164,22 @@ struct RangingCalibration {
   std::size_t noise_correlation_pairs = 0;
 };
 
+/// The laser's beam model (the simulated sensor's mixture, Thrun et al., Probabilistic Robotics
+/// 6.3: a hit with Gaussian noise, a short reading from something unmapped, a reading at the
+/// maximum range, a uniform one), fitted by maximum likelihood (EM) to scans against the ranges
+/// the map gives at the true pose. A map's own errors count as the sensor's.
+struct LaserCalibration {
+  std::size_t scans = 0;         // with a true pose
+  std::size_t beams = 0;         // used: at most kMaxBeamsPerScan of a scan, evenly spread
+  std::size_t beams_mapped = 0;  // of them, with a mapped obstacle within the maximum range
+  double max_range_m = 0.0;
+  double sigma_m = 0.0, p_short = 0.0, lambda_short = 0.0, p_max = 0.0, p_random = 0.0;
+  double hit_bias_m = 0.0;      // mean measured - mapped range of the hits (the fit takes 0) [m]
+  double log_likelihood = 0.0;  // per beam [nats]
+  int iterations = 0;           // of EM
+  static constexpr std::size_t kMaxBeamsPerScan = 90;
+};
+
 struct OdometryModelFit {
   double alpha1 = 0.0, alpha2 = 0.0, alpha3 = 0.0, alpha4 = 0.0;
   // The error of an interval that no motion explains (fitted beside the alphas; no localizer
@@ -248,6 +264,7 @@ struct Calibration {
   std::optional<MotionCalibration> motion;
   std::vector<DetectionCalibration> cameras;  // those with landmark detections
   std::optional<RangingCalibration> ranging;  // with ranges to beacons on the map
+  std::optional<LaserCalibration> laser;      // with scans in a world with walls or a map
   /// Everything, with the bins for plots (calibration.json).
   nlohmann::ordered_json to_json() const;
   /// The parameter file for localizers (`localizer_params:`, for --params) and the sensor

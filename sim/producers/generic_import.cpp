@@ -1,16 +1,20 @@
 #include "sim/producers/generic_import.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <map>
 #include <numbers>
 #include <set>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
+#include "sim/common/format.hpp"
 #include "sim/common/yaml_node.hpp"
 #include "sim/producers/text_table.hpp"
 #include "sim/robot/robot_def.hpp"
 #include "sim/stream/record_checks.hpp"
+#include "sim/world/pgm.hpp"
 #include "sim/world/world_def.hpp"
 #include "sim/world/world_loader.hpp"
 
@@ -43,11 +47,54 @@ bool has_file(const fs::path& file) {
   return dataset_file_type(file) != fs::file_type::not_found;
 }
 
-/// robot.yaml: the robot's geometry, its range-bearing sensor's field of view and ranges, and its
-/// ranging sensor's receivers, where the data cannot tell them.
-void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
+/// The angles a scan's first and last beams may have, as a ROS LaserScan gives them. [rad]
+constexpr Range kScanAngleRange{-2.0 * std::numbers::pi, 2.0 * std::numbers::pi, "rad"};
+
+/// robot.yaml's `laser`: the scanner as a ROS LaserScan message describes it (its beam count is
+/// the scans').
+struct LaserSpec {
+  double angle_min_rad = 0.0;
+  std::optional<double> angle_max_rad, angle_increment_rad;  // one of them
+  double min_range_m = 0.0, max_range_m = 0.0;
+  Pose2 mount;
+  std::string where;  // "robot.yaml:L:C" of the section, for messages
+};
+
+/// The simulated laser that spreads `beams` beams as `spec` does: the beams of LaserDef are
+/// centred on the mount's x axis, so the scan's middle angle turns the mount. Exact (to 1e-8 rad)
+/// for any span short of a full turn; a scan whose last beam repeats its first (-pi..pi) is one.
+LaserDef laser_of(const LaserSpec& spec, int beams, const TextTable& scans) {
+  LaserDef def;
+  def.beams = beams;
+  def.min_range_m = spec.min_range_m;
+  def.max_range_m = spec.max_range_m;
+  const double last_rad = spec.angle_max_rad
+                              ? *spec.angle_max_rad
+                              : spec.angle_min_rad + *spec.angle_increment_rad * (beams - 1);
+  const double span_rad = last_rad - spec.angle_min_rad;
+  const double full_turn = 2.0 * std::numbers::pi;
+  if (span_rad > full_turn + 1e-9) {
+    scans.fail(scans.rows().front(), scans.column("ranges"),
+               std::to_string(beams) + " beams from angle_min " + short_number(spec.angle_min_rad) +
+                   " to " + short_number(last_rad) + " rad span more than a full turn (" +
+                   spec.where + ": laser)");
+  }
+  // LaserDef treats a field of view of a full turn as beams 2 pi / n apart; a span of 2 pi means
+  // n - 1 gaps, which a field of view just short of it gives.
+  def.fov_rad = beams == 1 ? LaserDef::kFovRange.min
+                           : std::clamp(span_rad, LaserDef::kFovRange.min, full_turn - 2e-9);
+  def.common.mount = spec.mount;
+  def.common.mount.theta = wrap_angle(
+      spec.mount.theta + (beams == 1 ? spec.angle_min_rad : 0.5 * (spec.angle_min_rad + last_rad)));
+  return def;
+}
+
+/// robot.yaml: the robot's geometry, its range-bearing sensor's field of view and ranges, its
+/// ranging sensor's receivers and its laser's beams, where the data cannot tell them.
+std::optional<LaserSpec> read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
   const YamlNode root = YamlNode::load_file(file);
-  root.allow_keys({"radius_m", "wheel_base_m", "wheel_radius_m", "range_bearing", "ultrasonic"});
+  root.allow_keys(
+      {"radius_m", "wheel_base_m", "wheel_radius_m", "range_bearing", "ultrasonic", "laser"});
   robot.radius_m = root.get_double("radius_m", robot.radius_m, FootprintDef::kRadiusRange);
   robot.wheel_base_m =
       root.get_double("wheel_base_m", robot.wheel_base_m, RobotDef::kWheelBaseRange);
@@ -81,6 +128,70 @@ void read_robot_yaml(const fs::path& file, ImportedRobot& robot) {
           sensor->get_double("max_range_m", 0.0, UltrasonicDef::kMaxRangeRange);
     }
   }
+  // The names of a ROS LaserScan's fields (sensor_msgs/msg/LaserScan), the mount as a world's.
+  std::optional<LaserSpec> laser;
+  if (const auto sensor = root.find("laser")) {
+    sensor->allow_keys({"angle_min", "angle_min_deg", "angle_max", "angle_max_deg",
+                        "angle_increment", "angle_increment_deg", "min_range_m", "max_range_m",
+                        "mount"});
+    LaserSpec spec;
+    spec.where = sensor->place().where.str();
+    if (!sensor->has("angle_min") && !sensor->has("angle_min_deg"))
+      sensor->fail("give angle_min (or angle_min_deg): the first beam's angle");
+    spec.angle_min_rad = sensor->get_angle("angle_min", 0.0, kScanAngleRange);
+    const bool max = sensor->has("angle_max") || sensor->has("angle_max_deg");
+    const bool increment = sensor->has("angle_increment") || sensor->has("angle_increment_deg");
+    if (max == increment) sensor->fail("give angle_max or angle_increment (one of them)");
+    if (max) {
+      spec.angle_max_rad = sensor->get_angle("angle_max", 0.0, kScanAngleRange);
+      if (!(*spec.angle_max_rad >= spec.angle_min_rad))
+        (*sensor)[sensor->has("angle_max") ? "angle_max" : "angle_max_deg"].fail(
+            "must not be below angle_min (a scan's beams go counter-clockwise)");
+    } else {
+      spec.angle_increment_rad = sensor->get_angle("angle_increment", 0.0, kScanAngleRange);
+      if (!(*spec.angle_increment_rad > 0.0))
+        (*sensor)[sensor->has("angle_increment") ? "angle_increment" : "angle_increment_deg"].fail(
+            "must be positive (a scan's beams go counter-clockwise)");
+    }
+    spec.min_range_m = sensor->get_double("min_range_m", 0.0, LaserDef::kRangeRange);
+    spec.max_range_m = (*sensor)["max_range_m"].as_double(LaserDef::kRangeRange);
+    if (spec.min_range_m >= spec.max_range_m) sensor->fail("min_range_m must be below max_range_m");
+    if (const auto mount = sensor->find("mount")) spec.mount = mount->as_pose(kBodyFrameRange);
+    laser = spec;
+  }
+  return laser;
+}
+
+/// scans.csv's `ranges` field of `row`: the beams' ranges separated by spaces. Beams without a
+/// return (NaN, inf, or outside [min_range, max_range], as a LaserScan's consumers take them) read
+/// max_range, the simulated laser's "nothing there".
+std::vector<float> scan_ranges(const TextTable& scans, const TextTable::Row& row, int column,
+                               const LaserSpec& spec) {
+  const std::string_view text = scans.text(row, column);
+  std::vector<float> ranges;
+  std::size_t i = 0;
+  while (true) {
+    while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+    if (i == text.size()) break;
+    std::size_t end = i;
+    while (end < text.size() && text[end] != ' ' && text[end] != '\t') ++end;
+    const std::string_view token = text.substr(i, end - i);
+    float value = 0.0f;
+    const auto [stop, error] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (error != std::errc() || stop != token.data() + token.size()) {
+      throw InputError(SourceLocation{scans.file().string(), row.line,
+                                      scans.column_in_line(row, column) + static_cast<int>(i)},
+                       "ranges",
+                       "beam " + std::to_string(ranges.size()) + ": " +
+                           quote_input(std::string(token)) +
+                           " is not a range (metres, or nan / inf for no return)");
+    }
+    const bool returned =
+        std::isfinite(value) && value >= spec.min_range_m && value < spec.max_range_m;
+    ranges.push_back(returned ? value : static_cast<float>(spec.max_range_m));
+    i = end;
+  }
+  return ranges;
 }
 
 /// The stream's source, and the file among those the import read.
@@ -99,8 +210,9 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
                          std::vector<fs::path>& files_read) {
   ImportedRobot robot;
   robot.name = name;
+  std::optional<LaserSpec> laser;
   if (has_file(dir / "robot.yaml")) {
-    read_robot_yaml(dir / "robot.yaml", robot);
+    laser = read_robot_yaml(dir / "robot.yaml", robot);
     files_read.push_back(dir / "robot.yaml");
   }
 
@@ -257,7 +369,80 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
       robot.ranges.back().ranges.push_back(r);
     }
   }
+
+  if (has_file(dir / "scans.csv")) {
+    const TextTable scans(dir / "scans.csv", Layout::kCsv, {"t", "ranges"});
+    const int st = scans.column("t"), ranges = scans.column("ranges");
+    if (!laser) {
+      throw InputError(SourceLocation{scans.file().string(), scans.rows().front().line - 1}, "",
+                       "laser scans need the scanner's angles and ranges: give robot.yaml a "
+                       "laser: {angle_min, angle_max, max_range_m} (a LaserScan's fields)");
+    }
+    scans.check_times(st, kDatasetTimeRange);
+    robot.scans_source = source_of(scans, st, files_read);
+    robot.scans.reserve(scans.rows().size());
+    for (const auto& row : scans.rows()) {
+      ImportedRobot::Scan scan{scans.number(row, st),
+                               {scan_ranges(scans, row, ranges, *laser)},
+                               place_of(scans, row, st)};
+      if (scan.scan.ranges_m.empty()) scans.fail(row, ranges, "a scan without ranges");
+      if (!robot.scans.empty() &&
+          scan.scan.ranges_m.size() != robot.scans.front().scan.ranges_m.size()) {
+        scans.fail(row, ranges,
+                   "a scan of " + std::to_string(scan.scan.ranges_m.size()) +
+                       " ranges; the first (line " + std::to_string(robot.scans.front().at.line) +
+                       ") has " + std::to_string(robot.scans.front().scan.ranges_m.size()));
+      }
+      robot.scans.push_back(std::move(scan));
+    }
+    if (robot.scans.size() > 0 && robot.scans.front().scan.ranges_m.size() >
+                                      static_cast<std::size_t>(LaserDef::kBeamsRange.max)) {
+      scans.fail(scans.rows().front(), ranges,
+                 "more than " + short_number(LaserDef::kBeamsRange.max) + " beams");
+    }
+    robot.laser =
+        laser_of(*laser, static_cast<int>(robot.scans.front().scan.ranges_m.size()), scans);
+  }
   return robot;
+}
+
+/// occupancy.yaml: a ROS map_server map whose image lies within the dataset's folder (a map from
+/// someone else must not make the import read /etc/passwd into the log), read once and checked
+/// as the world's loader will read it from the log.
+ImportedMap read_occupancy_map(const fs::path& dir, std::vector<fs::path>& files_read) {
+  ImportedMap map;
+  map.yaml_file = dir / "occupancy.yaml";
+  map.yaml_text = read_input_file(map.yaml_file, kMaxYamlFileBytes);
+  const YamlNode root = YamlNode::load_string(map.yaml_text, map.yaml_file.string());
+  const YamlNode image = root["image"];
+  const fs::path name = fs::path(image.as_string()).lexically_normal();
+  if (name.empty() || name.is_absolute() || name.has_root_name() || *name.begin() == "..")
+    image.fail("the image must be a file in the dataset's folder (a relative path within it)");
+  const fs::path image_file = dir / name;
+  // A symbolic link that leads out of the folder is refused as such a path is.
+  std::error_code error;
+  const fs::path real_dir = fs::weakly_canonical(dir, error);
+  const fs::path real_image = error ? fs::path() : fs::weakly_canonical(image_file, error);
+  const auto [outside, ignored] =
+      std::mismatch(real_dir.begin(), real_dir.end(), real_image.begin(), real_image.end());
+  if (error || outside != real_dir.end())
+    image.fail("the image leads out of the dataset's folder (a symbolic link to " +
+               quote_input(real_image.string()) + ")");
+  map.image_name = name.generic_string();
+  try {
+    map.image_bytes = read_input_file(image_file, kMaxPgmFileBytes);
+  } catch (const InputError& e) {
+    image.fail(e.what());
+  }
+  {
+    const InputSandbox sandbox({{InputSandbox::key(fs::absolute(map.yaml_file)), map.yaml_text},
+                                {InputSandbox::key(fs::absolute(image_file)), map.image_bytes}},
+                               "the dataset " + quote_input(dir.string()));
+    (void)load_occupancy_map(fs::absolute(map.yaml_file));
+  }
+  files_read.push_back(map.yaml_file);
+  files_read.push_back(image_file);
+  return map;
 }
 
 }  // namespace
@@ -309,6 +494,7 @@ ImportedDataset read_generic(const fs::path& dir) {
                                  z >= 0 ? beacons.number(row, z, kHeightRange) : 0.0});
     }
   }
+  if (has_file(dir / "occupancy.yaml")) dataset.map = read_occupancy_map(dir, dataset.files);
   std::vector<std::pair<std::string, fs::path>> robots;
   if (has_file(dir / "odometry.csv")) {
     robots.emplace_back("robot", dir);

@@ -95,7 +95,14 @@ struct ImportedRobot {
     SamplePlace at;  // the first of the rows of its time
   };
   std::vector<Ranges> ranges;  // none: the robot has no ranging sensor
-  StreamSource odometry_source, truth_source, detections_source, imu_source, ranges_source;
+  struct Scan {
+    double t_s = 0.0;
+    LaserScan scan;  // every scan of one robot has `laser->beams` ranges
+    SamplePlace at;
+  };
+  std::vector<Scan> scans;  // none: the robot has no laser
+  StreamSource odometry_source, truth_source, detections_source, imu_source, ranges_source,
+      scans_source;
   std::optional<Pose2> start;  // default: the first true pose in the window
   // The range-bearing sensor's settings; unset ones are taken from the imported detections
   // (every robot's: one camera model), or the sensor's defaults when there are none.
@@ -104,6 +111,19 @@ struct ImportedRobot {
   // longest range it reports (unset: the longest the data hold).
   std::vector<UltrasonicDef::Receiver> receivers{{{0.0, 0.0}, 0.0}};
   std::optional<double> ranging_max_range_m;
+  // The laser (the world's `laser`): its beams as the simulated one spreads them (centred on the
+  // mount's x axis; a scan's own first and last angles are turned into the mount's heading), its
+  // ranges and its beam count (every scan's). Set with scans.
+  std::optional<LaserDef> laser;
+};
+
+/// A ROS map_server map (YAML and image) the dataset gives: the world's `map`, carried in the log
+/// (a replay reads nothing but the log).
+struct ImportedMap {
+  std::filesystem::path yaml_file;  // where it was read, for messages
+  std::string yaml_text;
+  std::string image_name;  // the YAML's `image`, relative, within the dataset's folder
+  std::string image_bytes;
 };
 
 struct ImportedDataset {
@@ -112,6 +132,7 @@ struct ImportedDataset {
   std::string t0_key = "t0_s";
   std::vector<ImportedLandmark> landmarks;
   std::vector<ImportedBeacon> beacons;
+  std::optional<ImportedMap> map;  // the walls a laser sees (optional)
   std::vector<ImportedRobot> robots;
   // Detections dropped while reading: when, and why (counted by reason within the window, for
   // the summary and the header).
@@ -141,7 +162,7 @@ struct ImportWindow {
 struct ImportSummary {
   std::size_t records = 0;  // written, the end record not counted
   std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0, imu = 0,
-              range_readings = 0, ranges = 0;
+              range_readings = 0, ranges = 0, laser_scans = 0, laser_no_returns = 0;
   std::vector<std::string> robots;
   double t0_s = 0.0;        // the log's time 0 in the dataset's times
   double duration_s = 0.0;  // of the log

@@ -4,7 +4,7 @@
 // log: reading it, pairing readings with the truth, and the likelihood fits (counter: log records
 // per second). And `locsim twin` of it, with that calibration: reading the log, thinning the true
 // path, the landmarks in view along it, writing and loading the world (counter: log records per
-// second).
+// second). And `locsim import generic` of laser scans, and `locsim calibrate` of a laser.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -12,10 +12,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../noisy_world.hpp"
 #include "sim/common/files.hpp"
 #include "sim/experiments/twin.hpp"
 #include "sim/metrics/calibration.hpp"
+#include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
+#include "sim/run/runner.hpp"
 
 namespace {
 
@@ -61,6 +64,57 @@ void BM_ImportMrclam(benchmark::State& state) {
 }
 BENCHMARK(BM_ImportMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+/// `locsim import generic` of laser scans: 60 s of a 1081-beam scanner at 40 Hz (a Hokuyo
+/// UTM-30LX's), ranges written to the millimetre with a tenth of the beams without a return
+/// (`inf`), beside odometry and truth at 50 Hz. Counter: beams read per second.
+void BM_ImportGenericScans(benchmark::State& state) {
+  constexpr int kBeams = 1081, kScans = 2400;
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_import_scans";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream odometry(dir / "odometry.csv"), truth(dir / "groundtruth.tum");
+    odometry << "t,v,omega\n";
+    char text[160];
+    for (int i = 0; i <= 3000; ++i) {
+      const double t = 0.02 * i;
+      std::snprintf(text, sizeof(text), "%.2f,0.5,0.1\n", t);
+      odometry << text;
+      std::snprintf(text, sizeof(text), "%.2f %.6f %.6f 0 0 0 %.9f %.9f\n", t, std::cos(0.1 * t),
+                    std::sin(0.1 * t), std::sin(0.05 * t), std::cos(0.05 * t));
+      truth << text;
+    }
+    std::ofstream(dir / "robot.yaml")
+        << "laser: {angle_min_deg: -135, angle_max_deg: 135, min_range_m: 0.1, "
+           "max_range_m: 30}\n";
+    std::ofstream scans(dir / "scans.csv");
+    scans << "t,ranges\n";
+    for (int s = 0; s < kScans; ++s) {
+      std::string row = std::to_string(0.025 * s) + ",";
+      for (int b = 0; b < kBeams; ++b) {
+        if ((b + s) % 10 == 0) {
+          row += "inf ";
+        } else {
+          std::snprintf(text, sizeof(text), "%.3f ",
+                        2.0 + 5.0 * std::abs(std::sin(0.01 * (b + s))));
+          row += text;
+        }
+      }
+      row.back() = '\n';
+      scans << row;
+    }
+  }
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        locsim::write_import(locsim::read_generic(dir), {}, dir / "out.locsimlog"));
+  }
+  fs::remove_all(dir);
+  state.counters["beams_per_s"] = benchmark::Counter(
+      static_cast<double>(kBeams) * kScans * static_cast<double>(state.iterations()),
+      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ImportGenericScans)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 void BM_CalibrateMrclam(benchmark::State& state) {
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate";
   fs::remove_all(dir);
@@ -97,5 +151,33 @@ void BM_TwinMrclam(benchmark::State& state) {
       static_cast<double>(summary.records * state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_TwinMrclam)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// `locsim calibrate` of a laser: 60 s of a robot wandering in the office map with a 181-beam
+/// laser at 10 Hz (simulated once): the beams against the map's ranges at the true pose, and the
+/// beam model's EM. Counter: beams used per second.
+void BM_CalibrateLaser(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate_laser";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path world = locsim::testing::office_world(
+      dir,
+      "{encoders: {rate_hz: 50}, laser: {rate_hz: 10, fov_deg: 270, beams: 181, max_range_m: 8, "
+      "p_short: 0.05}}",
+      60);
+  locsim::RunOptions run;
+  run.world_file = world;
+  run.out_dir = dir / "run";
+  run.log_file = dir / "laser.locsimlog";
+  locsim::run_simulation(run);
+  std::size_t beams = 0;
+  for (auto _ : state) {
+    const locsim::Calibration c = locsim::calibrate({dir / "laser.locsimlog"}, {});
+    beams += c.laser ? c.laser->beams : 0;
+  }
+  fs::remove_all(dir);
+  state.counters["beams_per_s"] =
+      benchmark::Counter(static_cast<double>(beams), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CalibrateLaser)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
