@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/files.hpp"
 #include "sim/common/random.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/producers/import_log.hpp"
@@ -58,6 +59,8 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
   expect_within(c.motion->k_right, 0.02, "k_right");
   // Below 1 when the wheel model's covariance, with the fitted k, covers the errors it should.
   EXPECT_NEAR(c.motion->k_mean_nees, 3.0, 0.45);
+  ASSERT_TRUE(c.motion->heading);
+  EXPECT_FALSE(c.motion->heading->gyro) << "the heading is the wheels'";
   ASSERT_EQ(c.cameras.size(), 1u);
   const DetectionCalibration& rb = c.cameras[0];
   EXPECT_EQ(rb.camera, "range_bearing");
@@ -551,6 +554,55 @@ TEST(Calibrate, RecoversALasersBeamModelWithin15PercentAndTheTwinTakesIt) {
   for (const char* key : {"sigma_m", "p_short", "lambda_short", "p_max", "p_random"})
     EXPECT_EQ(twin_laser[key].as<std::string>(), sensor[key].as<std::string>()) << key;
   EXPECT_TRUE(fs::exists(dir / "twin" / "office.pgm"));
+}
+
+/// A base whose heading is a gyro's (bias and random walk, not the wheels'): calibrate tells it
+/// from the wheels by the heading errors' likelihood, recovers the bias, the noise density and
+/// the wheels' k from the distances, and writes them as the world's encoders.
+TEST(Calibrate, TellsAGyroHeadingFromTheWheelsAndRecoversItsBiasAndNoiseWithin15Percent) {
+  const fs::path dir = testing::temp_dir("calibrate_gyro");
+  std::string world = testing::noisy_world(0.0);
+  const std::string encoders = "      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}\n";
+  ASSERT_NE(world.find(encoders), std::string::npos);
+  world.replace(world.find(encoders), encoders.size(),
+                // The pose only, as such a base reports: a localizer then turns by the gyro.
+                "      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.01, heading: gyro, "
+                "gyro_bias_radps: 0.006, gyro_noise_density: 0.002, reports: [pose]}\n");
+  std::ofstream(dir / "world.yaml") << world;
+  const auto record =
+      testing::locsim("run " + (dir / "world.yaml").string() + " --no-readings -q --out " +
+                      (dir / "run").string() + " --log " + (dir / "gyro.locsimlog").string());
+  ASSERT_EQ(record.exit_code, 0) << record.output;
+  const Calibration c = calibrate({dir / "gyro.locsimlog"}, {});
+  ASSERT_TRUE(c.motion && c.motion->heading);
+  const MotionCalibration::HeadingFit& h = *c.motion->heading;
+  EXPECT_TRUE(h.gyro) << "wheels " << h.wheels_log_likelihood << ", gyro " << h.gyro_log_likelihood;
+  expect_within(h.bias_radps, 0.006, "gyro_bias_radps");
+  expect_within(h.noise_density, 0.002, "gyro_noise_density");
+  expect_within(h.distance_k, 0.01, "k from the distances");
+  EXPECT_EQ(h.bias_sigma, 0.0);  // one robot
+  const YAML::Node sensor = YAML::Load(c.to_yaml())["sensors"]["encoders"];
+  EXPECT_EQ(sensor["heading"].as<std::string>(), "gyro");
+  EXPECT_NEAR(sensor["gyro_bias_radps"].as<double>(), h.bias_radps, 1e-3 * h.bias_radps);
+
+  // The twin's odometry drifts as the recording's: the heading's bias decides where it ends.
+  write_file(dir / "calibration.yaml", c.to_yaml());
+  const auto twin = testing::locsim("twin " + (dir / "gyro.locsimlog").string() +
+                                    " --calibration " + (dir / "calibration.yaml").string() +
+                                    " --out " + (dir / "twin/twin.yaml").string());
+  ASSERT_EQ(twin.exit_code, 0) << twin.output;
+  const auto odometry_rms = [&](const std::string& command, const fs::path& out) {
+    const auto o = testing::locsim(command + " -q --out " + out.string() + " --localizer odometry");
+    EXPECT_EQ(o.exit_code, 0) << o.output;
+    return nlohmann::json::parse(
+               testing::read_file(out / "metrics.json"))["localizers"][0]["position_error_m"]["rms"]
+        .get<double>();
+  };
+  const double real = odometry_rms("replay " + (dir / "gyro.locsimlog").string(), dir / "real");
+  const double simulated =
+      odometry_rms("run " + (dir / "twin/twin.yaml").string() + " --no-variation", dir / "sim");
+  EXPECT_GT(real, 1.0);
+  EXPECT_NEAR(simulated / real, 1.0, 0.1) << "twin " << simulated << " m, recording " << real;
 }
 
 }  // namespace

@@ -11,13 +11,13 @@
 #include <utility>
 #include <vector>
 
-#include "noisy_world.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/log_source.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/run/replay.hpp"
 #include "test_support.hpp"
+#include "tests/noisy_world.hpp"
 
 namespace locsim {
 namespace {

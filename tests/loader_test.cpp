@@ -57,6 +57,13 @@ const Malformed kMalformedWorlds[] = {
     {"encoders_measure",
      "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      encoders: {measures: motors}\n",
      "'robots[0].sensors.encoders.measures': must be wheels or command, not 'motors'"},
+    {"encoders_heading",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      encoders: {heading: compass}\n",
+     "'robots[0].sensors.encoders.heading': must be wheels or gyro, not 'compass'"},
+    {"encoders_gyro_without_one",
+     "robots:\n  - start: {x: 0, y: 0}\n    sensors:\n      encoders: {gyro_bias_radps: 0.01}\n",
+     "'robots[0].sensors.encoders.gyro_bias_radps': describes the gyro of `heading: gyro`, which "
+     "this base has not"},
     {"theta_twice", "robots:\n  - start: {x: 0, y: 0, theta: 1, theta_deg: 5}\n",
      "'robots[0].start.theta_deg': give either 'theta' [rad] or 'theta_deg' [deg], not both"},
     {"point_not_pair", "walls:\n  - points: [[0, 0], [1]]\nrobots:\n  - start: {x: 5, y: 5}\n",

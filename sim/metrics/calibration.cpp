@@ -166,8 +166,10 @@ struct MotionSample {
   Eigen::Matrix3d wheel_p_left, wheel_p_right;  // its covariance per unit k_left^2, k_right^2
   double dt_s = 0.0;
   bool has_velocity = false;
-  double v_mps = 0.0, omega_radps = 0.0;            // measured, time-weighted mean
-  double true_v_mps = 0.0, true_omega_radps = 0.0;  // of the true increment
+  double v_mps = 0.0, omega_radps = 0.0;             // measured, time-weighted mean
+  double true_v_mps = 0.0, true_omega_radps = 0.0;   // of the true increment
+  double rolled_left_m = 0.0, rolled_right_m = 0.0;  // each wheel's travel, |d| summed
+  std::size_t track = 0;                             // the robot (of a log) it is of
 };
 
 struct Residual {
@@ -359,6 +361,8 @@ void collect_motion(const RobotLog& robot,
                                1.0, 0.0);
         sdk::predict_by_wheels(x_right, s.wheel_p_right, step->d_left_m, step->d_right_m,
                                wheel_base_m, 0.0, 1.0);
+        s.rolled_left_m += std::abs(step->d_left_m);
+        s.rolled_right_m += std::abs(step->d_right_m);
       }
       const locsim_odometry& held = odometry[i - 1].second;
       const double dt_s = odometry[i].first - odometry[i - 1].first;
@@ -1069,6 +1073,89 @@ void fit_wheel_model(const std::vector<MotionSample>& samples, MotionCalibration
   }
 }
 
+/// The heading errors' two models (MotionCalibration::HeadingFit) by maximum likelihood, each
+/// robot's systematic term (wheel-base error, gyro bias) solved in closed form inside (it is
+/// linear given the variances).
+MotionCalibration::HeadingFit fit_heading(const std::vector<MotionSample>& samples) {
+  std::size_t tracks = 0;
+  for (const MotionSample& s : samples) tracks = std::max(tracks, s.track + 1);
+  // -log-likelihood per interval of e_i ~ N(c_track x_i, var_i), c per track at its optimum.
+  const auto profiled = [&](const auto& regressor, const auto& variance,
+                            std::vector<double>* per_track) {
+    std::vector<double> xx(tracks, 0.0), xe(tracks, 0.0);
+    for (const MotionSample& s : samples) {
+      const double w = 1.0 / variance(s), x = regressor(s);
+      xx[s.track] += x * x * w, xe[s.track] += x * s.local_error(2) * w;
+    }
+    std::vector<double> c(tracks, 0.0);
+    for (std::size_t j = 0; j < tracks; ++j) c[j] = xx[j] > 0.0 ? xe[j] / xx[j] : 0.0;
+    double sum = 0.0;
+    for (const MotionSample& s : samples) {
+      const double v = variance(s), e = s.local_error(2) - c[s.track] * regressor(s);
+      sum += 0.5 * (std::log(2.0 * std::numbers::pi * v) + e * e / v);
+    }
+    if (per_track != nullptr) *per_track = c;
+    return sum / static_cast<double>(samples.size());
+  };
+  const auto turn = [](const MotionSample& s) { return s.measured.rot1 + s.measured.rot2; };
+  const auto time = [](const MotionSample& s) { return s.dt_s; };
+  const auto wheels_variance = [](const MotionSample& s, const std::vector<double>& p) {
+    const double kl = bounded_exp(p[0]), kr = bounded_exp(p[1]), f = bounded_exp(p[2]);
+    return kl * kl * s.wheel_p_left(2, 2) + kr * kr * s.wheel_p_right(2, 2) + f * f;
+  };
+  const auto gyro_variance = [](const MotionSample& s, const std::vector<double>& p) {
+    const double q = bounded_exp(p[0]), f = bounded_exp(p[1]);
+    return q * q * s.dt_s + f * f;
+  };
+  const MinimizeResult wheels = minimize_restarted(
+      [&](const std::vector<double>& p) {
+        return profiled(
+            turn, [&](const MotionSample& s) { return wheels_variance(s, p); }, nullptr);
+      },
+      {-5.0, -5.0, -7.0}, 2.0, 3000);
+  const MinimizeResult gyro = minimize_restarted(
+      [&](const std::vector<double>& p) {
+        return profiled(
+            time, [&](const MotionSample& s) { return gyro_variance(s, p); }, nullptr);
+      },
+      {-6.0, -7.0}, 2.0, 3000);
+  MotionCalibration::HeadingFit fit;
+  fit.wheels_log_likelihood = -wheels.value;
+  fit.gyro_log_likelihood = -gyro.value;
+  fit.gyro = fit.gyro_log_likelihood > fit.wheels_log_likelihood;
+  fit.noise_density = bounded_exp(gyro.x[0]);
+  fit.floor_rad = bounded_exp(gyro.x[1]);
+  profiled(
+      time, [&](const MotionSample& s) { return gyro_variance(s, gyro.x); },
+      &fit.bias_by_track_radps);
+  const auto n = static_cast<double>(fit.bias_by_track_radps.size());
+  for (const double b : fit.bias_by_track_radps) fit.bias_radps += b / n;
+  if (n > 1.0) {
+    double ss = 0.0;
+    for (const double b : fit.bias_by_track_radps)
+      ss += (b - fit.bias_radps) * (b - fit.bias_radps);
+    fit.bias_sigma = std::sqrt(ss / (n - 1.0));
+  }
+  // The distance's error: the increments' lengths, variance k^2 (|d_l| + |d_r|) / 4 + floor^2.
+  const auto distance_nll = [&](const std::vector<double>& p) {
+    const double k = bounded_exp(p[0]), f = bounded_exp(p[1]);
+    double sum = 0.0;
+    for (const MotionSample& s : samples) {
+      const double v = 0.25 * k * k * (s.rolled_left_m + s.rolled_right_m) + f * f;
+      // The odometry's increment is trans along rot1; the true one is that less the error.
+      const double e = s.measured.trans -
+                       std::hypot(s.measured.trans * std::cos(s.measured.rot1) - s.local_error(0),
+                                  s.measured.trans * std::sin(s.measured.rot1) - s.local_error(1));
+      sum += 0.5 * (std::log(v) + e * e / v);
+    }
+    return sum / static_cast<double>(samples.size());
+  };
+  const MinimizeResult distance = minimize_restarted(distance_nll, {-5.0, -7.0}, 2.0, 2000);
+  fit.distance_k = std::min(bounded_exp(distance.x[0]), EncodersDef::kKRange.max);
+  fit.distance_floor_m = bounded_exp(distance.x[1]);
+  return fit;
+}
+
 MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
   MotionCalibration m;
   m.intervals = samples.size();
@@ -1081,6 +1168,7 @@ MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
   m.variance_form = m.odometry_variance.log_likelihood > m.odometry_std.log_likelihood;
   fit_wheel_model(samples, m);
   m.velocity = fit_velocity_model(samples, m.velocity_intervals);
+  m.heading = fit_heading(samples);
   return m;
 }
 
@@ -1878,7 +1966,10 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
                          "' has no ground truth: calibrating needs the true path");
       }
       robot.steps = perception_steps(robot, world);
+      const std::size_t first_sample = pooled.motion.size();
       collect_motion(robot, robot.odometry, TruthView{robot.truth}, pooled.motion);
+      for (std::size_t k = first_sample; k < pooled.motion.size(); ++k)
+        pooled.motion[k].track = pooled.tracks;
       collect_ranges(robot, world, pooled.tracks, pooled.ranging);
       collect_beams(robot, walls, pooled.laser);
       robot.scans.clear();
@@ -1897,6 +1988,8 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   if (pooled.motion.size() >= 10) {
     out.motion = fit_motion(pooled.motion);
     fit_command(used_robots, *out.motion);
+    // A base that reports its command: the heading's errors are the response's, not a gyro's.
+    if (out.motion->command && out.motion->command->leads) out.motion->heading.reset();
   }
   for (auto& [kind, data] : pooled.cameras) {
     if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
@@ -1935,6 +2028,18 @@ json Calibration::to_json() const {
                      {"floor_heading_rad", m.k_floor_heading_rad},
                      {"log_likelihood", m.k_log_likelihood},
                      {"mean_nees", m.k_mean_nees}}}};
+    if (const auto& h = m.heading) {
+      j["motion"]["heading"] = {{"source", h->gyro ? "gyro" : "wheels"},
+                                {"wheels_log_likelihood", h->wheels_log_likelihood},
+                                {"gyro_log_likelihood", h->gyro_log_likelihood},
+                                {"gyro_bias_radps", h->bias_radps},
+                                {"gyro_bias_sigma", h->bias_sigma},
+                                {"gyro_bias_by_robot_radps", h->bias_by_track_radps},
+                                {"gyro_noise_density", h->noise_density},
+                                {"gyro_floor_rad", h->floor_rad},
+                                {"distance_k", h->distance_k},
+                                {"distance_floor_m", h->distance_floor_m}};
+    }
     if (m.velocity) {
       j["motion"]["velocity_model"] = model_json(*m.velocity);
       j["motion"]["velocity_model"]["intervals"] = m.velocity_intervals;
@@ -2312,6 +2417,14 @@ std::string Calibration::to_yaml() const {
     // above: the noise is what the motion does beyond the response.
     y += "  encoders: {measures: command, k_left: " + four_digits(*command->k_left) +
          ", k_right: " + four_digits(*command->k_right) + "}\n";
+  } else if (motion && motion->heading && motion->heading->gyro) {
+    // The heading is a gyro's: the wheels measure only the distance.
+    const MotionCalibration::HeadingFit& h = *motion->heading;
+    y += "  encoders: {heading: gyro, gyro_bias_radps: " + four_digits(h.bias_radps) +
+         ", gyro_bias_sigma: " + four_digits(h.bias_sigma) +
+         ", gyro_noise_density: " + four_digits(h.noise_density) +
+         ", k_left: " + four_digits(h.distance_k) + ", k_right: " + four_digits(h.distance_k) +
+         "}\n";
   } else if (motion) {
     y += "  encoders: {k_left: " + four_digits(motion->k_left) +
          ", k_right: " + four_digits(motion->k_right) + "}\n";
@@ -2379,6 +2492,14 @@ std::string describe(const Calibration& c) {
             " m^1/2 (mean NEES " + four_digits(m.k_mean_nees) + "); error whatever the motion " +
             four_digits(f.floor_position_m) + " m, " +
             four_digits(rad_to_deg(f.floor_heading_rad)) + " deg per interval\n";
+    if (const auto& h = m.heading) {
+      text += "  heading from " + std::string(h->gyro ? "a gyro" : "the wheels") + " (" +
+              four_digits(h->gyro_log_likelihood - h->wheels_log_likelihood) +
+              " nats per interval for a gyro): as a gyro, bias " + four_digits(h->bias_radps) +
+              " rad/s (spread over robots " + four_digits(h->bias_sigma) + "), noise " +
+              four_digits(h->noise_density) + " rad/s/sqrt(Hz); the wheels' k from the distance " +
+              four_digits(h->distance_k) + " m^1/2\n";
+    }
     if (const auto& r = m.command) {
       text +=
           "  the motion against the reported velocity (" + four_digits(r->seconds) +

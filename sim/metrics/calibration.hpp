@@ -256,6 +256,23 @@ struct MotionCalibration {
   double k_mean_nees = 0.0;
   std::optional<OdometryModelFit> velocity;  // only from velocity readings
   std::size_t velocity_intervals = 0;
+  /// Where the odometry's heading comes from (the encoders' `heading`), told apart by which model
+  /// explains the intervals' heading errors better: the wheels' (variance with each wheel's
+  /// travel, k_left^2 |d_left| + k_right^2 |d_right| over b^2, and a wheel-base error of each
+  /// robot's, an error in proportion to the turn) or a gyro's (a bias of each robot's times the
+  /// interval, and a random walk, q^2 dt). Both with a floor (the truth's own heading noise).
+  struct HeadingFit {
+    bool gyro = false;
+    double wheels_log_likelihood = 0.0, gyro_log_likelihood = 0.0;  // per interval [nats]
+    double bias_radps = 0.0, bias_sigma = 0.0;  // mean and spread of the robots' biases
+    std::vector<double> bias_by_track_radps;
+    double noise_density = 0.0;  // q [rad/s/sqrt(Hz)]
+    double floor_rad = 0.0;      // the gyro model's
+    // The wheels' k from the intervals' distances alone, one for both wheels (a gyro base's: its
+    // wheels only measure the distance) [m^1/2]; and that fit's floor [m].
+    double distance_k = 0.0, distance_floor_m = 0.0;
+  };
+  std::optional<HeadingFit> heading;  // unset with fewer than 10 intervals or under a command
   std::optional<CommandResponseFit> command;  // only from velocity readings
 };
 

@@ -43,6 +43,9 @@ EncoderSensor::EncoderSensor(const EncodersDef& def, const RobotDef& robot, Rand
       odometry_(robot.start) {}
 
 void EncoderSensor::on_physics_step(const SensorContext& context) {
+  // A gyro off the floor is modelled as seeing nothing, as the IMU's.
+  if (def_.heading == EncodersDef::Heading::kGyro && !context.robot.carried())
+    gyro_turn_rad_ += context.robot.yaw_rate_radps() * context.step_s;
   if (def_.measures != EncodersDef::Measures::kCommand) return;
   const double v_mps = context.robot.given_v_mps();
   const double half_turn_mps = 0.5 * context.robot.given_omega_radps() * wheel_base_m_;
@@ -73,15 +76,25 @@ std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) 
   // Dead reckoning on the arc's mid-heading (exact to second order; paper 002 uses the end
   // heading, which is biased for turns).
   const double distance = 0.5 * (travel_m[0] + travel_m[1]);
-  const double turn = (travel_m[1] - travel_m[0]) / wheel_base_m_;
+  const double period_s = context.t_s - last_sample_s_;
+  last_sample_s_ = context.t_s;
+  double turn = (travel_m[1] - travel_m[0]) / wheel_base_m_;
+  if (def_.heading == EncodersDef::Heading::kGyro) {
+    // The gyro's turn: the body's, its bias over the period and white noise of the period's
+    // bandwidth (a heading random walk of density^2 per second).
+    if (!gyro_bias_radps_)
+      gyro_bias_radps_ = rng().normal(def_.gyro_bias_radps, def_.gyro_bias_sigma);
+    turn =
+        gyro_turn_rad_ + *gyro_bias_radps_ * period_s +
+        (period_s > 0.0 ? rng().normal(0.0, def_.gyro_noise_density * std::sqrt(period_s)) : 0.0);
+    gyro_turn_rad_ = 0.0;
+  }
   const double mid_heading = odometry_.theta + 0.5 * turn;
   odometry_.x += distance * std::cos(mid_heading);
   odometry_.y += distance * std::sin(mid_heading);
   odometry_.theta = wrap_angle(odometry_.theta + turn);
   // What a base computing its velocity from the counts says: the mean over the last period (none
   // before the first period has passed).
-  const double period_s = context.t_s - last_sample_s_;
-  last_sample_s_ = context.t_s;
   OdometryReading reading;
   reading.fields = def_.reports;
   if (reading.has(kOdometryTicks)) reading.left_ticks = ticks_[0], reading.right_ticks = ticks_[1];

@@ -27,6 +27,8 @@ class EncoderSensor final : public Sensor {
   double true_angle_rad_[2] = {0.0, 0.0};       // wheel rotation at the last sample
   double counted_angle_rad_[2] = {0.0, 0.0};    // what the encoder has counted, with its error
   std::int64_t ticks_[2] = {0, 0};
+  double gyro_turn_rad_ = 0.0;             // Heading::kGyro: the body's turn since the last sample
+  std::optional<double> gyro_bias_radps_;  // drawn at the first sample
   Pose2 odometry_;
   double last_sample_s_ = 0.0;  // for the velocity over the last period [s]
 };

@@ -43,6 +43,18 @@ struct EncodersDef {
   // far the motion lags and falls short of it; the K error above is added to it either way.
   enum class Measures { kWheels, kCommand };
   Measures measures = Measures::kWheels;
+  // Where the reported pose's heading (and turn rate) comes from: the wheels' difference, or a
+  // gyro the base fuses, as many bases do (a Roomba's, a Husky's, CMU's Plaza robot's): the
+  // body's true turn plus the gyro's bias and white noise, so that the heading drifts with time,
+  // not with the turns. Ticks count the wheels either way; the distance is the wheels'.
+  enum class Heading { kWheels, kGyro };
+  Heading heading = Heading::kWheels;
+  double gyro_bias_radps = 0.0;  // the base gyro's bias, constant over a run [rad/s]
+  static constexpr Range kGyroBiasRange{-10.0, 10.0, "rad/s"};
+  double gyro_bias_sigma = 0.0;  // spread of a draw per run about gyro_bias_radps [rad/s]
+  static constexpr Range kGyroBiasSigmaRange{0.0, 10.0, "rad/s"};
+  double gyro_noise_density = 1.7e-4;  // white noise, as the IMU's default [rad/s/sqrt(Hz)]
+  static constexpr Range kGyroNoiseRange{0.0, 10.0, "rad/s/sqrt(Hz)"};
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.

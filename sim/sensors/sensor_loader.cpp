@@ -25,6 +25,25 @@ void check_rate(const YamlNode& where, double rate_hz, double step_hz) {
   }
 }
 
+/// The choice the string key `key` of `node` names among `choices` (name, value), `fallback` when
+/// it is absent; fails naming the names otherwise ("must be wheels or gyro, not 'x'").
+template <class E>
+E get_choice(const YamlNode& node, std::string_view key, E fallback,
+             std::initializer_list<std::pair<std::string_view, E>> choices) {
+  const auto value = node.find(key);
+  if (!value) return fallback;
+  const std::string name = value->as_string();
+  std::string names;
+  std::size_t i = 0;
+  for (const auto& [choice, e] : choices) {
+    if (choice == name) return e;
+    if (i > 0) names += i + 1 == choices.size() ? " or " : ", ";
+    names += choice;
+    ++i;
+  }
+  value->fail("must be " + names + ", not '" + name + "'");
+}
+
 /// Reads one sensor's section: the common keys plus its own, read by `read_own`. An empty
 /// section (`imu:` or `imu: {}`) turns the sensor on with its defaults.
 template <class Def, class ReadOwn>
@@ -52,18 +71,12 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
   if (const auto n = node.find("encoders")) {
     sensors.encoders = parse_section(
         *n, EncodersDef{}, step_hz,
-        {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports", "measures"},
+        {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports", "measures",
+         "heading", "gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density"},
         [&](EncodersDef& d) {
-          if (const auto measures = n->find("measures")) {
-            const std::string what = measures->as_string();
-            if (what == "wheels") {
-              d.measures = EncodersDef::Measures::kWheels;
-            } else if (what == "command") {
-              d.measures = EncodersDef::Measures::kCommand;
-            } else {
-              measures->fail("must be wheels or command, not '" + what + "'");
-            }
-          }
+          d.measures = get_choice(*n, "measures", d.measures,
+                                  {{"wheels", EncodersDef::Measures::kWheels},
+                                   {"command", EncodersDef::Measures::kCommand}});
           if (const auto reports = n->find("reports")) {
             d.reports = 0;
             for (const YamlNode& item : reports->items()) {
@@ -83,6 +96,20 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
           d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
           if (const auto base = n->find("odometry_wheel_base_m")) {
             d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
+          }
+          d.heading = get_choice(
+              *n, "heading", d.heading,
+              {{"wheels", EncodersDef::Heading::kWheels}, {"gyro", EncodersDef::Heading::kGyro}});
+          d.gyro_bias_radps =
+              n->get_double("gyro_bias_radps", d.gyro_bias_radps, EncodersDef::kGyroBiasRange);
+          d.gyro_bias_sigma =
+              n->get_double("gyro_bias_sigma", d.gyro_bias_sigma, EncodersDef::kGyroBiasSigmaRange);
+          d.gyro_noise_density = n->get_double("gyro_noise_density", d.gyro_noise_density,
+                                               EncodersDef::kGyroNoiseRange);
+          if (d.heading != EncodersDef::Heading::kGyro) {
+            for (const char* key : {"gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density"})
+              if (const auto gyro = n->find(key))
+                gyro->fail("describes the gyro of `heading: gyro`, which this base has not");
           }
         });
   }
@@ -165,12 +192,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
                             PtzCameraDef::kFalseDetectionsRange);
           d.report_ids = n->get_bool("report_ids", d.report_ids);
           d.reject_border_blobs = n->get_bool("reject_border_blobs", d.reject_border_blobs);
-          const std::string mode = n->get_string("mode", "analytic");
-          if (mode == "rendered") {
-            d.mode = PtzCameraDef::Mode::kRendered;
-          } else if (mode != "analytic") {
-            n->find("mode")->fail("must be analytic or rendered, not '" + mode + "'");
-          }
+          d.mode = get_choice(*n, "mode", d.mode,
+                              {{"analytic", PtzCameraDef::Mode::kAnalytic},
+                               {"rendered", PtzCameraDef::Mode::kRendered}});
         });
   }
   if (const auto n = node.find("omni_camera")) {
@@ -290,12 +314,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
           d.range_bias_m = n->get_double("range_bias_m", d.range_bias_m, D::kBiasRange);
           d.range_bias_per_m =
               n->get_double("range_bias_per_m", d.range_bias_per_m, D::kBiasPerMRange);
-          const std::string range_model = n->get_string("range_model", "distance");
-          if (range_model == "depth") {
-            d.range_model = D::RangeModel::kDepth;
-          } else if (range_model != "distance") {
-            n->find("range_model")->fail("must be distance or depth, not '" + range_model + "'");
-          }
+          d.range_model = get_choice(
+              *n, "range_model", d.range_model,
+              {{"distance", D::RangeModel::kDistance}, {"depth", D::RangeModel::kDepth}});
           // A target 90 deg or more off the axis has no depth (zero or negative).
           if (d.range_model == D::RangeModel::kDepth && d.fov_rad >= std::numbers::pi) {
             n->find("range_model")

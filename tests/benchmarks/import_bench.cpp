@@ -12,13 +12,13 @@
 #include <filesystem>
 #include <fstream>
 
-#include "../noisy_world.hpp"
 #include "sim/common/files.hpp"
 #include "sim/experiments/twin.hpp"
 #include "sim/metrics/calibration.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/run/runner.hpp"
+#include "tests/noisy_world.hpp"
 
 namespace {
 
