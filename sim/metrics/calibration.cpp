@@ -1168,7 +1168,6 @@ MotionCalibration fit_motion(const std::vector<MotionSample>& samples) {
   m.variance_form = m.odometry_variance.log_likelihood > m.odometry_std.log_likelihood;
   fit_wheel_model(samples, m);
   m.velocity = fit_velocity_model(samples, m.velocity_intervals);
-  m.heading = fit_heading(samples);
   return m;
 }
 
@@ -1988,8 +1987,9 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   if (pooled.motion.size() >= 10) {
     out.motion = fit_motion(pooled.motion);
     fit_command(used_robots, *out.motion);
-    // A base that reports its command: the heading's errors are the response's, not a gyro's.
-    if (out.motion->command && out.motion->command->leads) out.motion->heading.reset();
+    // Not for a base that reports its command: the heading's errors are the response's.
+    if (!out.motion->command || !out.motion->command->leads)
+      out.motion->heading = fit_heading(pooled.motion);
   }
   for (auto& [kind, data] : pooled.cameras) {
     if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
