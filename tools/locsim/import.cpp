@@ -93,6 +93,20 @@ Command add_import(CLI::App& app) {
           ->check(number_above(0.0, 1e7));
   import_command->add_flag("--overwrite", state->overwrite, "Replace an existing log file");
   import_command->add_flag("-q,--quiet", state->quiet, "No summary line");
+  import_command->footer(
+      std::string(
+          "mrclam: a UTIAS MRCLAM dataset's folder (Barcodes.dat, Landmark_Groundtruth.dat,\n"
+          "RobotN_Odometry.dat, RobotN_Groundtruth.dat, RobotN_Measurement.dat).\n"
+          "generic: a folder of CSV files a few lines of Python write from any dataset, one "
+          "robot's\n"
+          "in it or one sub-folder per robot:\n"
+          "  odometry.csv      t,v,omega | t,x,y,theta       groundtruth.tum  t x y z qx qy qz qw\n"
+          "  map.csv           id,x,y[,color] (landmarks)    detections.csv   t,id,range,bearing\n"
+          "  imu.csv           t,yaw_rate[,accel_x,accel_y]  beacons.csv      id,x,y[,z]\n"
+          "  ranges.csv        t,beacon,range[,receiver]     scans.csv        t,ranges (laser)\n"
+          "  occupancy.yaml    a ROS map_server map          robot.yaml       geometry, sensors\n"
+          "(docs/real_data.md#the-generic-format says every column and key).\n\n") +
+      kExitCodes);
   return {import_command, [state] { return import_cmd::execute(*state); }};
 }
 
