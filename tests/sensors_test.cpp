@@ -218,6 +218,33 @@ scenario:
   EXPECT_NEAR(after.odometry.y, before.odometry.y, 0.01);
 }
 
+/// `heading: gyro`: the pose turns as the body does (the veer of unequal wheels that the wheels'
+/// heading misses), plus the gyro's bias times the time, and a kidnap's turn is not seen.
+TEST(Encoders, AGyroHeadingFollowsTheBodysTurnAndDriftsByItsBiasNotByAKidnap) {
+  Simulation sim = make_sim(R"(
+floor: {friction: 1.0}
+robots:
+  - start: {x: 0, y: 0}
+    wheel_radius_left_m: 0.0505
+    sensors: {encoders: {k_left: 0, k_right: 0, heading: gyro, gyro_bias_radps: 0.01,
+                         gyro_noise_density: 0}}
+scenario:
+  events:
+    - {at_s: 5, kidnap: {to: {x: 4, y: 4, theta: 2}}}
+)");
+  auto readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 4.99, 0.3, 0.0);
+  const Sample<OdometryReading> before = readings.back();
+  EXPECT_LT(sim.robot(0).pose().theta, -0.03);  // it veered right, and the gyro saw it
+  EXPECT_NEAR(before.data.odometry.theta, sim.robot(0).pose().theta + 0.01 * before.t_s, 2e-3);
+  readings = collect<OdometryReading>(sim, SensorKind::kEncoders, 1.0, 0.0, 0.0);
+  ASSERT_FALSE(readings.empty());
+  EXPECT_NEAR(sim.robot(0).pose().theta, 2.0, 0.05);
+  // After the kidnap: only the bias turned it (the robot stands still).
+  const Sample<OdometryReading> after = readings.back();
+  EXPECT_NEAR(after.data.odometry.theta - before.data.odometry.theta,
+              0.01 * (after.t_s - before.t_s), 1e-3);
+}
+
 // ---------------------------------------------------------------------------------------- imu
 TEST(Imu, GyroWhiteNoiseMatchesItsDensity) {
   Simulation sim = make_sim(R"(
