@@ -77,4 +77,35 @@ inline std::filesystem::path office_world(const std::filesystem::path& dir,
   return dir / "world.yaml";
 }
 
+/// A 20 x 15 m plaza with four beacons at its corners and a robot without an IMU that ranges
+/// them one at a time with 0.2 m of noise (a UWB tag polling its anchors) while it drives a loop
+/// for `duration_s`; its encoders are `encoders` (a flow map's YAML) and `localization` is the
+/// scenario's localization line (empty: the scenario's default).
+inline std::string range_only_world(const std::string& encoders, double duration_s,
+                                    const std::string& localization = "") {
+  return R"(name: range_only
+beacons:
+  - {id: 1, position: [0, 0], height_m: 0}
+  - {id: 2, position: [20, 0], height_m: 0}
+  - {id: 3, position: [20, 15], height_m: 0}
+  - {id: 4, position: [0, 15], height_m: 0}
+robots:
+  - name: robot
+    footprint: {radius_m: 0.3}
+    wheel_base_m: 0.5
+    wheel_radius_m: 0.1
+    start: {x: 5, y: 4, theta_deg: 0}
+    sensors:
+      encoders: )" +
+         encoders + R"(
+      ultrasonic: {rate_hz: 4, receivers: [{position: [0, 0], height_m: 0}], sigma_m: 0.2,
+                   beacons_per_reading: 1, dropout_probability: 0}
+scenario:
+  duration_s: )" +
+         std::to_string(duration_s) + "\n" +
+         (localization.empty() ? "" : "  " + localization + "\n") +
+         R"(  drive: {mode: waypoints, path: [[15, 4], [15, 11], [5, 11], [5, 4]], loop: true, speed_mps: 0.8}
+)";
+}
+
 }  // namespace locsim::testing

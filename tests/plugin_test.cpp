@@ -317,6 +317,31 @@ TEST(Models, JacobiansMatchFiniteDifferences) {
     const sdk::JacobianCheck l = sdk::check_jacobian(L, from_measured, Eigen::Vector2d(dl, dr),
                                                      sdk::WrapAngles{2}, kTolerance);
     EXPECT_TRUE(l.ok) << "L, trial " << trial << ": " << l.report();
+
+    // The state with a gyro's heading-rate bias (x, y, theta, b), the gyro's scale error given:
+    // F by the state, L by the measured wheel travel.
+    sdk::PoseHeadingBias xb;
+    xb << x, 0.05 * u(engine);
+    const double dt = 0.05 + 0.2 * std::abs(u(engine)), scale = 0.05 * u(engine);
+    Eigen::Matrix4d Fb;
+    Eigen::Matrix<double, 4, 2> Lb;
+    sdk::move_with_heading_bias(xb, dl, dr, b, dt, scale, &Fb, &Lb);
+    const auto from_biased = [&](const sdk::PoseHeadingBias& s) {
+      return sdk::move_with_heading_bias(s, dl, dr, b, dt, scale);
+    };
+    const auto from_travel = [&](const Eigen::Vector2d& d) {
+      return sdk::move_with_heading_bias(xb, d(0), d(1), b, dt, scale);
+    };
+    const sdk::JacobianCheck fb =
+        sdk::check_jacobian(Fb, from_biased, xb, sdk::WrapAngles{2}, kTolerance);
+    EXPECT_TRUE(fb.ok) << "F with the heading bias, trial " << trial << ": " << fb.report();
+    const sdk::JacobianCheck lb = sdk::check_jacobian(Lb, from_travel, Eigen::Vector2d(dl, dr),
+                                                      sdk::WrapAngles{2}, kTolerance);
+    EXPECT_TRUE(lb.ok) << "L with the heading bias, trial " << trial << ": " << lb.report();
+    // The true turn is the measured one less the bias, over the scale.
+    const sdk::PoseHeadingBias moved = from_biased(xb);
+    EXPECT_NEAR(sdk::wrap(moved(2) - xb(2)), sdk::wrap(((dr - dl) / b - xb(3) * dt) / (1 + scale)),
+                1e-12);
   }
 }
 

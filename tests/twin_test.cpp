@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 
 #include "sim/common/errors.hpp"
@@ -553,6 +554,63 @@ TEST(Twin, ACalibrationsUnknownSensorOrKeyIsRefusedAtItsLineBeforeAnythingIsWrit
     testing::expect_contains(o.output, c.message);
     EXPECT_FALSE(fs::exists(dir / "twin")) << o.output;
   }
+}
+
+/// A GPS-like truth (a lawnmower's: 0.8 m/s, 5 Hz, 2 cm of noise, a lane and a turn back) with
+/// three jumps no robot makes: a 0.6 m step aside, a one-sample glitch of 0.5 m, 0.45 m back.
+/// The twin's path takes each out and catches up within seconds; the rest of it, and a path
+/// without jumps, are kept to the bit.
+TEST(Twin, SmoothsTheTruthsJumpsOutOfThePathItDrives) {
+  std::mt19937_64 random(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<StampedPose> clean;
+  for (int k = 0; k <= 1000; ++k) {
+    const double t = 0.2 * k;  // 200 s: a lane east, a half circle, a lane west
+    StampedPose p{t, {}};
+    if (t < 80.0) {
+      p.pose = {0.8 * t, 0.0, 0.0};
+    } else if (t < 80.0 + 3.14159265 * 2.0 / 0.8) {
+      const double a = (t - 80.0) * 0.8 / 2.0;
+      p.pose = {64.0 + 2.0 * std::sin(a), 2.0 - 2.0 * std::cos(a), a};
+    } else {
+      p.pose = {64.0 - 0.8 * (t - 80.0 - 3.14159265 * 2.0 / 0.8), 4.0, 3.14159265};
+    }
+    p.pose.x += noise(random), p.pose.y += noise(random);
+    clean.push_back(p);
+  }
+  std::vector<StampedPose> unchanged = clean;
+  EXPECT_EQ(clear_truth_jumps(unchanged), std::make_pair(std::size_t{0}, 0.0));
+  for (std::size_t k = 0; k < clean.size(); ++k) {
+    ASSERT_EQ(unchanged[k].pose.x, clean[k].pose.x) << k;
+    ASSERT_EQ(unchanged[k].pose.y, clean[k].pose.y) << k;
+  }
+
+  std::vector<StampedPose> jumped = clean;
+  for (std::size_t k = 150; k < jumped.size(); ++k) jumped[k].pose.y += 0.6;   // at 30 s
+  jumped[400].pose.x += 0.5;                                                   // at 80 s
+  for (std::size_t k = 700; k < jumped.size(); ++k) jumped[k].pose.x += 0.45;  // at 140 s
+  std::vector<StampedPose> cleared = jumped;
+  const auto [jumps, largest_m] = clear_truth_jumps(cleared);
+
+  // The glitch is two jumps, out and back.
+  EXPECT_EQ(jumps, 4u);
+  EXPECT_NEAR(largest_m, 0.6, 0.1);
+  double worst_step_m = 0.0;
+  std::size_t changed = 0;
+  for (std::size_t k = 1; k < cleared.size(); ++k) {
+    const double step_m = (cleared[k].pose.position() - cleared[k - 1].pose.position()).norm();
+    worst_step_m = std::max(worst_step_m, step_m);
+    if (cleared[k].pose.x != jumped[k].pose.x || cleared[k].pose.y != jumped[k].pose.y) ++changed;
+  }
+  // A step of 0.16 m at 0.8 m/s and 5 Hz, noise on top; the jumps' 0.6-0.8 m; catching up
+  // adds 0.12 m at most.
+  EXPECT_LT(worst_step_m, 0.4);
+  // Each jump is taken up over a few seconds (at most 15 samples each), the rest untouched.
+  EXPECT_GT(changed, 3u);
+  EXPECT_LT(changed, 60u);
+  EXPECT_EQ(cleared[100].pose.x, jumped[100].pose.x);
+  EXPECT_EQ(cleared[600].pose.y, jumped[600].pose.y);
+  EXPECT_EQ(cleared.back().pose.x, jumped.back().pose.x);
 }
 
 }  // namespace

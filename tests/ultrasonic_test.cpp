@@ -14,6 +14,7 @@
 #include "run_support.hpp"
 #include "sim/world/generator.hpp"
 #include "test_support.hpp"
+#include "tests/noisy_world.hpp"
 
 namespace locsim {
 namespace {
@@ -217,27 +218,8 @@ TEST(BeaconMcl, LocalizesGloballyFromRangesToOneBeaconAtATime) {
   // ranges, with the motion for the heading, find it. Over seeds 1-3 it converged in 2-12 s and
   // tracked to 0.12-0.15 m (sigma 0.2 m).
   const std::filesystem::path dir = testing::temp_dir("beacon_mcl_global");
-  std::ofstream(dir / "world.yaml") << R"(name: range_only_global
-beacons:
-  - {id: 1, position: [0, 0], height_m: 0}
-  - {id: 2, position: [20, 0], height_m: 0}
-  - {id: 3, position: [20, 15], height_m: 0}
-  - {id: 4, position: [0, 15], height_m: 0}
-robots:
-  - name: robot
-    footprint: {radius_m: 0.3}
-    wheel_base_m: 0.5
-    wheel_radius_m: 0.1
-    start: {x: 5, y: 4, theta_deg: 0}
-    sensors:
-      encoders: {rate_hz: 10, k_left: 0.01, k_right: 0.01}
-      ultrasonic: {rate_hz: 4, receivers: [{position: [0, 0], height_m: 0}], sigma_m: 0.2,
-                   beacons_per_reading: 1, dropout_probability: 0}
-scenario:
-  duration_s: 60
-  localization: {initial_pose: unknown}
-  drive: {mode: waypoints, path: [[15, 4], [15, 11], [5, 11], [5, 4]], loop: true, speed_mps: 0.8}
-)";
+  std::ofstream(dir / "world.yaml") << testing::range_only_world(
+      "{rate_hz: 10, k_left: 0.01, k_right: 0.01}", 60.0, "localization: {initial_pose: unknown}");
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     RunOptions options;
     options.world_file = dir / "world.yaml";

@@ -3,7 +3,9 @@
 // setting has one). Built on the SDK's particle-filter skeleton (sdk::ParticleFilter), as the
 // landmark filters are:
 //   move    every odometry reading, each particle by its own draw of the wheels' travel (paper
-//           002's wheel model, k_left, k_right; turned by the gyro where the robot has one), and
+//           002's wheel model, k_left, k_right; turned by the gyro where the robot has one; or,
+//           for an odometry that turns by a gyro (odometry_heading gyro), the distance by the
+//           wheels and the turn less each particle's own hypothesis of the gyro's bias), and
 //           at every round of ranges by the noise a step has whatever its motion (motion_floor_*)
 //           and a roughening that keeps a finite set from collapsing;
 //   weigh   each range, its systematic error taken out (range_bias_*), against the slant range
@@ -53,7 +55,8 @@ constexpr locsim_param_decl kParams[] = {
     {"outlier_likelihood", LOCSIM_PARAM_DOUBLE, 0.05, 0, 1, nullptr,
      "added to every range's likelihood (1 = perfect match): the chance that it is an echo, so "
      "that one far off cannot decide the weights; 0: every range is direct [-]"},
-    {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "low_variance", "low_variance or roulette"}};
+    {"resampler", LOCSIM_PARAM_STRING, 0, 0, 0, "low_variance", "low_variance or roulette"},
+    LOCSIM_GYRO_HEADING_PARAMS};
 
 class BeaconMcl final : public sdk::Localizer {
  public:
@@ -62,7 +65,11 @@ class BeaconMcl final : public sdk::Localizer {
   void on_imu(double t_s, const locsim_imu& imu) override { wheels_.observe_imu(t_s, imu); }
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override {
-    if (const auto step = wheels_.update(t_s, odometry)) {
+    const auto step = wheels_.update(t_s, odometry);
+    if (!step) return;
+    if (gyro_.active) {
+      move_by_gyro(*step);
+    } else {
       sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
                                k_left_, k_right_, pf_.random(),
                                0.5 * wheel_base_m_ * std::abs(step->slip_rad));
@@ -97,7 +104,10 @@ class BeaconMcl final : public sdk::Localizer {
     n_eff_ = evidence.n_eff;
     ++rounds_;
     if (n_eff_ < 0.5 * static_cast<double>(pf_.size())) {
-      pf_.resample();
+      if (gyro_.active)
+        pf_.resample(bias_radps_);
+      else
+        pf_.resample();
       ++resamples_;
     }
   }
@@ -107,12 +117,49 @@ class BeaconMcl final : public sdk::Localizer {
     pf_.export_particles(poses, weights);
   }
   std::vector<std::pair<std::string, double>> diagnostics() const override {
-    return {{"n_eff", n_eff_},
-            {"rounds", static_cast<double>(rounds_)},
-            {"resamples", static_cast<double>(resamples_)}};
+    std::vector<std::pair<std::string, double>> out{{"n_eff", n_eff_},
+                                                    {"rounds", static_cast<double>(rounds_)},
+                                                    {"resamples", static_cast<double>(resamples_)}};
+    if (gyro_.active && !bias_radps_.empty()) {
+      // The particles' weighted mean bias.
+      const sdk::ParticleSet& p = pf_.particles();
+      double mean = 0.0, total = 0.0;
+      for (std::size_t i = 0; i < p.size(); ++i)
+        mean += p.weight[i] * bias_radps_[i], total += p.weight[i];
+      out.emplace_back("heading_rate_bias_radps", total > 0.0 ? mean / total : 0.0);
+    }
+    return out;
   }
 
  private:
+  /// An odometry that turns by a gyro: each particle moves by the wheels' distance with its own
+  /// draw of their noise, (k_left^2 |dl| + k_right^2 |dr|) / 4, and by the gyro's turn a taken as
+  /// (a - b_i dt) / (1 + s) with its own bias b_i and a draw of the turn's noise; b_i walks.
+  void move_by_gyro(const sdk::OdometryStep& step) {
+    sdk::ParticleSet& p = pf_.particles();
+    sdk::Random& random = pf_.random();
+    while (bias_radps_.size() < p.size())
+      bias_radps_.push_back(gyro_.bias_radps + random.normal(gyro_.bias_sigma));
+    const double dt = std::max(step.dt_s, 0.0);
+    const double distance_m = 0.5 * (step.d_left_m + step.d_right_m);
+    const double turn_rad = (step.d_right_m - step.d_left_m) / wheel_base_m_;
+    const double distance_sigma = 0.5 * std::sqrt(k_left_ * k_left_ * std::abs(step.d_left_m) +
+                                                  k_right_ * k_right_ * std::abs(step.d_right_m));
+    const double turn_sigma = gyro_.noise_density * std::sqrt(dt);
+    const double walk = gyro_.bias_walk * std::sqrt(dt);
+    const double half_base = 0.5 * wheel_base_m_;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double d = distance_m + random.normal(distance_sigma);
+      const double a =
+          (turn_rad - bias_radps_[i] * dt) / (1.0 + gyro_.scale_error) + random.normal(turn_sigma);
+      const sdk::Pose moved =
+          sdk::diff_drive_motion(sdk::Pose(p.x[i], p.y[i], p.theta[i]), d - half_base * a,
+                                 d + half_base * a, wheel_base_m_);
+      p.x[i] = moved(0), p.y[i] = moved(1), p.theta[i] = moved(2);
+      bias_radps_[i] += random.normal(walk);
+    }
+  }
+
   struct Range {
     Eigen::Vector2d receiver;  // robot frame [m]
     Eigen::Vector2d beacon;    // world [m]
@@ -129,7 +176,8 @@ class BeaconMcl final : public sdk::Localizer {
         sigma_range_m_(params.number("sigma_range_m")),
         range_bias_m_(params.number("range_bias_m")),
         range_bias_per_m_(params.number("range_bias_per_m")),
-        outlier_likelihood_(params.number("outlier_likelihood")) {
+        outlier_likelihood_(params.number("outlier_likelihood")),
+        gyro_(sdk::GyroHeading::from(params)) {
     if (init.map == nullptr || init.map->beacon_count == 0)
       throw std::invalid_argument("needs beacons on the map");
     if (!(wheel_base_m_ > 0.0)) throw std::invalid_argument("needs the robot's wheel base");
@@ -152,7 +200,9 @@ class BeaconMcl final : public sdk::Localizer {
   double wheel_base_m_;
   sdk::OdometryTracker wheels_;
   double k_left_, k_right_, sigma_range_m_, range_bias_m_, range_bias_per_m_, outlier_likelihood_;
-  sdk::OdometryNoise floor_;                                   // only its floor_* are used
+  sdk::GyroHeading gyro_;
+  std::vector<double> bias_radps_;  // each particle's gyro bias (odometry_heading gyro)
+  sdk::OdometryNoise floor_;        // only its floor_* are used
   std::map<int, std::pair<Eigen::Vector2d, double>> beacons_;  // id -> (position, height)
   std::vector<Range> ranges_;
   std::vector<double> log_likelihood_;

@@ -45,6 +45,7 @@ UltrasonicEkfDef ultrasonic_def(const sdk::Params& params) {
   def.k_right = params.number("k_right");
   def.motion_floor_m = params.number("motion_floor_m");
   def.motion_floor_rad = params.number("motion_floor_deg") * std::numbers::pi / 180.0;
+  def.gyro = sdk::GyroHeading::from(params);
   return def;
 }
 
@@ -60,6 +61,11 @@ UltrasonicEkf::UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& ini
     const locsim_beacon& b = init.map->beacons[i];
     beacons_[b.id] = {Eigen::Vector2d(b.x, b.y), b.height_m};
   }
+  // The bias starts at its prior, uncorrelated with the rest (held when its spread is 0).
+  state_(5) = def_.gyro.bias_radps;
+  covariance_.row(5).setZero();
+  covariance_.col(5).setZero();
+  covariance_(5, 5) = sq(def_.gyro.bias_sigma);
   if (init.initial_pose_known) {
     Eigen::Matrix3d c;
     for (int i = 0; i < 9; ++i) c(i / 3, i % 3) = init.initial_covariance[i];
@@ -94,29 +100,53 @@ bool UltrasonicEkf::by_wheels() const {
 }
 
 void UltrasonicEkf::predict_by_wheels(const sdk::OdometryStep& step) {
-  constexpr int kPose[3] = {0, 1, 4};
-  Eigen::Matrix3d f_pose;
-  Eigen::Matrix<double, 3, 2> g_pose;
-  const sdk::Pose moved = sdk::diff_drive_motion(pose(), step.d_left_m, step.d_right_m,
-                                                 wheel_base_m_, &f_pose, &g_pose);
+  // (x, y, theta, b) are the state's components 0, 1, 4, 5; the velocities stay as they are.
+  constexpr int kMoved[4] = {0, 1, 4, 5};
+  sdk::PoseHeadingBias x;
+  for (int i = 0; i < 4; ++i) x(i) = state_(kMoved[i]);
+  Eigen::Matrix4d f_moved;
+  Eigen::Matrix<double, 4, 2> l_moved;
+  const sdk::PoseHeadingBias moved =
+      sdk::move_with_heading_bias(x, step.d_left_m, step.d_right_m, wheel_base_m_, step.dt_s,
+                                  def_.gyro.scale_error, &f_moved, &l_moved);
   Covariance f = Covariance::Identity();
-  Eigen::Matrix<double, 5, 2> g = Eigen::Matrix<double, 5, 2>::Zero();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) f(kPose[i], kPose[j]) = f_pose(i, j);
-    g.row(kPose[i]) = g_pose.row(i);
+  Eigen::Matrix<double, 6, 2> l = Eigen::Matrix<double, 6, 2>::Zero();
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) f(kMoved[i], kMoved[j]) = f_moved(i, j);
+    l.row(kMoved[i]) = l_moved.row(i);
   }
   const Eigen::Vector2d noise(sq(def_.k_left) * std::abs(step.d_left_m),
                               sq(def_.k_right) * std::abs(step.d_right_m));
-  state_(0) = moved(0), state_(1) = moved(1), state_(4) = moved(2);
-  covariance_ = f * covariance_ * f.transpose() + g * noise.asDiagonal() * g.transpose();
+  for (int i = 0; i < 4; ++i) state_(kMoved[i]) = moved(i);
+  if (def_.gyro.active) {
+    // The wheels measure only the distance D = (dl + dr) / 2: an error in D moves both wheels
+    // alike, with variance (k_left^2 |dl| + k_right^2 |dr|) / 4.
+    const Eigen::Matrix<double, 6, 1> l_distance = l.col(0) + l.col(1);
+    covariance_ = f * covariance_ * f.transpose() +
+                  l_distance * (0.25 * noise.sum()) * l_distance.transpose();
+  } else {
+    covariance_ = f * covariance_ * f.transpose() + l * noise.asDiagonal() * l.transpose();
+  }
+  covariance_(4, 4) += sq(def_.gyro.noise_density) * std::max(step.dt_s, 0.0);
+  walk_bias(step.dt_s);
 }
 
 void UltrasonicEkf::predict(double dt) {
-  const Covariance f = sdk::imu_motion_jacobian(state_, accel_, dt);
-  const Eigen::Matrix<double, 5, 3> g = sdk::imu_noise_jacobian(state_, dt);
-  state_ = sdk::imu_motion(state_, accel_, yaw_rate_, dt);
+  // The IMU's motion with the yaw rate less the bias: d theta' / d b = -dt.
+  const sdk::ImuState s = imu_state();
+  Covariance f = Covariance::Identity();
+  f.topLeftCorner<5, 5>() = sdk::imu_motion_jacobian(s, accel_, dt);
+  f(4, 5) = -dt;
+  Eigen::Matrix<double, 6, 3> g = Eigen::Matrix<double, 6, 3>::Zero();
+  g.topRows<5>() = sdk::imu_noise_jacobian(s, dt);
+  state_.head<5>() = sdk::imu_motion(s, accel_, yaw_rate_ - state_(5), dt);
   const Eigen::Vector3d noise(sq(def_.sigma_accel), sq(def_.sigma_accel), sq(def_.sigma_gyro));
   covariance_ = f * covariance_ * f.transpose() + g * noise.asDiagonal() * g.transpose();
+  walk_bias(dt);
+}
+
+void UltrasonicEkf::walk_bias(double dt) {
+  if (def_.gyro.bias_sigma > 0.0 && dt > 0.0) covariance_(5, 5) += sq(def_.gyro.bias_walk) * dt;
 }
 
 void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading) {
@@ -296,7 +326,7 @@ void UltrasonicEkf::update_trilateration(double t_s, const std::vector<Range>& r
     return;
   }
   // z = (x, y, theta, vx, vy) observes the state directly: H picks the components.
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(5, 5);
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(5, 6);
   h(0, 0) = h(1, 1) = h(2, 4) = h(3, 2) = h(4, 3) = 1.0;
   Eigen::VectorXd z(5);
   z << pose(0), pose(1), pose(2), velocity.x(), velocity.y();
@@ -326,12 +356,12 @@ void UltrasonicEkf::update_ranges(const std::vector<Range>& ranges) {
   // Each range gated alone against the prediction, then the accepted ones in one update.
   const sdk::Pose prior = pose();
   const double r = sq(def_.corrected_sigma_m());
-  std::vector<Eigen::Matrix<double, 1, 5>> rows;
+  std::vector<Eigen::Matrix<double, 1, 6>> rows;
   std::vector<double> innovations;
   for (const Range& range : ranges) {
     const sdk::BeaconRangeModel model =
         sdk::beacon_range(prior, range.receiver, range.beacon->position, range.dz_m);
-    Eigen::Matrix<double, 1, 5> h = Eigen::Matrix<double, 1, 5>::Zero();
+    Eigen::Matrix<double, 1, 6> h = Eigen::Matrix<double, 1, 6>::Zero();
     h(0) = model.jacobian(0), h(1) = model.jacobian(1), h(4) = model.jacobian(2);
     const double s = (h * covariance_ * h.transpose())(0, 0) + r;
     const double innovation = range.range_m - model.range_m;
@@ -356,7 +386,7 @@ void UltrasonicEkf::update_ranges(const std::vector<Range>& ranges) {
   }
   if (rows.empty()) return;
   const auto m = static_cast<Eigen::Index>(rows.size());
-  Eigen::MatrixXd h(m, 5);
+  Eigen::MatrixXd h(m, 6);
   Eigen::VectorXd innovation(m);
   for (Eigen::Index i = 0; i < m; ++i) {
     h.row(i) = rows[static_cast<std::size_t>(i)];
@@ -379,7 +409,7 @@ void UltrasonicEkf::correct(const Eigen::MatrixXd& h, const Eigen::VectorXd& inn
 bool UltrasonicEkf::update_pose(const sdk::Pose& pose, const Eigen::Matrix3d& covariance,
                                 double gate_chi2) {
   if (!initialised_) return false;
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(3, 5);
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(3, 6);
   h(0, 0) = h(1, 1) = h(2, 4) = 1.0;
   Eigen::VectorXd innovation(3);
   innovation << pose(0) - state_(0), pose(1) - state_(1), sdk::wrap(pose(2) - state_(4));
@@ -390,8 +420,10 @@ bool UltrasonicEkf::update_pose(const sdk::Pose& pose, const Eigen::Matrix3d& co
 }
 
 void UltrasonicEkf::reset(const sdk::Pose& pose, const Eigen::Matrix3d& covariance) {
-  state_ << pose(0), pose(1), 0.0, 0.0, sdk::wrap(pose(2));
+  state_.head<5>() << pose(0), pose(1), 0.0, 0.0, sdk::wrap(pose(2));
+  const double bias_variance = covariance_(5, 5);
   covariance_.setZero();
+  covariance_(5, 5) = bias_variance;
   const int index[3] = {0, 1, 4};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) covariance_(index[i], index[j]) = covariance(i, j);
@@ -417,13 +449,19 @@ sdk::Estimate UltrasonicEkf::estimate() const {
 }
 
 std::vector<std::pair<std::string, double>> UltrasonicEkf::diagnostics() const {
-  return {{"fixes", static_cast<double>(fixes_)},
-          {"missed", static_cast<double>(missed_)},
-          {"fixes_gated", static_cast<double>(fixes_gated_)},
-          {"ranges_used", static_cast<double>(ranges_used_)},
-          {"ranges_gated", static_cast<double>(ranges_gated_)},
-          {"restarts", static_cast<double>(restarts_)},
-          {"echo_restarts", static_cast<double>(echo_restarts_)}};
+  std::vector<std::pair<std::string, double>> out{
+      {"fixes", static_cast<double>(fixes_)},
+      {"missed", static_cast<double>(missed_)},
+      {"fixes_gated", static_cast<double>(fixes_gated_)},
+      {"ranges_used", static_cast<double>(ranges_used_)},
+      {"ranges_gated", static_cast<double>(ranges_gated_)},
+      {"restarts", static_cast<double>(restarts_)},
+      {"echo_restarts", static_cast<double>(echo_restarts_)}};
+  if (def_.gyro.bias_sigma > 0.0) {
+    out.emplace_back("heading_rate_bias_radps", heading_rate_bias());
+    out.emplace_back("heading_rate_bias_sigma", heading_rate_bias_sigma());
+  }
+  return out;
 }
 
 }  // namespace ultrasonic

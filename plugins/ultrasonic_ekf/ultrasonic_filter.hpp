@@ -1,8 +1,9 @@
-// Paper 003's ultrasonic + IMU EKF over s = (x, y, vx, vy, theta), shared by the ultrasonic_ekf
-// plugin and the ultrasonic_amcl fusion. It predicts with the IMU (body-frame acceleration, yaw
-// rate; sdk::imu_motion), or, on a robot without one (a lawnmower ranging to UWB anchors), by the
-// wheels' odometry (sdk::diff_drive_motion with paper 002's wheel noise), and updates on each
-// ultrasonic round in one of two ways:
+// Paper 003's ultrasonic + IMU EKF over s = (x, y, vx, vy, theta, b), shared by the ultrasonic_ekf
+// plugin and the ultrasonic_amcl fusion; b is the bias of the turn rate (the IMU's gyro, or the
+// gyro a gyro-fused odometry turns by), estimated when given a prior spread, else held. It predicts
+// with the IMU (body-frame acceleration, yaw rate; sdk::imu_motion), or, on a robot without one (a
+// lawnmower ranging to UWB anchors), by the wheels' odometry (sdk::diff_drive_motion with paper
+// 002's wheel noise), and updates on each ultrasonic round in one of two ways:
 //  - trilateration (the paper): every receiver's position from the beacons (least squares with
 //    more than three), the pose from the two receivers, velocities by finite difference; the EKF
 //    observes (x, y, theta, vx, vy). No gate: a range lengthened by a person in the beam moves
@@ -17,6 +18,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <locsim/localizer.hpp>
 #include <locsim/models.hpp>
 #include <map>
@@ -39,6 +41,9 @@ struct UltrasonicEkfDef {
   double k_left = 0.0013, k_right = 0.0012;  // wheel noise, motion by the wheels [m^1/2]
   // Motion by the wheels: noise of every round whatever the motion (locsim calibrate's floor).
   double motion_floor_m = 0.0, motion_floor_rad = 0.0;
+  // The gyro the heading turns by (the odometry's, motion by the wheels; its bias also the IMU's
+  // when the IMU predicts): the turn's bias is the state's sixth component.
+  sdk::GyroHeading gyro;
   double sigma_accel = 0.3;        // process noise of the forward acceleration [m/s^2]
   double sigma_gyro = 0.02;        // process noise of the yaw rate [rad/s]
   double sigma_position_m = 0.05;  // trilaterated position [m]
@@ -96,13 +101,16 @@ inline constexpr locsim_param_decl kUltrasonicParams[] = {
      "motion by the wheels: position noise added at every round of ranges whatever the motion, "
      "per axis (locsim calibrate) [m]"},
     {"motion_floor_deg", LOCSIM_PARAM_DOUBLE, 0.0, 0, 180, nullptr,
-     "motion by the wheels: heading noise added likewise (locsim calibrate) [deg]"}};
+     "motion by the wheels: heading noise added likewise (locsim calibrate) [deg]"},
+    LOCSIM_GYRO_HEADING_PARAMS};
 
 UltrasonicEkfDef ultrasonic_def(const sdk::Params& params);
 
 class UltrasonicEkf {
  public:
-  using Covariance = Eigen::Matrix<double, 5, 5>;
+  /// (x, y, vx, vy, theta, heading-rate bias).
+  using State = Eigen::Matrix<double, 6, 1>;
+  using Covariance = Eigen::Matrix<double, 6, 6>;
 
   UltrasonicEkf(const UltrasonicEkfDef& def, const locsim_init& init);
 
@@ -114,11 +122,15 @@ class UltrasonicEkf {
   /// Another estimate of (x, y, theta) with its covariance (the fusion's AMCL pose), gated like
   /// a range: false, and no update, when its squared Mahalanobis distance exceeds gate_chi2.
   bool update_pose(const sdk::Pose& pose, const Eigen::Matrix3d& covariance, double gate_chi2);
-  /// Starts over at `pose` (velocity zero) with this covariance of (x, y, theta).
+  /// Starts over at `pose` (velocity zero) with this covariance of (x, y, theta); the heading
+  /// rate's bias is kept (a kidnapping does not change the gyro), its correlations dropped.
   void reset(const sdk::Pose& pose, const Eigen::Matrix3d& covariance);
 
   bool initialised() const { return initialised_; }
   sdk::Pose pose() const { return {state_(0), state_(1), state_(4)}; }
+  /// The turn rate's bias as estimated, and its standard deviation [rad/s].
+  double heading_rate_bias() const { return state_(5); }
+  double heading_rate_bias_sigma() const { return std::sqrt(covariance_(5, 5)); }
   Eigen::Matrix3d pose_covariance() const;
   sdk::Estimate estimate() const;
   /// The latest round: ranges received, ranges used (after the gate).
@@ -139,8 +151,9 @@ class UltrasonicEkf {
   };
 
   void predict(double dt);
-  /// The pose part (x, y, theta) moved by one odometry step with paper 002's wheel noise: the
-  /// EKF's F and G on those components (sdk::diff_drive_motion), the velocities left as they are.
+  /// The pose part (x, y, theta) and the bias moved by one odometry step with paper 002's wheel
+  /// noise: the EKF's F and G on those components (sdk::move_with_heading_bias), the velocities
+  /// left as they are.
   void predict_by_wheels(const sdk::OdometryStep& step);
   /// Whether the wheels move the estimate now (motion wheels, or auto before any IMU reading).
   bool by_wheels() const;
@@ -165,7 +178,12 @@ class UltrasonicEkf {
 
   UltrasonicEkfDef def_;
   std::map<int, Beacon> beacons_;
-  sdk::ImuState state_ = sdk::ImuState::Zero();
+  /// The IMU's state: the first five components.
+  sdk::ImuState imu_state() const { return state_.head<5>(); }
+  /// Adds the bias's random walk over dt (held when not estimated).
+  void walk_bias(double dt);
+
+  State state_ = State::Zero();
   Covariance covariance_ = Covariance::Identity() * 100.0;
   bool initialised_ = false;
   std::optional<double> last_imu_s_;

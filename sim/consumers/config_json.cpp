@@ -52,6 +52,13 @@ json sensors(const SensorsDef& s) {
     out["encoders"]["reports"] = reports;
     // Only when not the default, so that a world that does not use it writes what it wrote.
     if (d.measures == EncodersDef::Measures::kCommand) out["encoders"]["measures"] = "command";
+    if (d.heading == EncodersDef::Heading::kGyro) {
+      out["encoders"].update({{"heading", "gyro"},
+                              {"gyro_bias_radps", d.gyro_bias_radps},
+                              {"gyro_bias_sigma", d.gyro_bias_sigma},
+                              {"gyro_noise_density", d.gyro_noise_density},
+                              {"gyro_scale_error", d.gyro_scale_error}});
+    }
   }
   if (s.imu) {
     const ImuDef& d = *s.imu;

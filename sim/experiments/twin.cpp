@@ -8,7 +8,9 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <set>
+#include <tuple>
 
 #include "sim/common/base64.hpp"
 #include "sim/common/errors.hpp"
@@ -45,6 +47,15 @@ std::vector<StampedPose> sample_path(const std::vector<StampedPose>& truth, doub
       out.push_back(truth[i]);
   }
   return out;
+}
+
+/// The 99.5th percentile (a few glitches in a path do not set it).
+double percentile_995(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto at =
+      v.begin() + static_cast<std::ptrdiff_t>(0.995 * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), at, v.end());
+  return *at;
 }
 
 /// The rates a sensor may have: divisors of the physics rate (sim/sensors: rate_hz must divide
@@ -138,14 +149,7 @@ std::pair<double, double> wheel_demand(const std::vector<StampedPose>& path, dou
     speed.push_back(wheel);
     last_speed = wheel, last_t = t;
   }
-  const auto percentile = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    const auto at =
-        v.begin() + static_cast<std::ptrdiff_t>(0.995 * static_cast<double>(v.size() - 1));
-    std::nth_element(v.begin(), at, v.end());
-    return *at;
-  };
-  return {percentile(std::move(speed)), percentile(std::move(accel))};
+  return {percentile_995(std::move(speed)), percentile_995(std::move(accel))};
 }
 
 }  // namespace
@@ -235,6 +239,7 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     out.name = robot.name;
     out.poses_file = world_file.stem().string() + "_" + robot.name + ".tum";
     out.path = sample_path(truth[i], options.pose_rate_hz);
+    std::tie(out.truth_jumps, out.largest_truth_jump_m) = clear_truth_jumps(out.path);
     out.from_s = out.path.front().t_s;
     out.to_s = out.path.back().t_s;
     for (std::size_t k = 1; k < out.path.size(); ++k)
@@ -511,12 +516,77 @@ Twin write_twin(const TwinOptions& options, const fs::path& world_file, bool ove
   return twin;
 }
 
+std::pair<std::size_t, double> clear_truth_jumps(std::vector<StampedPose>& path) {
+  // What a wheeled robot's traction allows (friction coefficient 1 at most): a step may depart
+  // from its neighbours' velocity by half a step's travel at this acceleration.
+  constexpr double kTractionMps2 = 9.81;
+  // And by more than the path's own noise: this many times the 99.5th percentile of the steps'
+  // departures (a truth too noisy to tell a jump from its noise keeps its steps).
+  constexpr double kJumpFactor = 3.0;
+  // How fast the path catches up with a jump it was held back from: a brisk robot's.
+  constexpr double kCatchUpMps2 = 1.0;
+  const std::size_t n = path.size();
+  if (n < 6) return {0, 0.0};
+  // Step k goes from pose k to pose k + 1; its departure from the velocity of the two steps
+  // either side (their median per axis: one jump spoils one neighbour, not the median).
+  std::vector<Vec2> velocity(n - 1);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    velocity[k] =
+        (path[k + 1].pose.position() - path[k].pose.position()) / (path[k + 1].t_s - path[k].t_s);
+  }
+  std::vector<Vec2> departure(n - 1, Vec2::Zero());
+  std::vector<double> departure_m(n - 1, 0.0);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    std::vector<double> vx, vy;
+    for (const std::ptrdiff_t offset : {-2, -1, 1, 2}) {
+      const auto j = static_cast<std::ptrdiff_t>(k) + offset;
+      if (j < 0 || j >= static_cast<std::ptrdiff_t>(n - 1)) continue;
+      vx.push_back(velocity[static_cast<std::size_t>(j)].x());
+      vy.push_back(velocity[static_cast<std::size_t>(j)].y());
+    }
+    const auto median = [](std::vector<double>& v) {
+      std::sort(v.begin(), v.end());
+      const std::size_t m = v.size() / 2;
+      return v.size() % 2 == 1 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+    };
+    const Vec2 local(median(vx), median(vy));
+    departure[k] = (velocity[k] - local) * (path[k + 1].t_s - path[k].t_s);
+    departure_m[k] = departure[k].norm();
+  }
+  const double noise_m = percentile_995(departure_m);
+  double largest_m = 0.0;
+  std::size_t jumps = 0;
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double dt = path[k + 1].t_s - path[k].t_s;
+    const double jump_m = departure_m[k];
+    if (!(jump_m > 0.5 * kTractionMps2 * dt * dt) || !(jump_m > kJumpFactor * noise_m)) continue;
+    ++jumps;
+    largest_m = std::max(largest_m, jump_m);
+    // The path from the jump on is held back by it, and takes it up over the time a bang-bang
+    // acceleration at kCatchUpMps2 needs to cover it.
+    const double ramp_s = 2.0 * std::sqrt(jump_m / kCatchUpMps2);
+    const double from_s = path[k].t_s;
+    for (std::size_t j = k + 1; j < n && path[j].t_s - from_s < ramp_s; ++j) {
+      const double taken =
+          0.5 * (1.0 - std::cos(std::numbers::pi * (path[j].t_s - from_s) / ramp_s));
+      path[j].pose.x -= (1.0 - taken) * departure[k].x();
+      path[j].pose.y -= (1.0 - taken) * departure[k].y();
+    }
+  }
+  return {jumps, largest_m};
+}
+
 std::string describe(const Twin& twin) {
   std::string text;
   for (const TwinRobot& r : twin.robots) {
     text += "twin: " + r.name + ": " + std::to_string(r.path.size()) + " poses over " +
             fixed(r.to_s - r.from_s, 1) + " s, " + fixed(r.path_length_m, 1) + " m (" +
             r.poses_file.string() + ")\n";
+    if (r.truth_jumps > 0) {
+      text += "twin: " + r.name + ": the truth jumps " + std::to_string(r.truth_jumps) +
+              " time(s), by up to " + fixed(r.largest_truth_jump_m, 2) +
+              " m, where no robot moves so: smoothed out of the path the twin drives\n";
+    }
   }
   if (twin.camera) {
     const TwinCamera& c = *twin.camera;

@@ -58,6 +58,9 @@ struct TwinRobot {
   // they are beyond the world's: a twin that cannot drive as fast as the recording falls behind
   // and whips round to catch up, and its odometry with it.
   std::optional<double> max_wheel_speed_radps, max_wheel_accel_radps2;
+  // The truth's jumps smoothed out of the path (clear_truth_jumps): how many, the largest [m].
+  std::size_t truth_jumps = 0;
+  double largest_truth_jump_m = 0.0;
 };
 
 struct Twin {
@@ -69,6 +72,13 @@ struct Twin {
   std::optional<TwinCamera> camera;
   std::vector<std::string> warnings;
 };
+
+/// A true path's jumps that no robot makes, smoothed into motion one could: a step that departs
+/// from its neighbours' velocity by more than a wheeled robot's traction allows in one step, and
+/// by more than the path's own noise (a GPS fix re-acquired, a motion-capture marker swapped), is
+/// held back, and the path after it catches up smoothly. The path elsewhere is kept to the bit;
+/// the count and the largest jump [m] are returned.
+std::pair<std::size_t, double> clear_truth_jumps(std::vector<StampedPose>& path);
 
 /// Builds the twin of `options.log`: the world file's text for `world_file` (whose folder the TUM
 /// files are named relative to; written by write_twin). Throws InputError naming the file and

@@ -1073,32 +1073,101 @@ void fit_wheel_model(const std::vector<MotionSample>& samples, MotionCalibration
   }
 }
 
+/// The gyro bias's random walk [rad/s^3/2] from the intervals' heading errors less the scale's
+/// part (error(s); variance(s) each, the gyro model's): each robot's bias fitted over consecutive
+/// windows of kBiasWindowS; a random walk of density w sets two neighbouring windows' means apart
+/// by w^2 (2 W / 3) in variance beyond their estimates' own. 0 with fewer than three pairs of
+/// windows, or none beyond noise.
+template <class Variance, class Error>
+double heading_bias_walk(const std::vector<MotionSample>& samples, const Variance& variance,
+                         const Error& error) {
+  // Long enough to average a gyro's white noise down, short enough that a recording of minutes
+  // has several.
+  constexpr double kBiasWindowS = 60.0;
+  struct Window {
+    std::size_t track = 0;
+    double seconds = 0.0, xx = 0.0, xe = 0.0;  // sum dt, dt^2 / v, dt e / v
+  };
+  std::vector<Window> windows;
+  Window open;
+  for (const MotionSample& s : samples) {
+    if (s.track != open.track) open = Window{s.track};
+    const double w = 1.0 / variance(s);
+    open.seconds += s.dt_s, open.xx += s.dt_s * s.dt_s * w, open.xe += s.dt_s * error(s) * w;
+    if (open.seconds >= kBiasWindowS) {
+      if (open.xx > 0.0) windows.push_back(open);
+      open = Window{s.track};
+    }
+  }
+  double excess = 0.0;
+  std::size_t pairs = 0;
+  for (std::size_t i = 1; i < windows.size(); ++i) {
+    const Window &a = windows[i - 1], &b = windows[i];
+    if (a.track != b.track) continue;
+    const double d = b.xe / b.xx - a.xe / a.xx;
+    excess += d * d - 1.0 / a.xx - 1.0 / b.xx;
+    ++pairs;
+  }
+  if (pairs < 3 || !(excess > 0.0)) return 0.0;
+  return std::sqrt(excess / static_cast<double>(pairs) / (2.0 * kBiasWindowS / 3.0));
+}
+
 /// The heading errors' two models (MotionCalibration::HeadingFit) by maximum likelihood, each
-/// robot's systematic term (wheel-base error, gyro bias) solved in closed form inside (it is
-/// linear given the variances).
+/// model's systematic terms solved in closed form inside (they are linear given the variances):
+/// the wheels' wheel-base error of each robot, in proportion to the turn, and a gyro's bias of
+/// each robot, times the interval. A gyro's scale error is fitted once the gyro is told: it is
+/// in proportion to the turn too, the wheels' term by another name, and would take the wheels'
+/// part in telling them apart (a gyro is told by its drift with time, on the straights).
 MotionCalibration::HeadingFit fit_heading(const std::vector<MotionSample>& samples) {
   std::size_t tracks = 0;
   for (const MotionSample& s : samples) tracks = std::max(tracks, s.track + 1);
-  // -log-likelihood per interval of e_i ~ N(c_track x_i, var_i), c per track at its optimum.
-  const auto profiled = [&](const auto& regressor, const auto& variance,
-                            std::vector<double>* per_track) {
-    std::vector<double> xx(tracks, 0.0), xe(tracks, 0.0);
+  // The measured turn, wrapped: rot1 and rot2 are each wrapped, and a turn on the spot (rot1
+  // the direction of a step of millimetres) can make their sum 2 pi off.
+  const auto turn = [](const MotionSample& s) {
+    return sdk::wrap(s.measured.rot1 + s.measured.rot2);
+  };
+  const auto time = [](const MotionSample& s) { return s.dt_s; };
+  using Regressor = double (*)(const MotionSample&);
+  // -log-likelihood per interval of e_i ~ N(sum_r c_{track, r} x_r + sum_g k_g z_g, var_i): the
+  // coefficients at their optimum by weighted least squares (each interval touches its track's
+  // and the global ones only); `coefficients` gets them, each track's first, then the global.
+  const auto profiled = [&](const std::vector<Regressor>& own, const std::vector<Regressor>& global,
+                            const auto& variance, std::vector<double>* coefficients) {
+    const std::size_t per = own.size(), n = tracks * per + global.size();
+    Eigen::MatrixXd normal =
+        Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
+    std::vector<std::pair<Eigen::Index, double>> terms;
+    const auto terms_of = [&](const MotionSample& s) {
+      terms.clear();
+      for (std::size_t r = 0; r < per; ++r)
+        terms.emplace_back(static_cast<Eigen::Index>(s.track * per + r), own[r](s));
+      for (std::size_t g = 0; g < global.size(); ++g)
+        terms.emplace_back(static_cast<Eigen::Index>(tracks * per + g), global[g](s));
+    };
     for (const MotionSample& s : samples) {
-      const double w = 1.0 / variance(s), x = regressor(s);
-      xx[s.track] += x * x * w, xe[s.track] += x * s.local_error(2) * w;
+      const double w = 1.0 / variance(s);
+      terms_of(s);
+      for (const auto& [a, xa] : terms) {
+        rhs(a) += w * xa * s.local_error(2);
+        for (const auto& [b, xb] : terms) normal(a, b) += w * xa * xb;
+      }
     }
-    std::vector<double> c(tracks, 0.0);
-    for (std::size_t j = 0; j < tracks; ++j) c[j] = xx[j] > 0.0 ? xe[j] / xx[j] : 0.0;
+    // A term no interval excites (a robot that never turned) stays at zero.
+    normal.diagonal().array() += 1e-12 * (normal.diagonal().array().maxCoeff() + 1.0);
+    const Eigen::VectorXd c = normal.ldlt().solve(rhs);
     double sum = 0.0;
     for (const MotionSample& s : samples) {
-      const double v = variance(s), e = s.local_error(2) - c[s.track] * regressor(s);
+      terms_of(s);
+      double e = s.local_error(2);
+      for (const auto& [a, x] : terms) e -= c(a) * x;
+      const double v = variance(s);
       sum += 0.5 * (std::log(2.0 * std::numbers::pi * v) + e * e / v);
     }
-    if (per_track != nullptr) *per_track = c;
+    if (coefficients != nullptr) coefficients->assign(c.data(), c.data() + c.size());
     return sum / static_cast<double>(samples.size());
   };
-  const auto turn = [](const MotionSample& s) { return s.measured.rot1 + s.measured.rot2; };
-  const auto time = [](const MotionSample& s) { return s.dt_s; };
+  const std::vector<Regressor> wheels_own{+turn}, gyro_own{+time}, gyro_scale{+turn};
   const auto wheels_variance = [](const MotionSample& s, const std::vector<double>& p) {
     const double kl = bounded_exp(p[0]), kr = bounded_exp(p[1]), f = bounded_exp(p[2]);
     return kl * kl * s.wheel_p_left(2, 2) + kr * kr * s.wheel_p_right(2, 2) + f * f;
@@ -1110,24 +1179,39 @@ MotionCalibration::HeadingFit fit_heading(const std::vector<MotionSample>& sampl
   const MinimizeResult wheels = minimize_restarted(
       [&](const std::vector<double>& p) {
         return profiled(
-            turn, [&](const MotionSample& s) { return wheels_variance(s, p); }, nullptr);
+            wheels_own, {}, [&](const MotionSample& s) { return wheels_variance(s, p); }, nullptr);
       },
       {-5.0, -5.0, -7.0}, 2.0, 3000);
-  const MinimizeResult gyro = minimize_restarted(
-      [&](const std::vector<double>& p) {
-        return profiled(
-            time, [&](const MotionSample& s) { return gyro_variance(s, p); }, nullptr);
-      },
-      {-6.0, -7.0}, 2.0, 3000);
+  const auto fit_gyro = [&](const std::vector<Regressor>& global) {
+    return minimize_restarted(
+        [&](const std::vector<double>& p) {
+          return profiled(
+              gyro_own, global, [&](const MotionSample& s) { return gyro_variance(s, p); },
+              nullptr);
+        },
+        {-6.0, -7.0}, 2.0, 3000);
+  };
+  const MinimizeResult told = fit_gyro({});
   MotionCalibration::HeadingFit fit;
   fit.wheels_log_likelihood = -wheels.value;
-  fit.gyro_log_likelihood = -gyro.value;
+  fit.gyro_log_likelihood = -told.value;
   fit.gyro = fit.gyro_log_likelihood > fit.wheels_log_likelihood;
-  fit.noise_density = bounded_exp(gyro.x[0]);
-  fit.floor_rad = bounded_exp(gyro.x[1]);
+  const MinimizeResult gyro = fit.gyro ? fit_gyro(gyro_scale) : told;
+  const std::vector<Regressor> gyro_global = fit.gyro ? gyro_scale : std::vector<Regressor>{};
+  std::vector<double> coefficients;
   profiled(
-      time, [&](const MotionSample& s) { return gyro_variance(s, gyro.x); },
-      &fit.bias_by_track_radps);
+      gyro_own, gyro_global, [&](const MotionSample& s) { return gyro_variance(s, gyro.x); },
+      &coefficients);
+  // Against the measured turn m = (1 + s) t + b dt + n the error e = m - t fits c m + b' dt + n'
+  // with c = s / (1 + s): s = c / (1 - c), b = b' / (1 - c), n = n' / (1 - c).
+  const double c = fit.gyro ? coefficients.back() : 0.0;
+  const double to_true = 1.0 / (1.0 - c);
+  fit.scale_error = c * to_true;
+  fit.bias_by_track_radps.assign(coefficients.begin(),
+                                 coefficients.begin() + static_cast<std::ptrdiff_t>(tracks));
+  for (double& b : fit.bias_by_track_radps) b *= to_true;
+  fit.noise_density = bounded_exp(gyro.x[0]) * to_true;
+  fit.floor_rad = bounded_exp(gyro.x[1]) * to_true;
   const auto n = static_cast<double>(fit.bias_by_track_radps.size());
   for (const double b : fit.bias_by_track_radps) fit.bias_radps += b / n;
   if (n > 1.0) {
@@ -1136,6 +1220,10 @@ MotionCalibration::HeadingFit fit_heading(const std::vector<MotionSample>& sampl
       ss += (b - fit.bias_radps) * (b - fit.bias_radps);
     fit.bias_sigma = std::sqrt(ss / (n - 1.0));
   }
+  fit.bias_walk =
+      to_true * heading_bias_walk(
+                    samples, [&](const MotionSample& s) { return gyro_variance(s, gyro.x); },
+                    [&](const MotionSample& s) { return s.local_error(2) - c * turn(s); });
   // The distance's error: the increments' lengths, variance k^2 (|d_l| + |d_r|) / 4 + floor^2.
   const auto distance_nll = [&](const std::vector<double>& p) {
     const double k = bounded_exp(p[0]), f = bounded_exp(p[1]);
@@ -2035,6 +2123,8 @@ json Calibration::to_json() const {
                                 {"gyro_bias_radps", h->bias_radps},
                                 {"gyro_bias_sigma", h->bias_sigma},
                                 {"gyro_bias_by_robot_radps", h->bias_by_track_radps},
+                                {"gyro_bias_walk", h->bias_walk},
+                                {"gyro_scale_error", h->scale_error},
                                 {"gyro_noise_density", h->noise_density},
                                 {"gyro_floor_rad", h->floor_rad},
                                 {"distance_k", h->distance_k},
@@ -2208,7 +2298,7 @@ std::string_view parameter_group(std::string_view key, std::string_view plugin) 
     if (key == "range_bias_m" || key == "range_bias_per_m") return "ranging bias";
     if (key == "sigma_range_m") return "ranging spread";
   }
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 37> kGroupOf{{
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 43> kGroupOf{{
       {"command_dead_time_s", "command response"},
       {"command_time_constant_v_s", "command response"},
       {"command_time_constant_omega_s", "command response"},
@@ -2219,6 +2309,12 @@ std::string_view parameter_group(std::string_view key, std::string_view plugin) 
       {"k_right", "wheel noise"},
       {"motion_floor_m", "wheel noise"},
       {"motion_floor_deg", "wheel noise"},
+      {"odometry_heading", "gyro heading"},
+      {"heading_noise_density", "gyro heading"},
+      {"heading_rate_bias_radps", "gyro heading"},
+      {"heading_rate_bias_sigma", "gyro heading"},
+      {"heading_rate_bias_walk", "gyro heading"},
+      {"heading_rate_scale_error", "gyro heading"},
       {"gain_wander_v", "gain wander"},
       {"gain_wander_omega", "gain wander"},
       {"gain_wander_correlation_s", "gain wander"},
@@ -2404,11 +2500,31 @@ std::string Calibration::to_yaml() const {
     // camera's.
     const RangingCalibration& r = *ranging;
     y += "  # ranges to beacons: the bias line taken out of each range, the spread about it\n";
+    // A base whose odometry turns by a gyro: the EKF's wheels measure the distance, its state
+    // carries the gyro's bias, with a prior as wide as the robots' spread and their mean together
+    // (one recording's bias says how large another's may be, not its sign).
+    const MotionCalibration::HeadingFit* gyro =
+        command == nullptr && motion && motion->heading && motion->heading->gyro ? &*motion->heading
+                                                                                 : nullptr;
+    if (gyro != nullptr) {
+      y += "  # the odometry turns by a gyro: the beacon filters estimate its bias\n";
+    }
     for (const std::string_view plugin : kBeaconFilters) {
       y += "  " + std::string(plugin) +
            ": {sigma_range_m: " + four_digits(std::max(r.spread_m, 1e-6)) +
            ", range_bias_m: " + four_digits(r.bias_m.at_zero) +
-           ", range_bias_per_m: " + four_digits(r.bias_m.per_unit) + "}\n";
+           ", range_bias_per_m: " + four_digits(r.bias_m.per_unit);
+      if (gyro != nullptr) {
+        y += ", odometry_heading: gyro, k_left: " + four_digits(gyro->distance_k) +
+             ", k_right: " + four_digits(gyro->distance_k) +
+             ", heading_noise_density: " + four_digits(gyro->noise_density) +
+             ", heading_rate_scale_error: " + four_digits(gyro->scale_error) +
+             ", heading_rate_bias_radps: " + four_digits(gyro->bias_radps) +
+             ", heading_rate_bias_sigma: " +
+             four_digits(std::hypot(gyro->bias_sigma, gyro->bias_radps)) +
+             ", heading_rate_bias_walk: " + four_digits(gyro->bias_walk);
+      }
+      y += "}\n";
     }
   }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
@@ -2423,6 +2539,7 @@ std::string Calibration::to_yaml() const {
     y += "  encoders: {heading: gyro, gyro_bias_radps: " + four_digits(h.bias_radps) +
          ", gyro_bias_sigma: " + four_digits(h.bias_sigma) +
          ", gyro_noise_density: " + four_digits(h.noise_density) +
+         ", gyro_scale_error: " + four_digits(h.scale_error) +
          ", k_left: " + four_digits(h.distance_k) + ", k_right: " + four_digits(h.distance_k) +
          "}\n";
   } else if (motion) {
@@ -2496,9 +2613,11 @@ std::string describe(const Calibration& c) {
       text += "  heading from " + std::string(h->gyro ? "a gyro" : "the wheels") + " (" +
               four_digits(h->gyro_log_likelihood - h->wheels_log_likelihood) +
               " nats per interval for a gyro): as a gyro, bias " + four_digits(h->bias_radps) +
-              " rad/s (spread over robots " + four_digits(h->bias_sigma) + "), noise " +
-              four_digits(h->noise_density) + " rad/s/sqrt(Hz); the wheels' k from the distance " +
-              four_digits(h->distance_k) + " m^1/2\n";
+              " rad/s (spread over robots " + four_digits(h->bias_sigma) + ", wander " +
+              four_digits(h->bias_walk) + " rad/s per root second), scale error " +
+              four_digits(h->scale_error) + ", noise " + four_digits(h->noise_density) +
+              " rad/s/sqrt(Hz); the wheels' k from the distance " + four_digits(h->distance_k) +
+              " m^1/2\n";
     }
     if (const auto& r = m.command) {
       text +=

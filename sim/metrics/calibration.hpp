@@ -260,12 +260,15 @@ struct MotionCalibration {
   /// explains the intervals' heading errors better: the wheels' (variance with each wheel's
   /// travel, k_left^2 |d_left| + k_right^2 |d_right| over b^2, and a wheel-base error of each
   /// robot's, an error in proportion to the turn) or a gyro's (a bias of each robot's times the
-  /// interval, and a random walk, q^2 dt). Both with a floor (the truth's own heading noise).
+  /// interval, and a random walk, q^2 dt; its scale error, in proportion to the turn, fitted once
+  /// it is told). Both with a floor (the truth's own heading noise).
   struct HeadingFit {
     bool gyro = false;
     double wheels_log_likelihood = 0.0, gyro_log_likelihood = 0.0;  // per interval [nats]
     double bias_radps = 0.0, bias_sigma = 0.0;  // mean and spread of the robots' biases
     std::vector<double> bias_by_track_radps;
+    double bias_walk = 0.0;      // its random walk within a recording [rad/s per root second]
+    double scale_error = 0.0;    // the gyro turns (1 + scale_error) times the body; 0: wheels [-]
     double noise_density = 0.0;  // q [rad/s/sqrt(Hz)]
     double floor_rad = 0.0;      // the gyro model's
     // The wheels' k from the intervals' distances alone, one for both wheels (a gyro base's: its

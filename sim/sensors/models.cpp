@@ -80,12 +80,12 @@ std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) 
   last_sample_s_ = context.t_s;
   double turn = (travel_m[1] - travel_m[0]) / wheel_base_m_;
   if (def_.heading == EncodersDef::Heading::kGyro) {
-    // The gyro's turn: the body's, its bias over the period and white noise of the period's
-    // bandwidth (a heading random walk of density^2 per second).
+    // The gyro's turn: the body's times its scale, its bias over the period and white noise of
+    // the period's bandwidth (a heading random walk of density^2 per second).
     if (!gyro_bias_radps_)
       gyro_bias_radps_ = rng().normal(def_.gyro_bias_radps, def_.gyro_bias_sigma);
     turn =
-        gyro_turn_rad_ + *gyro_bias_radps_ * period_s +
+        (1.0 + def_.gyro_scale_error) * gyro_turn_rad_ + *gyro_bias_radps_ * period_s +
         (period_s > 0.0 ? rng().normal(0.0, def_.gyro_noise_density * std::sqrt(period_s)) : 0.0);
     gyro_turn_rad_ = 0.0;
   }

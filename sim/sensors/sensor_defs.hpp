@@ -55,6 +55,9 @@ struct EncodersDef {
   static constexpr Range kGyroBiasSigmaRange{0.0, 10.0, "rad/s"};
   double gyro_noise_density = 1.7e-4;  // white noise, as the IMU's default [rad/s/sqrt(Hz)]
   static constexpr Range kGyroNoiseRange{0.0, 10.0, "rad/s/sqrt(Hz)"};
+  // The gyro's scale factor error: it reports (1 + s) times the body's turn [-].
+  double gyro_scale_error = 0.0;
+  static constexpr Range kGyroScaleRange{-0.5, 0.5, "-"};
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.

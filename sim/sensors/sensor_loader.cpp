@@ -72,7 +72,7 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
     sensors.encoders = parse_section(
         *n, EncodersDef{}, step_hz,
         {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports", "measures",
-         "heading", "gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density"},
+         "heading", "gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density", "gyro_scale_error"},
         [&](EncodersDef& d) {
           d.measures = get_choice(*n, "measures", d.measures,
                                   {{"wheels", EncodersDef::Measures::kWheels},
@@ -106,8 +106,11 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_double("gyro_bias_sigma", d.gyro_bias_sigma, EncodersDef::kGyroBiasSigmaRange);
           d.gyro_noise_density = n->get_double("gyro_noise_density", d.gyro_noise_density,
                                                EncodersDef::kGyroNoiseRange);
+          d.gyro_scale_error =
+              n->get_double("gyro_scale_error", d.gyro_scale_error, EncodersDef::kGyroScaleRange);
           if (d.heading != EncodersDef::Heading::kGyro) {
-            for (const char* key : {"gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density"})
+            for (const char* key :
+                 {"gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density", "gyro_scale_error"})
               if (const auto gyro = n->find(key))
                 gyro->fail("describes the gyro of `heading: gyro`, which this base has not");
           }

@@ -98,8 +98,9 @@ BENCHMARK(BM_UltrasonicEkfRound)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicro
 /// Range-only localization as a lawnmower ranging to UWB anchors does it (real_data.md, CMU
 /// Plaza): each iteration is 0.25 s of readings, one odometry reading (wheel travel, no IMU) and
 /// one range to the next of four anchors 30-60 m away, with 0.5 m of noise. Argument 0:
-/// ultrasonic_ekf predicting by the wheels; 1: beacon_mcl with its default 1000 particles. The
-/// robot drives a 20 m circle.
+/// ultrasonic_ekf predicting by the wheels; 1: beacon_mcl with its default 1000 particles; 2:
+/// ultrasonic_ekf on an odometry that turns by a gyro, estimating its bias (the sixth state in
+/// use). The robot drives a 20 m circle.
 void BM_RangeOnlyRound(benchmark::State& state) {
   std::vector<locsim_beacon> beacons = {
       {0, -30.0, 0.0, 0.0}, {1, 30.0, -10.0, 0.0}, {5, 20.0, 40.0, 0.0}, {6, -20.0, 50.0, 0.0}};
@@ -109,9 +110,16 @@ void BM_RangeOnlyRound(benchmark::State& state) {
   const locsim_robot_info robot{0.5, 0.1, 0.5};
   constexpr double kRadius = 20.0, kSpeed = 1.0, kOmega = kSpeed / kRadius, kDt = 0.25;
   const bool particles = state.range(0) == 1;
-  bench::PluginFixture f(particles ? "beacon_mcl" : "ultrasonic_ekf",
-                         {{"sigma_range_m", "0.5"}, {"k_left", "0.01"}, {"k_right", "0.01"}}, map,
-                         robot, {kRadius, 0.0, M_PI / 2}, 1e-4, 1e-4);
+  std::vector<std::pair<std::string, std::string>> params = {
+      {"sigma_range_m", "0.5"}, {"k_left", "0.01"}, {"k_right", "0.01"}};
+  if (state.range(0) == 2) {
+    params.insert(params.end(), {{"odometry_heading", "gyro"},
+                                 {"heading_noise_density", "0.001"},
+                                 {"heading_rate_bias_sigma", "0.005"},
+                                 {"heading_rate_scale_error", "-0.01"}});
+  }
+  bench::PluginFixture f(particles ? "beacon_mcl" : "ultrasonic_ekf", params, map, robot,
+                         {kRadius, 0.0, M_PI / 2}, 1e-4, 1e-4);
   locsim_beacon_range range{};
   locsim_reading odometry{}, round{};
   odometry.struct_size = round.struct_size = sizeof(locsim_reading);
@@ -138,6 +146,6 @@ void BM_RangeOnlyRound(benchmark::State& state) {
   state.counters["rounds_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_RangeOnlyRound)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RangeOnlyRound)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

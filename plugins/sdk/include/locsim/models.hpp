@@ -579,6 +579,94 @@ inline void predict_by_wheels_and_gains(PoseGains& x, PoseGainsCovariance& P, do
   P(4, 4) += wander.sigma_omega * wander.sigma_omega * renewal;
 }
 
+/// A pose and the bias b of the rate its heading source turns it by, (x, y, theta, b)
+/// [m, m, rad, rad/s]: the state of a filter on a base whose odometry turns by a gyro (a
+/// gyro-fused odometry's heading drifts by b dt; the encoders' `heading: gyro`).
+using PoseHeadingBias = Eigen::Matrix<double, 4, 1>;
+
+/// An odometry whose heading is a gyro's (the encoders' `heading: gyro`; a base that fuses one),
+/// as a filter models it: the wheels measure the distance, the gyro the turn, with its bias,
+/// scale error and noise; the filter estimates the bias (a state, a particle's own). From the
+/// parameters LOCSIM_GYRO_HEADING_PARAMS declares; locsim calibrate writes them.
+struct GyroHeading {
+  bool active = false;         // odometry_heading: gyro (else wheels)
+  double noise_density = 0.0;  // the turn's white noise [rad/s^1/2]
+  double scale_error = 0.0;    // the gyro turns (1 + s) times the body [-]
+  double bias_radps = 0.0;     // the bias's prior mean [rad/s]
+  double bias_sigma = 0.0;     // its prior spread; 0: held at the mean [rad/s]
+  double bias_walk = 0.0;      // its random walk [rad/s per root second]
+  template <class Params>
+  static GyroHeading from(const Params& params) {
+    const std::string heading = params.string("odometry_heading");
+    if (heading != "wheels" && heading != "gyro")
+      throw std::invalid_argument("odometry_heading must be wheels or gyro, not '" + heading + "'");
+    return {heading == "gyro",
+            params.number("heading_noise_density"),
+            params.number("heading_rate_scale_error"),
+            params.number("heading_rate_bias_radps"),
+            params.number("heading_rate_bias_sigma"),
+            params.number("heading_rate_bias_walk")};
+  }
+};
+
+// clang-format off
+#define LOCSIM_GYRO_HEADING_PARAMS                                                                 \
+  {"odometry_heading", LOCSIM_PARAM_STRING, 0, 0, 0, "wheels",                                     \
+   "what turns the odometry, wheels or gyro (the encoders' heading): by a gyro the wheel noise "   \
+   "enters the distance alone, and the filter estimates the gyro's bias (locsim calibrate)"},      \
+  {"heading_noise_density", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,                              \
+   "odometry_heading gyro: the turn's noise per root second (locsim calibrate) [rad/s^1/2]"},      \
+  {"heading_rate_scale_error", LOCSIM_PARAM_DOUBLE, 0.0, -0.5, 0.5, nullptr,                       \
+   "odometry_heading gyro: the gyro turns (1 + this) times the body, taken out of every turn "     \
+   "(locsim calibrate) [-]"},                                                                      \
+  {"heading_rate_bias_radps", LOCSIM_PARAM_DOUBLE, 0.0, -1, 1, nullptr,                            \
+   "bias of the gyro the heading turns by, taken out of every turn: the prior mean of the "        \
+   "filter's estimate (locsim calibrate) [rad/s]"},                                                \
+  {"heading_rate_bias_sigma", LOCSIM_PARAM_DOUBLE, 0.0, 0, 1, nullptr,                             \
+   "that bias's prior spread: > 0 estimates it, so that the heading stays with the measurements "  \
+   "however the gyro drifts; 0 holds it at the mean (locsim calibrate) [rad/s]"},                  \
+  {"heading_rate_bias_walk", LOCSIM_PARAM_DOUBLE, 0.0, 0, 1, nullptr,                              \
+   "the bias's random walk, when estimated (locsim calibrate) [rad/s per root second]"}
+// clang-format on
+
+/// One step by the wheels' travel (dl, dr) over dt_s when the odometry's turn a = (dr - dl) / B
+/// is a gyro's, with the bias b_rate and the scale error s: a = (1 + s) t + b_rate dt for the
+/// true turn t, so the pose moves by the travel of the same distance and the turn
+///   t = (a - b_rate dt) / (1 + s):  (dl + delta, dr - delta), delta = B (a - t) / 2,
+/// and b_rate' = b_rate. F = d x' / d x (4x4), L = d x' / d (dl, dr) (4x2), when asked for.
+inline PoseHeadingBias move_with_heading_bias(const PoseHeadingBias& x, double d_left,
+                                              double d_right, double wheel_base, double dt_s,
+                                              double scale_error = 0.0,
+                                              Eigen::Matrix4d* F = nullptr,
+                                              Eigen::Matrix<double, 4, 2>* L = nullptr) {
+  const double turn = (d_right - d_left) / wheel_base;
+  const double gain = 1.0 / (1.0 + scale_error);
+  const double delta_m = 0.5 * wheel_base * (turn - (turn - x(3) * dt_s) * gain);
+  Eigen::Matrix3d F_pose;
+  Eigen::Matrix<double, 3, 2> G;  // d pose' / d (dl', dr')
+  const Pose moved =
+      diff_drive_motion(x.head<3>(), d_left + delta_m, d_right - delta_m, wheel_base, &F_pose, &G);
+  if (F != nullptr) {
+    F->setIdentity();
+    F->topLeftCorner<3, 3>() = F_pose;
+    // d delta / d b_rate = B dt / (2 (1 + s)).
+    const double by_bias = 0.5 * wheel_base * dt_s * gain;
+    F->topRightCorner<3, 1>() = G * Eigen::Vector2d(by_bias, -by_bias);
+  }
+  if (L != nullptr) {
+    // d delta / d (dl, dr) = (-k, k), k = s / (2 (1 + s)).
+    const double k = 0.5 * scale_error * gain;
+    Eigen::Matrix2d by_wheels;
+    by_wheels << 1.0 - k, k,  //
+        k, 1.0 - k;
+    L->setZero();
+    L->topRows<3>() = G * by_wheels;
+  }
+  PoseHeadingBias out;
+  out << moved, x(3);
+  return out;
+}
+
 /// The wheel travel (left, right) [m] of a differential drive with wheel base b [m] that moves
 /// it by the pose increment `delta` (in the start pose's frame, as between() gives it), taking
 /// the increment as one circular arc: the inverse of the arc above. The chord c = |(dx, dy)|
