@@ -57,7 +57,7 @@ struct EncodersDef {
   static constexpr Range kGyroNoiseRange{0.0, 10.0, "rad/s/sqrt(Hz)"};
   // The gyro's scale factor error: it reports (1 + s) times the body's turn [-].
   double gyro_scale_error = 0.0;
-  static constexpr Range kGyroScaleRange{-0.5, 0.5, "-"};
+  static constexpr Range kGyroScaleRange{-0.5, 0.5, ""};
 };
 
 /// Planar IMU: yaw rate and body-frame accelerations at the mount point.
