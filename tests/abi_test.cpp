@@ -319,6 +319,106 @@ TEST(SdkOdometry, TrackerTurnsByTheGyroAndTellsTheSlip) {
   }
 }
 
+TEST(SdkOdometry, TrackerAdvancesToAReadingBetweenOdometryAndTheStepsStillAddUp) {
+  // A pose source at 5 Hz driving an arc (1 m/s, 0.5 rad/s), then faster (1.2 m/s): readings
+  // of another sensor at 0.3 and 0.35 s meet the pose of their time, extrapolated at the last
+  // step's rate; the step to 0.4 s is what is left, and the three add up to the odometry's.
+  sdk::OdometryTracker tracker(0.3);
+  Pose pose(1.0, 2.0, 0.3);
+  locsim_odometry o = odometry_of(pose, LOCSIM_ODOMETRY_POSE);
+  EXPECT_FALSE(tracker.update(0.0, o));
+  EXPECT_FALSE(tracker.advance_to(0.1));  // no step yet to take the rate from
+  pose = sdk::advance_by_velocity(pose, 1.0, 0.5, 0.2);
+  o.odom_pose = {pose(0), pose(1), pose(2)};
+  const auto first = tracker.update(0.2, o);
+  ASSERT_TRUE(first);
+  EXPECT_DOUBLE_EQ(first->dt_s, 0.2);
+  const auto a = tracker.advance_to(0.3);
+  ASSERT_TRUE(a);
+  EXPECT_NEAR(a->dt_s, 0.1, 1e-12);
+  EXPECT_NEAR(a->d_left_m, 0.5 * first->d_left_m, 1e-12);
+  EXPECT_NEAR(a->d_right_m, 0.5 * first->d_right_m, 1e-12);
+  EXPECT_LT((a->pose_increment - sdk::advance_by_velocity(Pose::Zero(), 1.0, 0.5, 0.1)).norm(),
+            1e-12);
+  const auto b = tracker.advance_to(0.35);
+  ASSERT_TRUE(b);
+  EXPECT_NEAR(b->dt_s, 0.05, 1e-12);
+  EXPECT_FALSE(tracker.advance_to(0.35));  // already there
+  EXPECT_FALSE(tracker.advance_to(0.32));  // nor back
+  const Pose before = pose;
+  pose = sdk::advance_by_velocity(pose, 1.2, 0.5, 0.2);
+  o.odom_pose = {pose(0), pose(1), pose(2)};
+  const auto rest = tracker.update(0.4, o);
+  ASSERT_TRUE(rest);
+  EXPECT_NEAR(rest->dt_s, 0.05, 1e-12);
+  sdk::OdometryTracker whole(0.3);  // the same readings without the advances
+  whole.update(0.2, odometry_of(before, LOCSIM_ODOMETRY_POSE));
+  const auto full = whole.update(0.4, o);
+  ASSERT_TRUE(full);
+  EXPECT_NEAR(a->d_left_m + b->d_left_m + rest->d_left_m, full->d_left_m, 1e-12);
+  EXPECT_NEAR(a->d_right_m + b->d_right_m + rest->d_right_m, full->d_right_m, 1e-12);
+  const Pose summed =
+      sdk::compose(sdk::compose(a->pose_increment, b->pose_increment), rest->pose_increment);
+  EXPECT_LT((summed - full->pose_increment).norm(), 1e-12);
+
+  // Odometry that stops coming is not driven on: one interval past the last reading at most.
+  const auto capped = tracker.advance_to(5.0);
+  ASSERT_TRUE(capped);
+  EXPECT_NEAR(capped->dt_s, 0.2, 1e-12);
+  EXPECT_FALSE(tracker.advance_to(6.0));
+
+  // A source of velocities alone holds each reading's velocity until the next (the host
+  // integrates it so): the advance takes the latest velocity, not the last step's.
+  sdk::OdometryTracker velocity_only(0.3);
+  locsim_odometry v = odometry_of(Pose::Zero(), LOCSIM_ODOMETRY_VELOCITY);
+  v.v_mps = 0.2, v.omega_radps = 0.0;
+  velocity_only.update(1.0, v);
+  const Pose moved = sdk::advance_by_velocity(Pose::Zero(), 0.2, 0.0, 0.25);
+  v.odom_pose = {moved(0), moved(1), moved(2)};
+  v.v_mps = 0.5, v.omega_radps = -0.1;
+  velocity_only.update(1.25, v);
+  const auto ahead = velocity_only.advance_to(1.35);
+  ASSERT_TRUE(ahead);
+  EXPECT_NEAR(ahead->d_left_m, (0.5 + 0.15 * 0.1) * 0.1, 1e-12);
+  EXPECT_NEAR(ahead->d_right_m, (0.5 - 0.15 * 0.1) * 0.1, 1e-12);
+}
+
+TEST(SdkOdometry, TrackerAdvancesByTheGyrosTurn) {
+  // Wheels that report no turn while the gyro turns at 0.5 rad/s: the advance turns by the
+  // gyro, the rest of the step by what is left of its turn, and the slip adds up.
+  sdk::OdometryTracker tracker(0.3), whole(0.3);
+  locsim_imu turning{};
+  turning.yaw_rate_radps = 0.5;
+  locsim_odometry o = odometry_of(Pose::Zero(), LOCSIM_ODOMETRY_POSE);
+  int imu_readings = 0;  // the IMU's readings, every 10 ms, up to t: the gyro's turn is causal
+  const auto imu_until = [&](double t_s) {
+    for (; 0.01 * imu_readings <= t_s + 1e-9; ++imu_readings) {
+      tracker.observe_imu(0.01 * imu_readings, turning);
+      whole.observe_imu(0.01 * imu_readings, turning);
+    }
+  };
+  imu_until(0.0);
+  tracker.update(0.0, o);
+  whole.update(0.0, o);
+  imu_until(0.1);
+  o.odom_pose = {0.1, 0.0, 0.0};
+  tracker.update(0.1, o);
+  whole.update(0.1, o);
+  imu_until(0.15);
+  const auto a = tracker.advance_to(0.15);
+  ASSERT_TRUE(a);
+  EXPECT_NEAR(a->pose_increment(2), 0.5 * 0.05, 1e-9);
+  EXPECT_NEAR(a->d_right_m - a->d_left_m, 0.3 * 0.5 * 0.05, 1e-9);
+  imu_until(0.2);
+  o.odom_pose = {0.2, 0.0, 0.0};
+  const auto rest = tracker.update(0.2, o);
+  const auto full = whole.update(0.2, o);
+  ASSERT_TRUE(rest && full);
+  EXPECT_NEAR(a->pose_increment(2) + rest->pose_increment(2), full->pose_increment(2), 1e-9);
+  EXPECT_NEAR(a->slip_rad + rest->slip_rad, full->slip_rad, 1e-9);
+  EXPECT_NEAR(full->slip_rad, -0.05, 1e-9);
+}
+
 TEST(SdkOdometry, SlipWidensTheKalmanPrediction) {
   Pose x(0.0, 0.0, 0.0), y = x;
   Eigen::Matrix3d p = Eigen::Matrix3d::Identity() * 1e-4, q = p;

@@ -12,6 +12,8 @@
 #include <locsim/models.hpp>
 #include <locsim/particles.hpp>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -655,6 +657,74 @@ TEST(Calibrate, GivesTheBeaconEkfTheGyrosModelAndItEstimatesTheBias) {
                 "the EKF's bias at the end");
   EXPECT_GE(estimated["consistency"]["inside_95_ellipse"].get<double>(), 0.8);
   EXPECT_FALSE(held["diagnostics"].contains("heading_rate_bias_radps"));
+}
+
+/// A UWB tag silent for spells (out of its anchors' reach: 30 % of the time, 3 s on average):
+/// the spells draw from their own stream (every range the tag gives is the one it gives without
+/// them), calibrate measures them from the gaps between readings, and the twin has them.
+TEST(Calibrate, MeasuresTheRangesSpellsOfSilenceAndTheTwinHasThem) {
+  const fs::path dir = testing::temp_dir("calibrate_outages");
+  const std::string encoders = "{rate_hz: 10, k_left: 0.01, k_right: 0.01}";
+  std::string silent = testing::range_only_world(encoders, 3600.0);
+  const std::string always = silent;
+  const std::string key = "dropout_probability: 0}";
+  ASSERT_NE(silent.find(key), std::string::npos);
+  silent.replace(silent.find(key), key.size(),
+                 "dropout_probability: 0, outage_fraction: 0.3, outage_mean_s: 3}");
+  std::ofstream(dir / "silent.yaml") << silent;
+  std::ofstream(dir / "always.yaml") << always;
+  for (const char* name : {"silent", "always"}) {
+    const auto run =
+        testing::locsim("run " + (dir / (std::string(name) + ".yaml")).string() +
+                        " --no-variation -q --seed 3 --out " + (dir / name).string() + " --log " +
+                        (dir / (std::string(name) + ".locsimlog")).string());
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+  }
+  const auto lines = [](const fs::path& file) {
+    std::vector<std::string> out;
+    std::istringstream text(testing::read_file(file));
+    for (std::string line; std::getline(text, line);) out.push_back(line);
+    return out;
+  };
+  const std::vector<std::string> some = lines(dir / "silent/readings/ultrasonic.csv");
+  const std::vector<std::string> all = lines(dir / "always/readings/ultrasonic.csv");
+  const std::set<std::string> given(all.begin(), all.end());
+  for (const std::string& line : some) ASSERT_TRUE(given.contains(line)) << line;
+  EXPECT_NEAR(static_cast<double>(some.size()) / static_cast<double>(all.size()), 0.7, 0.05);
+
+  const Calibration c = calibrate({dir / "silent.locsimlog"}, {});
+  ASSERT_TRUE(c.ranging);
+  EXPECT_GT(c.ranging->outages.outages, 200u);
+  expect_within(c.ranging->outages.fraction, 0.3, "the share of time silent");
+  expect_within(c.ranging->outages.mean_s, 3.0, "a spell's mean length");
+  const YAML::Node sensor = YAML::Load(c.to_yaml())["sensors"]["ultrasonic"];
+  EXPECT_NEAR(sensor["outage_fraction"].as<double>(), c.ranging->outages.fraction, 1e-3);
+  EXPECT_NEAR(sensor["outage_mean_s"].as<double>(), c.ranging->outages.mean_s, 1e-2);
+  const Calibration none = calibrate({dir / "always.locsimlog"}, {});
+  ASSERT_TRUE(none.ranging);
+  EXPECT_EQ(none.ranging->outages.outages, 0u);
+  EXPECT_FALSE(YAML::Load(none.to_yaml())["sensors"]["ultrasonic"]["outage_fraction"]);
+
+  // The twin takes the log's own silences over the calibration's: where a robot cannot range
+  // its anchors depends on where it drives.
+  write_file(dir / "calibration.yaml", c.to_yaml());
+  for (const char* name : {"silent", "always"}) {
+    const fs::path out = dir / "twin" / name / "twin.yaml";
+    const auto twin =
+        testing::locsim("twin " + (dir / (std::string(name) + ".locsimlog")).string() + " --out " +
+                        out.string() + " --calibration " + (dir / "calibration.yaml").string());
+    ASSERT_EQ(twin.exit_code, 0) << twin.output;
+    const YAML::Node ultrasonic =
+        YAML::LoadFile(out.string())["robots"][0]["sensors"]["ultrasonic"];
+    if (std::string(name) == "silent") {
+      EXPECT_NEAR(ultrasonic["outage_fraction"].as<double>(), c.ranging->outages.fraction, 1e-6);
+      EXPECT_NEAR(ultrasonic["outage_mean_s"].as<double>(), c.ranging->outages.mean_s, 1e-6);
+      testing::expect_contains(twin.output, "twin: ultrasonic silent 0.");
+    } else {
+      EXPECT_EQ(ultrasonic["outage_fraction"].as<double>(), 0.0);
+      testing::expect_contains(twin.output, "twin: ultrasonic never silent");
+    }
+  }
 }
 
 }  // namespace

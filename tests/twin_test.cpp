@@ -613,5 +613,32 @@ TEST(Twin, SmoothsTheTruthsJumpsOutOfThePathItDrives) {
   EXPECT_EQ(cleared.back().pose.x, jumped.back().pose.x);
 }
 
+TEST(Twin, SamplesItsTruthAsOftenAsTheLogs) {
+  // A recording whose truth comes five times a second (imported: the log's world samples at the
+  // physics rate) is twinned with its truth at 5 Hz, so that the twin's estimates are scored at
+  // as many instants, and as many between two odometry readings, as the recording's are.
+  const fs::path dir = testing::temp_dir("twin_truth_rate");
+  std::ofstream(dir / "map.csv") << "id,x,y\n1,4.0,0.0\n";
+  std::ofstream odometry(dir / "odometry.csv"), truth(dir / "groundtruth.tum");
+  odometry << "t,v,omega\n";
+  truth << "# t x y z qx qy qz qw\n";
+  for (int i = 0; i <= 100; ++i) {
+    odometry << 0.2 * i << ",0.5,0\n";
+    truth << 0.2 * i << ' ' << 0.1 * i << " 0 0 0 0 0 1\n";
+  }
+  odometry.close(), truth.close();
+  const auto imported = testing::locsim("import generic " + dir.string() + " --out " +
+                                        (dir / "log.locsimlog").string() + " -q");
+  ASSERT_EQ(imported.exit_code, 0) << imported.output;
+  TwinOptions options;
+  options.log = dir / "log.locsimlog";
+  const Twin twin = write_twin(options, dir / "twin" / "twin.yaml", false);
+  EXPECT_NEAR(twin.log_truth_hz, 5.0, 1e-6);
+  EXPECT_EQ(twin.groundtruth_hz, 5.0);
+  const YAML::Node world = YAML::LoadFile((dir / "twin" / "twin.yaml").string());
+  EXPECT_EQ(world["scenario"]["groundtruth_hz"].as<double>(), 5.0);
+  testing::expect_contains(describe(twin), "the truth sampled at 5 Hz");
+}
+
 }  // namespace
 }  // namespace locsim

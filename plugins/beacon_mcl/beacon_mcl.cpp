@@ -65,18 +65,12 @@ class BeaconMcl final : public sdk::Localizer {
   void on_imu(double t_s, const locsim_imu& imu) override { wheels_.observe_imu(t_s, imu); }
 
   void on_odometry(double t_s, const locsim_odometry& odometry) override {
-    const auto step = wheels_.update(t_s, odometry);
-    if (!step) return;
-    if (gyro_.active) {
-      move_by_gyro(*step);
-    } else {
-      sdk::sample_wheel_motion(pf_.particles(), step->d_left_m, step->d_right_m, wheel_base_m_,
-                               k_left_, k_right_, pf_.random(),
-                               0.5 * wheel_base_m_ * std::abs(step->slip_rad));
-    }
+    if (const auto step = wheels_.update(t_s, odometry)) move(*step);
   }
 
-  void on_beacon_ranges(double, const locsim_beacon_ranges& reading) override {
+  void on_beacon_ranges(double t_s, const locsim_beacon_ranges& reading) override {
+    // The ranges belong to the poses of their own time, which may lie after the last odometry.
+    if (const auto step = wheels_.advance_to(t_s)) move(*step);
     ranges_.clear();
     for (std::size_t i = 0; i < reading.count; ++i) {
       const locsim_beacon_range& r = reading.ranges[i];
@@ -113,6 +107,7 @@ class BeaconMcl final : public sdk::Localizer {
   }
 
   sdk::Estimate estimate() const override { return pf_.estimate(); }
+
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override {
     pf_.export_particles(poses, weights);
   }
@@ -132,6 +127,16 @@ class BeaconMcl final : public sdk::Localizer {
   }
 
  private:
+  void move(const sdk::OdometryStep& step) {
+    if (gyro_.active) {
+      move_by_gyro(step);
+    } else {
+      sdk::sample_wheel_motion(pf_.particles(), step.d_left_m, step.d_right_m, wheel_base_m_,
+                               k_left_, k_right_, pf_.random(),
+                               0.5 * wheel_base_m_ * std::abs(step.slip_rad));
+    }
+  }
+
   /// An odometry that turns by a gyro: each particle moves by the wheels' distance with its own
   /// draw of their noise, (k_left^2 |dl| + k_right^2 |dr|) / 4, and by the gyro's turn a taken as
   /// (a - b_i dt) / (1 + s) with its own bias b_i and a draw of the turn's noise; b_i walks.
@@ -140,6 +145,8 @@ class BeaconMcl final : public sdk::Localizer {
     sdk::Random& random = pf_.random();
     while (bias_radps_.size() < p.size())
       bias_radps_.push_back(gyro_.bias_radps + random.normal(gyro_.bias_sigma));
+    // The rest of a step after advance_to() may span a negative time: its bias term keeps the
+    // sign (the steps' turns add up), its noise does not.
     const double dt = std::max(step.dt_s, 0.0);
     const double distance_m = 0.5 * (step.d_left_m + step.d_right_m);
     const double turn_rad = (step.d_right_m - step.d_left_m) / wheel_base_m_;
@@ -150,8 +157,8 @@ class BeaconMcl final : public sdk::Localizer {
     const double half_base = 0.5 * wheel_base_m_;
     for (std::size_t i = 0; i < p.size(); ++i) {
       const double d = distance_m + random.normal(distance_sigma);
-      const double a =
-          (turn_rad - bias_radps_[i] * dt) / (1.0 + gyro_.scale_error) + random.normal(turn_sigma);
+      const double a = (turn_rad - bias_radps_[i] * step.dt_s) / (1.0 + gyro_.scale_error) +
+                       random.normal(turn_sigma);
       const sdk::Pose moved =
           sdk::diff_drive_motion(sdk::Pose(p.x[i], p.y[i], p.theta[i]), d - half_base * a,
                                  d + half_base * a, wheel_base_m_);

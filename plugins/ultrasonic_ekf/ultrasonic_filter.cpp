@@ -161,6 +161,11 @@ void UltrasonicEkf::on_beacon_ranges(double t_s, const locsim_beacon_ranges& rea
   }
   round_ranges_ = static_cast<int>(ranges.size());
   round_accepted_ = 0;
+  // The ranges belong to the pose of their own time, which may lie after the last odometry.
+  if (initialised_ && by_wheels()) {
+    if (const std::optional<sdk::OdometryStep> step = wheels_.advance_to(t_s))
+      predict_by_wheels(*step);
+  }
   // The floor is measured per round (between perception steps), as it is added here.
   if (initialised_ && by_wheels() && (def_.motion_floor_m > 0.0 || def_.motion_floor_rad > 0.0)) {
     covariance_(0, 0) += sq(def_.motion_floor_m);

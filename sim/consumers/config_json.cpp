@@ -34,7 +34,12 @@ json footprint(const FootprintDef& f) {
   return json{};
 }
 json common(const SensorCommon& c) {
-  return json{{"enabled", c.enabled}, {"rate_hz", c.rate_hz}, {"mount", pose(c.mount)}};
+  json out{{"enabled", c.enabled}, {"rate_hz", c.rate_hz}, {"mount", pose(c.mount)}};
+  if (c.outage_fraction > 0.0) {  // listed when set: the files of runs without stay as they were
+    out["outage_fraction"] = c.outage_fraction;
+    out["outage_mean_s"] = c.outage_mean_s;
+  }
+  return out;
 }
 json sensors(const SensorsDef& s) {
   json out = json::object();

@@ -179,6 +179,7 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
 
   Twin twin;
   std::vector<std::vector<StampedPose>> truth(world.robots.size());
+  std::vector<std::vector<double>> ranged_s(world.robots.size());  // beacon-range readings' times
   std::size_t data_readings = 0, data_detections = 0;
   std::set<std::string> kidnapped;
   Record record;
@@ -189,6 +190,13 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
           truth[static_cast<std::size_t>(record.robot)].push_back({record.t_s, record.pose});
         break;
       case Record::Type::kReading:
+        if (record.reading.kind == SensorKind::kUltrasonic &&
+            chosen[static_cast<std::size_t>(record.reading.robot)]) {
+          const auto& ranges = std::get<UltrasonicReading>(record.reading.data).ranges;
+          if (std::any_of(ranges.begin(), ranges.end(),
+                          [](const BeaconRange& r) { return std::isfinite(r.range_m); }))
+            ranged_s[static_cast<std::size_t>(record.reading.robot)].push_back(record.reading.t_s);
+        }
         if (record.reading.kind == SensorKind::kRangeBearing &&
             chosen[static_cast<std::size_t>(record.reading.robot)]) {
           ++data_readings;
@@ -203,6 +211,26 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
         break;
     }
   }
+  {
+    std::vector<double> intervals_s;
+    for (const std::vector<StampedPose>& poses : truth) {
+      for (std::size_t k = 1; k < poses.size(); ++k)
+        if (poses[k].t_s > poses[k - 1].t_s) intervals_s.push_back(poses[k].t_s - poses[k - 1].t_s);
+    }
+    twin.groundtruth_hz = scenario.groundtruth_hz;
+    if (!intervals_s.empty()) {
+      const auto middle = intervals_s.begin() + static_cast<std::ptrdiff_t>(intervals_s.size() / 2);
+      std::nth_element(intervals_s.begin(), middle, intervals_s.end());
+      twin.log_truth_hz = 1.0 / *middle;
+      for (const double rate : sensor_rates(world.physics.step_hz)) {
+        if (std::abs(std::log(rate / twin.log_truth_hz)) <
+            std::abs(std::log(twin.groundtruth_hz / twin.log_truth_hz)))
+          twin.groundtruth_hz = rate;
+      }
+    }
+  }
+  std::erase_if(ranged_s, [](const std::vector<double>& t) { return t.empty(); });
+  if (!ranged_s.empty()) twin.ranging_silences = fit_outages(ranged_s);
   for (const std::string& name : kidnapped) {
     twin.warnings.push_back("robot '" + name +
                             "' was kidnapped in the log: the twin drives it from where it was "
@@ -378,6 +406,12 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       used_sensors.insert(sensor);
       for (const auto& [key, value] : settings) sensors[sensor][key] = value;
     }
+    if (twin.ranging_silences && world.robots[i].sensors.ultrasonic) {
+      const OutageFit& silences = *twin.ranging_silences;
+      sensors["ultrasonic"]["outage_fraction"] = seven_digits(silences.fraction);
+      if (silences.outages > 0)
+        sensors["ultrasonic"]["outage_mean_s"] = seven_digits(silences.mean_s);
+    }
     if (twin.camera && world.robots[i].sensors.range_bearing && twin.camera->note.empty()) {
       // Exact: the loader checks that the rate divides the physics rate.
       sensors["range_bearing"]["rate_hz"] = short_number(twin.camera->rate_hz);
@@ -396,7 +430,7 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   YAML::Node s(YAML::NodeType::Map);
   s["name"] = "twin";
   s["duration_s"] = seven_digits(scenario.duration_s);
-  s["groundtruth_hz"] = seven_digits(scenario.groundtruth_hz);
+  s["groundtruth_hz"] = seven_digits(twin.groundtruth_hz);
   YAML::Node localization(YAML::NodeType::Map);
   localization.SetStyle(YAML::EmitterStyle::Flow);
   localization["initial_pose"] = scenario.localization.initial_pose_known ? "known" : "unknown";
@@ -421,6 +455,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
                      "# Each robot follows its recorded true path (the .tum files beside this "
                      "file, " +
                      seven_digits(options.pose_rate_hz) + " poses per second).\n";
+  text += "# The truth is sampled at " + seven_digits(twin.groundtruth_hz) +
+          " Hz, as the log's is, so that estimates are scored as often.\n";
   if (options.calibration)
     text += "# Sensor noise: the `sensors:` of " + options.calibration->string() + ".\n";
   if (response)
@@ -588,6 +624,18 @@ std::string describe(const Twin& twin) {
               " m, where no robot moves so: smoothed out of the path the twin drives\n";
     }
   }
+  if (twin.ranging_silences) {
+    const OutageFit& f = *twin.ranging_silences;
+    text += f.outages > 0
+                ? "twin: ultrasonic silent " + fixed(f.fraction, 3) +
+                      " of the time, in spells of " + fixed(f.mean_s, 2) +
+                      " s on average, as the log's ranges (" + std::to_string(f.outages) +
+                      " gaps beyond " + fixed(OutageFit::kPeriods, 0) + " readings' interval)\n"
+                : std::string("twin: ultrasonic never silent: the log's ranges have no gaps\n");
+  }
+  text += "twin: the truth sampled at " + seven_digits(twin.groundtruth_hz) +
+          " Hz (the log's: " + fixed(twin.log_truth_hz, 2) +
+          " Hz), so that estimates are scored as often\n";
   if (twin.camera) {
     const TwinCamera& c = *twin.camera;
     if (c.note.empty()) {

@@ -21,6 +21,7 @@
 
 #include "sim/common/math.hpp"
 #include "sim/common/range.hpp"
+#include "sim/metrics/calibration.hpp"
 
 namespace locsim {
 
@@ -70,6 +71,16 @@ struct Twin {
   std::vector<std::pair<std::filesystem::path, std::string>> world_files;
   std::vector<TwinRobot> robots;
   std::optional<TwinCamera> camera;
+  // The rate the twin's truth is sampled at, so its estimates are scored as often as the log's
+  // are: the log's truth rate (median interval), as the nearest rate the physics allows. A
+  // filter's estimate between its updates holds; sampled at 100 Hz, a filter whose odometry
+  // comes at 10 Hz is scored half a step late on average, which on the log it never is. [Hz]
+  double groundtruth_hz = 0.0;
+  double log_truth_hz = 0.0;  // the log's, as measured [Hz]
+  // The log's ranges' spells of silence (fit_outages over the robots' beacon-range readings),
+  // which the twin's ultrasonic sensors take over the calibration's: where a robot cannot range
+  // its anchors depends on where it drives, not on the robot. Unset without such readings.
+  std::optional<OutageFit> ranging_silences;
   std::vector<std::string> warnings;
 };
 

@@ -215,6 +215,8 @@ struct RangingData {
   std::vector<RangeSample> samples;
   std::size_t readings = 0, receiver_readings = 0;
   std::set<int> beacons;  // on the maps
+  // Each robot's readings with a range to a beacon on the map, truth or not: their times [s].
+  std::map<std::size_t, std::vector<double>> reading_times_s;  // by track
 };
 
 /// One laser beam against the range the map gives at the true pose (infinite: nothing mapped
@@ -455,6 +457,12 @@ void collect_ranges(const RobotLog& robot, const WorldDef& world, std::size_t tr
   if (!sensor) return;
   for (const BeaconDef& b : world.beacons) data.beacons.insert(b.id);
   for (const RobotLog::Round& round : robot.rounds) {
+    const bool ranged = std::any_of(round.ranges.begin(), round.ranges.end(), [&](const auto& r) {
+      return std::isfinite(r.range_m) &&
+             std::any_of(world.beacons.begin(), world.beacons.end(),
+                         [&](const BeaconDef& b) { return b.id == r.beacon_id; });
+    });
+    if (ranged) data.reading_times_s[track].push_back(round.t_s);
     const auto pose = robot.truth.at(round.t_s);
     if (!pose) continue;
     ++data.readings;
@@ -1972,10 +1980,51 @@ RangingCalibration fit_ranging(RangingData& data, const CalibrationOptions& opti
     c.noise_correlation_s = single_time_constant(pairs, 1).tau_s;
     c.noise_correlation_pairs = pairs.size();
   }
+  std::vector<std::vector<double>> times;
+  for (const auto& [track, t] : data.reading_times_s) times.push_back(t);
+  c.outages = fit_outages(times);
   return c;
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+OutageFit fit_outages(const std::vector<std::vector<double>>& reading_times_s) {
+  OutageFit fit;
+  std::vector<double> intervals_s;
+  double span_s = 0.0;
+  for (const std::vector<double>& times : reading_times_s) {
+    for (std::size_t k = 1; k < times.size(); ++k) {
+      if (times[k] > times[k - 1]) intervals_s.push_back(times[k] - times[k - 1]);
+    }
+    if (times.size() >= 2) span_s += times.back() - times.front();
+  }
+  if (intervals_s.empty() || span_s <= 0.0) return fit;
+  std::vector<double> sorted = intervals_s;
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  fit.median_interval_s = *middle;
+  // A spell silences the interval less one median; those shorter than the threshold less that
+  // median, tau, pass for dropped readings. Spells exponential in length (as the simulator draws
+  // them) beyond tau are tau plus the whole mean: the mean is their excess over tau, and the
+  // spells not seen are exp(tau / mean) times as many as those seen, less those.
+  const double tau_s = (OutageFit::kPeriods - 1.0) * fit.median_interval_s;
+  double excess_s = 0.0;
+  std::size_t count = 0;
+  for (const double dt : intervals_s) {
+    if (dt - fit.median_interval_s > tau_s) {
+      excess_s += dt - fit.median_interval_s - tau_s;
+      ++count;
+    }
+  }
+  if (count < OutageFit::kMinOutages || excess_s <= 0.0) return fit;
+  fit.outages = count;
+  fit.mean_s = std::max(excess_s / static_cast<double>(count), SensorCommon::kOutageMeanRange.min);
+  const double all_spells =
+      static_cast<double>(count) * std::exp(std::min(tau_s / fit.mean_s, 10.0));
+  fit.fraction = std::min(all_spells * fit.mean_s / span_s, SensorCommon::kOutageFractionRange.max);
+  return fit;
+}
 
 // ---------------------------------------------------------------------------------------------
 Calibration calibrate(const std::vector<std::filesystem::path>& logs,
@@ -2259,6 +2308,10 @@ json Calibration::to_json() const {
       rj["noise_correlation"] = {{"tau_s", *r.noise_correlation_s},
                                  {"pairs", r.noise_correlation_pairs}};
     }
+    rj["outages"] = {{"count", r.outages.outages},
+                     {"fraction", r.outages.fraction},
+                     {"mean_s", r.outages.mean_s},
+                     {"median_interval_s", r.outages.median_interval_s}};
     rj["by_beacon"] = json::array();
     for (const auto& b : r.by_beacon) {
       rj["by_beacon"].push_back({{"id", b.id},
@@ -2585,6 +2638,10 @@ std::string Calibration::to_yaml() const {
     const auto polled = static_cast<long>(std::lround(r.ranges_per_reading));
     if (polled >= 1 && static_cast<std::size_t>(polled) < r.beacons)
       y += "    beacons_per_reading: " + std::to_string(polled) + "\n";
+    if (r.outages.outages > 0) {
+      y += "    outage_fraction: " + four_digits(r.outages.fraction) +
+           "\n    outage_mean_s: " + four_digits(r.outages.mean_s) + "\n";
+    }
   }
   if (laser) {
     const LaserCalibration& l = *laser;
@@ -2674,6 +2731,13 @@ std::string describe(const Calibration& c) {
                         : std::string("; errors independent"))
                  : std::string()) +
             "\n";
+    if (r.outages.outages > 0) {
+      text += "  ranges' silences (gaps beyond " + four_digits(OutageFit::kPeriods) +
+              " times the median interval, " + four_digits(r.outages.median_interval_s) +
+              " s): " + std::to_string(r.outages.outages) + ", as spells " +
+              four_digits(r.outages.fraction) + " of the time, " + four_digits(r.outages.mean_s) +
+              " s on average\n";
+    }
   }
   if (c.laser) {
     const LaserCalibration& l = *c.laser;

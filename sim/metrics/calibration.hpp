@@ -132,6 +132,22 @@ struct DetectionCalibration {
   std::optional<TwoCorrelations> noise_correlation_two;
 };
 
+/// Spells of silence in a sensor's readings (its outage_fraction, outage_mean_s): an interval
+/// between two of a robot's readings longer than kPeriods times the median interval holds one,
+/// as long as the interval less that median; the mean length and share of the time are those
+/// of the simulator's exponential spells that leave such gaps (shorter ones pass for dropped
+/// readings). None with fewer than kMinOutages.
+struct OutageFit {
+  static constexpr double kPeriods = 4.0;
+  static constexpr std::size_t kMinOutages = 3;
+  std::size_t outages = 0;
+  double fraction = 0.0;           // of the robots' time [-]
+  double mean_s = 0.0;             // [s]
+  double median_interval_s = 0.0;  // between readings, pooled over the robots [s]
+};
+/// From each robot's reading times (never decreasing).
+OutageFit fit_outages(const std::vector<std::vector<double>>& reading_times_s);
+
 /// A ranging sensor's ranges (the world's `ultrasonic`).
 struct RangingCalibration {
   std::size_t readings = 0;         // with a true pose
@@ -162,6 +178,7 @@ struct RangingCalibration {
   // this many pairs.
   std::optional<double> noise_correlation_s;
   std::size_t noise_correlation_pairs = 0;
+  OutageFit outages;  // the readings' spells of silence
 };
 
 /// The laser's beam model (the simulated sensor's mixture, Thrun et al., Probabilistic Robotics

@@ -1,6 +1,7 @@
 #include "sim/sensors/sensor.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "sim/sensors/models.hpp"
 
@@ -139,8 +140,27 @@ std::optional<ReadingData> Sensor::sample(const SensorContext& context) {
   if (stuck) return last_;
   if (data && bias != 0.0) apply_bias(*data, bias);
   if (data) last_ = data;
-  if (dropout) return std::nullopt;
+  if (dropout || silent(context.t_s)) return std::nullopt;
   return data;
+}
+
+bool Sensor::silent(double t_s) {
+  if (!outage_rng_) return false;
+  const double f = common_.outage_fraction;
+  const double out_mean_s = common_.outage_mean_s;
+  const double in_mean_s = out_mean_s * (1.0 - f) / f;  // so that the share out is f
+  const auto spell = [&](bool out) {
+    return -(out ? out_mean_s : in_mean_s) * std::log(1.0 - outage_rng_->uniform());
+  };
+  if (std::isnan(switch_s_)) {  // the first sample: in a spell with the process's own odds
+    out_ = outage_rng_->uniform() < f;
+    switch_s_ = t_s + spell(out_);
+  }
+  while (t_s >= switch_s_) {
+    out_ = !out_;
+    switch_s_ += spell(out_);
+  }
+  return out_;
 }
 
 void Sensor::inject(const SensorFaultDef& fault, double now_s) {
@@ -182,6 +202,13 @@ std::vector<std::unique_ptr<Sensor>> make_sensors(const RobotDef& robot, std::ui
   if (defs.range_bearing && defs.range_bearing->common.enabled) {
     sensors.push_back(std::make_unique<RangeBearingSensor>(*defs.range_bearing,
                                                            stream(SensorKind::kRangeBearing)));
+  }
+  for (const std::unique_ptr<Sensor>& sensor : sensors) {
+    // Its own stream: a sensor's noise draws are the same with outages as without.
+    if (sensor->common().outage_fraction > 0.0) {
+      sensor->set_outage_stream(make_stream(
+          seed, "sensor/" + robot.name + "/" + sensor_name(sensor->kind()) + "/outage"));
+    }
   }
   return sensors;
 }

@@ -2,6 +2,7 @@
 // stream, and may be faulted by scenario events (dropout, stuck value, bias step).
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -48,6 +49,8 @@ class Sensor {
 
   void inject(const SensorFaultDef& fault, double now_s);
   virtual bool supports_bias() const { return true; }
+  /// The stream the spells of silence draw from (SensorCommon::outage_fraction > 0).
+  void set_outage_stream(RandomStream rng) { outage_rng_ = rng; }
 
  protected:
   virtual std::optional<ReadingData> measure(const SensorContext& context) = 0;
@@ -62,8 +65,13 @@ class Sensor {
   SensorKind kind_;
   SensorCommon common_;
   RandomStream rng_;
+  /// Whether a spell of silence covers t_s (times never decrease).
+  bool silent(double t_s);
   std::vector<ActiveFault> faults_;
   std::optional<ReadingData> last_;
+  std::optional<RandomStream> outage_rng_;
+  bool out_ = false;                                            // in a spell now
+  double switch_s_ = std::numeric_limits<double>::quiet_NaN();  // when that changes next
 };
 
 /// Builds the enabled sensors of a robot; each draws from "sensor/ROBOT/KIND" of the run seed.

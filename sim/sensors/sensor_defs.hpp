@@ -20,6 +20,17 @@ struct SensorCommon {
   double rate_hz = 10.0;  // must divide the physics rate [Hz]
   static constexpr Range kRateRange = kSampleRateRange;
   Pose2 mount;  // pose of the sensor frame in the robot frame: kBodyFrameRange, any heading
+  // Spells of silence: a radio out of its anchors' reach or behind a building, a driver that
+  // restarts, a bus that drops frames for seconds. The sensor is silent this share of the time
+  // on average, in spells of outage_mean_s on average, with the times in and between spells
+  // exponentially distributed (a two-state Markov process), drawn from the sensor's own stream
+  // ("sensor/ROBOT/KIND/outage"): its readings' noise is the same with outages as without. A
+  // spell of silence is not a dropped reading (the ultrasonic's dropout_probability): a filter
+  // must coast through it. 0: never silent.
+  double outage_fraction = 0.0;  // [-]
+  static constexpr Range kOutageFractionRange{0.0, 0.99, ""};
+  double outage_mean_s = 5.0;  // [s]
+  static constexpr Range kOutageMeanRange{1e-3, 1e6, "s"};
 };
 
 /// Quadrature wheel encoders, and the odometry pose a base integrates from them.

@@ -745,6 +745,14 @@ struct OdometryStep {
 /// source measured one. Given the IMU's readings (observe_imu), each step turns by the gyro (as
 /// OdometryFollower's): the travel's difference is the gyro's turn times the wheel base, its
 /// mean the wheels', and the wheels' extra turn is the step's slip_rad.
+///
+/// A reading of another sensor taken between two odometry readings (a recorded robot's ranges
+/// or detections come when they come, not on the odometry's clock) belongs to the pose of its
+/// own time: advance_to(t) gives the motion from the last odometry reading (or the last
+/// advance) up to t, extrapolated from what the odometry last told, and the next update() gives
+/// the rest of its step, so that the steps a filter applies add up to the odometry's. A filter
+/// that updated at the last odometry pose instead would meet each such reading up to one
+/// odometry interval late and lead the robot by the distance driven meanwhile.
 class OdometryTracker {
  public:
   explicit OdometryTracker(double wheel_base_m) : wheel_base_m_(wheel_base_m) {}
@@ -753,26 +761,88 @@ class OdometryTracker {
   void observe_imu(double t_s, const locsim_imu& imu) {
     if (use_gyro_) gyro_.observe(t_s, imu);
   }
+  /// The step since the previous reading (nothing for the first); after advance_to(), the rest
+  /// of it beyond the time advanced to: its wheel travel and slip less the advanced ones, its
+  /// increment from the advanced pose, its dt_s from that time (negative, with the rest, when
+  /// this reading came before the time advanced to).
   std::optional<OdometryStep> update(double t_s, const locsim_odometry& odometry) {
     std::optional<OdometryStep> step = wheels_step(t_s, odometry);
+    if (step) last_wheels_ = *step;
     const double gyro_rad =
         use_gyro_ ? gyro_.turn_at(t_s) : std::numeric_limits<double>::quiet_NaN();
-    if (step && !std::isnan(gyro_rad) && !std::isnan(gyro_then_rad_)) {
-      const double turn_rad = gyro_rad - gyro_then_rad_;
-      const double wheels_turn_rad = (step->d_right_m - step->d_left_m) / wheel_base_m_;
-      const double mean_m = 0.5 * (step->d_left_m + step->d_right_m);
-      step->slip_rad = wheels_turn_rad - turn_rad;
-      step->d_left_m = mean_m - 0.5 * wheel_base_m_ * turn_rad;
-      step->d_right_m = mean_m + 0.5 * wheel_base_m_ * turn_rad;
-      step->pose_increment = turned_step(step->pose_increment, turn_rad);
-    }
+    if (step && !std::isnan(gyro_rad) && !std::isnan(gyro_then_rad_))
+      turn_by_gyro(*step, gyro_rad - gyro_then_rad_);
     gyro_then_rad_ = gyro_rad;
+    if (step && advanced_) {
+      step->dt_s -= advanced_->dt_s;
+      step->d_left_m -= advanced_->d_left_m;
+      step->d_right_m -= advanced_->d_right_m;
+      step->slip_rad -= advanced_->slip_rad;
+      step->pose_increment = between(advanced_->pose_increment, step->pose_increment);
+    }
+    advanced_.reset();
+    return step;
+  }
+
+  /// The motion from the last reading, or from the last advance since, up to t_s: for a source
+  /// of velocities alone, the latest velocity (which holds until the next reading, as the host
+  /// integrates it: exact); else the last step's wheel travel per second (ticks, a pose), turned
+  /// by the gyro where the steps are. No further than one odometry interval past the last
+  /// reading (odometry that stopped coming is not driven on); nothing before the second reading
+  /// or when t_s is not later than the time already reached.
+  std::optional<OdometryStep> advance_to(double t_s) {
+    if (!last_ || !last_wheels_ || !(last_wheels_->dt_s > 0.0)) return std::nullopt;
+    const double from_s = last_->t_s + (advanced_ ? advanced_->dt_s : 0.0);
+    const double to_s = std::min(t_s, last_->t_s + last_wheels_->dt_s);
+    if (!(to_s > from_s)) return std::nullopt;
+    OdometryStep step;
+    step.dt_s = to_s - from_s;
+    if (velocity_ && !last_->pose_measured && !last_->ticks) {
+      const auto [v_mps, omega_radps] = *velocity_;
+      step.d_left_m = (v_mps - 0.5 * wheel_base_m_ * omega_radps) * step.dt_s;
+      step.d_right_m = (v_mps + 0.5 * wheel_base_m_ * omega_radps) * step.dt_s;
+      step.pose_increment = advance_by_velocity(Pose::Zero(), v_mps, omega_radps, step.dt_s);
+    } else {
+      const double share = step.dt_s / last_wheels_->dt_s;
+      step.d_left_m = last_wheels_->d_left_m * share;
+      step.d_right_m = last_wheels_->d_right_m * share;
+      step.travel_from_ticks = last_wheels_->travel_from_ticks;
+      const double travel_m = 0.5 * (step.d_left_m + step.d_right_m);
+      step.pose_increment = advance_by_velocity(
+          Pose::Zero(), travel_m, (step.d_right_m - step.d_left_m) / wheel_base_m_, 1.0);
+    }
+    const double gyro_from_rad = advanced_ ? advanced_gyro_rad_ : gyro_then_rad_;
+    const double gyro_to_rad =
+        use_gyro_ ? gyro_.turn_at(to_s) : std::numeric_limits<double>::quiet_NaN();
+    if (!std::isnan(gyro_to_rad) && !std::isnan(gyro_from_rad))
+      turn_by_gyro(step, gyro_to_rad - gyro_from_rad);
+    advanced_gyro_rad_ = gyro_to_rad;
+    if (!advanced_) {
+      advanced_ = step;
+    } else {
+      advanced_->dt_s += step.dt_s;
+      advanced_->d_left_m += step.d_left_m;
+      advanced_->d_right_m += step.d_right_m;
+      advanced_->slip_rad += step.slip_rad;
+      advanced_->pose_increment = compose(advanced_->pose_increment, step.pose_increment);
+    }
     return step;
   }
   /// The latest measured (v [m/s], omega [rad/s]); nullopt when the source reports none.
   const std::optional<std::pair<double, double>>& velocity() const { return velocity_; }
 
  private:
+  // The step taken by turn_rad instead of the wheels' turn: the travel's difference is the
+  // gyro's turn times the wheel base, its mean the wheels', the wheels' extra turn the slip.
+  void turn_by_gyro(OdometryStep& step, double turn_rad) const {
+    const double wheels_turn_rad = (step.d_right_m - step.d_left_m) / wheel_base_m_;
+    const double mean_m = 0.5 * (step.d_left_m + step.d_right_m);
+    step.slip_rad = wheels_turn_rad - turn_rad;
+    step.d_left_m = mean_m - 0.5 * wheel_base_m_ * turn_rad;
+    step.d_right_m = mean_m + 0.5 * wheel_base_m_ * turn_rad;
+    step.pose_increment = turned_step(step.pose_increment, turn_rad);
+  }
+
   std::optional<OdometryStep> wheels_step(double t_s, const locsim_odometry& odometry) {
     const Pose now(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
     const bool ticks = (odometry.fields & LOCSIM_ODOMETRY_TICKS) != 0;
@@ -792,7 +862,12 @@ class OdometryTracker {
             wheel_travel_from_increment(step->pose_increment, wheel_base_m_);
       }
     }
-    last_ = Last{t_s, now, odometry.left_ticks, odometry.right_ticks, ticks};
+    last_ = Last{t_s,
+                 now,
+                 odometry.left_ticks,
+                 odometry.right_ticks,
+                 ticks,
+                 (odometry.fields & LOCSIM_ODOMETRY_POSE) != 0};
     if ((odometry.fields & LOCSIM_ODOMETRY_VELOCITY) != 0) {
       velocity_ = std::pair{odometry.v_mps, odometry.omega_radps};
     }
@@ -804,12 +879,16 @@ class OdometryTracker {
     Pose pose = Pose::Zero();
     std::int64_t left = 0, right = 0;
     bool ticks = false;
+    bool pose_measured = false;  // the source reported the pose (else the host integrated it)
   };
   double wheel_base_m_;
   bool use_gyro_ = true;
   GyroIntegrator gyro_;
   double gyro_then_rad_ = std::numeric_limits<double>::quiet_NaN();  // at the last reading
   std::optional<Last> last_;
+  std::optional<OdometryStep> last_wheels_;  // the last step, by the wheels alone
+  std::optional<OdometryStep> advanced_;     // the motion advance_to() gave since last_
+  double advanced_gyro_rad_ = std::numeric_limits<double>::quiet_NaN();  // the gyro's turn then
   std::optional<std::pair<double, double>> velocity_;
 };
 
