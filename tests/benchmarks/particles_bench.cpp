@@ -124,6 +124,29 @@ void BM_OdometryTrackerVelocityOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_OdometryTrackerVelocityOnly);
 
+// A pose source with three readings of another sensor between two odometry readings (a range
+// every 12.5 ms against odometry every 50 ms): per odometry reading, the update and the three
+// advance_to() that bring the motion to those readings' times.
+void BM_OdometryTrackerAdvance(benchmark::State& state) {
+  locsim::sdk::OdometryTracker tracker(0.35);
+  locsim::sdk::VelocityOdometry odometry;
+  locsim_odometry reading{};
+  reading.fields = LOCSIM_ODOMETRY_POSE;  // a pose source: advanced at the last step's rate
+  double t_s = 0.0, travel_m = 0.0;
+  for (auto _ : state) {
+    t_s += 0.05;
+    const locsim::sdk::Pose& pose = odometry.update(t_s, 0.3, 0.2);
+    reading.odom_pose = {pose(0), pose(1), pose(2)};
+    if (const auto step = tracker.update(t_s, reading)) travel_m += step->d_left_m;
+    for (const double between_s : {0.0125, 0.025, 0.0375}) {
+      if (const auto step = tracker.advance_to(t_s + between_s)) travel_m += step->d_left_m;
+    }
+    benchmark::DoNotOptimize(travel_m);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OdometryTrackerAdvance);
+
 // The SDK's CommandFollower on MRCLAM-like commanded velocities (a reading every 15 ms, the
 // response calibrate fits there), then the tracker: what a landmark filter with command_* adds
 // per odometry reading over BM_OdometryTrackerVelocityOnly.
