@@ -321,5 +321,38 @@ TEST(ParticleFilterCore, DirectedResamplingKeepsTheHeavierHalfAndLeavesTheRestTo
   for (const std::size_t k : chosen) EXPECT_TRUE(k == 1 || k == 3 || k == 5 || k == 7) << k;
 }
 
+TEST(ParticleFilterCore, TheOdometryIsBroughtOnToAScansTimeAndStillAddsUp) {
+  // Odometry once a second on an arc (0.8 m/s, 0.3 rad/s), a scan half a second after a
+  // reading: now() is the arc's pose at the scan, marked there; the next reading's motion since
+  // the mark is the rest of the arc, so the two add up to the odometry's second.
+  OdometryFollower follower;
+  Pose odom(1.0, 2.0, 0.3);
+  locsim_odometry reading{};
+  const auto observe = [&](double t_s) {
+    reading.odom_pose = {odom(0), odom(1), odom(2)};
+    follower.observe(t_s, reading);
+  };
+  observe(0.0);
+  follower.advance_to(0.5);  // no step yet: nothing to extrapolate
+  EXPECT_EQ(follower.now(), odom);
+  odom = advance_by_velocity(odom, 0.8, 0.3, 1.0);
+  observe(1.0);
+  const Pose at_reading = odom;
+  follower.advance_to(1.5);
+  EXPECT_LT((follower.now() - advance_by_velocity(at_reading, 0.8, 0.3, 0.5)).norm(), 1e-12);
+  follower.advance_to(1.2);  // never back
+  EXPECT_LT((follower.now() - advance_by_velocity(at_reading, 0.8, 0.3, 0.5)).norm(), 1e-12);
+  const Pose at_scan = follower.now();
+  follower.mark_now();
+  odom = advance_by_velocity(odom, 0.8, 0.3, 1.0);
+  observe(2.0);
+  EXPECT_EQ(follower.now(), odom);  // the odometry's own pose again
+  EXPECT_LT((compose(at_scan, between(follower.mark(), follower.now())) - odom).norm(), 1e-12);
+  EXPECT_NEAR(follower.since_mark().trans, 0.8 * 0.5 * sinc(0.075), 1e-12);
+  // Odometry that stops coming is not driven on: one interval past the last reading at most.
+  follower.advance_to(10.0);
+  EXPECT_LT((follower.now() - advance_by_velocity(odom, 0.8, 0.3, 1.0)).norm(), 1e-12);
+}
+
 }  // namespace
 }  // namespace locsim::sdk

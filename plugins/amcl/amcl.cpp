@@ -16,7 +16,7 @@ class Amcl final : public sdk::Localizer {
     filter_.on_odometry(t_s, odometry);
   }
   void on_imu(double t_s, const locsim_imu& imu) override { filter_.on_imu(t_s, imu); }
-  void on_laser(double, const locsim_laser_scan& scan) override { filter_.on_laser(scan); }
+  void on_laser(double t_s, const locsim_laser_scan& scan) override { filter_.on_laser(t_s, scan); }
   sdk::Estimate estimate() const override { return filter_.estimate(); }
   void particles(std::vector<locsim_pose2>& poses, std::vector<double>& weights) const override {
     filter_.particles(poses, weights);

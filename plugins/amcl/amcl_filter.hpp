@@ -150,10 +150,13 @@ class AmclFilter {
   }
   void on_imu(double t_s, const locsim_imu& imu) { pf_.odometry().observe_imu(t_s, imu); }
 
-  /// A filter update when the robot has moved enough since the last one: true if it did.
-  bool on_laser(const locsim_laser_scan& scan) {
+  /// A filter update when the robot has moved enough since the last one: true if it did. The
+  /// odometry is brought on to the scan's time t_s first: a scan between two odometry readings
+  /// (a recording's, on its own clock) belongs to the pose of its own time.
+  bool on_laser(double t_s, const locsim_laser_scan& scan) {
     sdk::OdometryFollower& odometry = pf_.odometry();
     if (!odometry.ready()) return false;
+    odometry.advance_to(t_s);
     const sdk::OdometryDelta delta = odometry.since_mark();
     const bool moved = delta.trans >= update_min_d_ ||
                        std::abs(sdk::wrap(odometry.now()(2) - odometry.mark()(2))) >= update_min_a_;

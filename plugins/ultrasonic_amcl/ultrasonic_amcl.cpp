@@ -89,8 +89,8 @@ class UltrasonicAmcl final : public sdk::Localizer {
     amcl_.on_odometry(t_s, odometry);
   }
 
-  void on_laser(double, const locsim_laser_scan& scan) override {
-    if (!amcl_.on_laser(scan) || !ekf_.initialised()) return;
+  void on_laser(double t_s, const locsim_laser_scan& scan) override {
+    if (!amcl_.on_laser(t_s, scan) || !ekf_.initialised()) return;
     const sdk::Estimate a = amcl_.estimate();
     const bool fused =
         ekf_.update_pose({a.pose.x, a.pose.y, a.pose.theta}, floored(a.covariance), gate_chi2_);

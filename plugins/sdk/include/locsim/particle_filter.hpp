@@ -163,6 +163,8 @@ class OdometryFollower {
 
   /// The latest odometry (at t_s, for the gyro); the first also sets the mark.
   void observe(double t_s, const locsim_odometry& odometry) {
+    const Pose before = now_;
+    const double before_s = now_s_;
     const Pose wheels(odometry.odom_pose.x, odometry.odom_pose.y, odometry.odom_pose.theta);
     const double gyro_rad =
         use_gyro_ ? gyro_.turn_at(t_s) : std::numeric_limits<double>::quiet_NaN();
@@ -180,8 +182,28 @@ class OdometryFollower {
     }
     wheels_ = wheels;
     gyro_then_rad_ = gyro_rad;
+    // The step just taken and its interval: the rate advance_to() extrapolates at.
+    last_dt_s_ = ready() && t_s > before_s ? t_s - before_s : 0.0;
+    last_step_ = ready() ? between(before, now_) : Pose::Zero();
+    now_s_ = t_s;
+    ahead_ = Pose::Zero(), ahead_s_ = t_s;
     if (!ready()) mark_ = now_, slip_at_mark_rad_ = slip_rad_;
     ready_ = true;
+  }
+  /// Brings now() on to t_s, after the latest odometry reading, for a reading of another sensor
+  /// taken then (a scan between two odometry readings): the last step's motion per second,
+  /// extrapolated, no further than one step's interval past its reading (odometry that stopped
+  /// coming is not driven on), never back. The next observe() puts the odometry's own pose in
+  /// its place; since_mark() differences the two, so that what the particles take adds up to
+  /// the odometry's motion (as OdometryTracker::advance_to).
+  void advance_to(double t_s) {
+    if (!ready() || !(last_dt_s_ > 0.0) || !(t_s > ahead_s_)) return;
+    const double to_s = std::min(t_s, now_s_ + last_dt_s_);
+    if (!(to_s > ahead_s_)) return;
+    const double share = (to_s - now_s_) / last_dt_s_;
+    const double travel_m = wheel_travel_from_increment(last_step_, 0.0).first;
+    ahead_ = advance_by_velocity(Pose::Zero(), travel_m * share, last_step_(2) * share, 1.0);
+    ahead_s_ = to_s;
   }
   /// The latest odometry, without its time: the wheels' turn (no gyro).
   void observe(const locsim_odometry& odometry) {
@@ -189,11 +211,12 @@ class OdometryFollower {
   }
   /// Whether an odometry reading has come (now() and mark() before: zero).
   bool ready() const { return ready_; }
-  const Pose& now() const { return now_; }
+  /// The odometry pose now: the latest reading's, brought on by advance_to().
+  Pose now() const { return ahead_s_ > now_s_ ? compose(now_, ahead_) : now_; }
   const Pose& mark() const { return mark_; }
   /// The motion since the mark, rotate-translate-rotate, with the wheels' slip since.
   OdometryDelta since_mark() const {
-    OdometryDelta d = decompose(mark_, now_);
+    OdometryDelta d = decompose(mark_, now());
     d.slip_rad = std::abs(slip_rad_ - slip_at_mark_rad_);
     return d;
   }
@@ -201,16 +224,21 @@ class OdometryFollower {
   /// wheels' tick-by-tick jitter cancels) [rad].
   double slip_rad() const { return slip_rad_; }
   /// The particles have taken the odometry up to now.
-  void mark_now() { mark_ = now_, slip_at_mark_rad_ = slip_rad_; }
+  void mark_now() { mark_ = now(), slip_at_mark_rad_ = slip_rad_; }
   /// `at_mark` (a pose of the mark's time) moved by the odometry since the mark.
   Pose follow(const Pose& at_mark) const {
-    return ready() ? compose(at_mark, between(mark_, now_)) : at_mark;
+    return ready() ? compose(at_mark, between(mark_, now())) : at_mark;
   }
 
  private:
   bool use_gyro_ = true, turned_by_gyro_ = false, ready_ = false;
-  Pose now_ = Pose::Zero(), mark_ = Pose::Zero();  // with the gyro's turn
-  Pose wheels_ = Pose::Zero();                     // the wheels' odometry pose at the last reading
+  Pose now_ = Pose::Zero(), mark_ = Pose::Zero();            // with the gyro's turn
+  double now_s_ = std::numeric_limits<double>::quiet_NaN();  // the latest reading's time
+  Pose last_step_ = Pose::Zero();  // the latest reading's step, in the previous pose's frame
+  double last_dt_s_ = 0.0;         // and its interval (0: no rate to extrapolate at)
+  Pose ahead_ = Pose::Zero();      // advance_to()'s motion beyond now_
+  double ahead_s_ = std::numeric_limits<double>::quiet_NaN();  // the time it reaches
+  Pose wheels_ = Pose::Zero();  // the wheels' odometry pose at the last reading
   GyroIntegrator gyro_;
   double gyro_then_rad_ =
       std::numeric_limits<double>::quiet_NaN();     // the gyro's turn at the last odometry reading
