@@ -11,6 +11,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "locsim/localizer.hpp"
@@ -169,6 +170,44 @@ TEST(SdkDetections, CorrelatedDetectionsOfATargetWeighAsTheirMean) {
   EXPECT_EQ(independent.inflation(LOCSIM_CAMERA_PTZ, a, 0.1), 1.0);
 }
 
+// A range's and a bearing's errors may persist differently: by default (the bearing's keys -1)
+// the bearing weighs as the range; given its own, each channel inflates as its own process alone
+// would.
+TEST(SdkDetections, RangeAndBearingPersistEachAsTheirOwnProcessSays) {
+  struct Values {
+    std::map<std::string, double, std::less<>> v;
+    double number(std::string_view key) const { return v.at(std::string(key)); }
+  };
+  const Values same{{{"noise_correlation_s", 1.0},
+                     {"noise_correlation_slow_s", 20.0},
+                     {"noise_correlation_slow_share", 0.5},
+                     {"bearing_noise_correlation_s", -1.0},
+                     {"bearing_noise_correlation_slow_s", -1.0},
+                     {"bearing_noise_correlation_slow_share", -1.0}}};
+  Values apart = same;
+  apart.v["bearing_noise_correlation_s"] = 0.1;  // slow_s stays the range's, unused without share
+  apart.v["bearing_noise_correlation_slow_share"] = 0.0;
+  auto both = sdk::CorrelatedRangeBearing::from(same);
+  auto own = sdk::CorrelatedRangeBearing::from(apart);
+  sdk::CorrelatedDetections range(1.0, 20.0, 0.5), bearing(0.1, 20.0, 0.0);
+  locsim_detection d{};
+  d.id = 4;
+  bool differ = false;
+  for (int k = 0; k < 40; ++k) {
+    const double t_s = 0.25 * k;
+    const auto b = both.inflation(LOCSIM_CAMERA_PTZ, d, t_s);
+    const auto o = own.inflation(LOCSIM_CAMERA_PTZ, d, t_s);
+    const double expected_range = range.inflation(LOCSIM_CAMERA_PTZ, d, t_s);
+    const double expected_bearing = bearing.inflation(LOCSIM_CAMERA_PTZ, d, t_s);
+    EXPECT_EQ(b.range, expected_range) << k;
+    EXPECT_EQ(b.bearing, expected_range) << k;
+    EXPECT_EQ(o.range, expected_range) << k;
+    EXPECT_EQ(o.bearing, expected_bearing) << k;
+    differ = differ || o.bearing != o.range;
+  }
+  EXPECT_TRUE(differ);
+}
+
 // With a slow part (a share w of the variance persisting over tau_slow), a run of detections of
 // a target weighs what generalised least squares gives it: 1^T C^-1 1, C = w R_slow + (1 - w)
 // R_fast, R the two processes' correlations, at steady and at irregular intervals; each one at
@@ -208,6 +247,22 @@ TEST(SdkDetections, ASlowPartOfTheErrorsBoundsWhatARunOfDetectionsWeighs) {
           EXPECT_NEAR(information, exact, 1e-6 * exact);
           EXPECT_LE(information, (1.0 + t_s / (2.0 * slow_s)) / w * (1.0 + 1e-9));
         }
+      }
+    }
+  }
+  // A target reported twice at one instant: the second adds nothing, and what follows is
+  // weighed as before.
+  {
+    sdk::CorrelatedDetections seen(0.3, 5.6, 0.5), once(0.3, 5.6, 0.5);
+    locsim_detection d{};
+    d.id = 2;
+    for (int k = 0; k < 200; ++k) {
+      const double t_s = 0.1 * k;
+      const double first = seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s);
+      EXPECT_EQ(first, once.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s)) << k;
+      EXPECT_TRUE(std::isfinite(first)) << k;
+      if (k > 0) {
+        EXPECT_GE(seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s), 1e11) << k;
       }
     }
   }
@@ -429,6 +484,20 @@ TEST(SdkOdometry, SlipWidensTheKalmanPrediction) {
   // over the wheel base squared.
   EXPECT_NEAR(q(0, 0) - p(0, 0), 0.5 * 0.02 * 0.02, 1e-12);
   EXPECT_NEAR(q(2, 2) - p(2, 2), 2.0 * 0.02 * 0.02 / (0.3 * 0.3), 1e-12);
+}
+
+// Wheels whose errors move together (k_correlation rho) drive the robot along its heading
+// without turning it: straight ahead from a known pose, the travel's variance is
+// k^2 d (1 + rho) / 2 and the turn's 2 k^2 d (1 - rho) / b^2.
+TEST(SdkOdometry, CorrelatedWheelsMoveTheVarianceFromTheTurnToTheTravel) {
+  const double k = 0.03, d = 0.2, b = 0.3;
+  for (const double rho : {0.0, 0.7, -0.5}) {
+    Pose x(0.0, 0.0, 0.0);
+    Eigen::Matrix3d P = Eigen::Matrix3d::Zero();
+    sdk::predict_by_wheels(x, P, d, d, b, k, k, 0.0, rho);
+    EXPECT_NEAR(P(0, 0), k * k * d * (1.0 + rho) / 2.0, 1e-15) << rho;
+    EXPECT_NEAR(P(2, 2), 2.0 * k * k * d * (1.0 - rho) / (b * b), 1e-15) << rho;
+  }
 }
 
 // ---- the host's translation ------------------------------------------------------------------

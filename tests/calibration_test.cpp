@@ -12,6 +12,7 @@
 #include <locsim/models.hpp>
 #include <locsim/particles.hpp>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -85,6 +86,29 @@ TEST_P(SimulatedNoise, IsRecoveredWithin15Percent) {
 
 INSTANTIATE_TEST_SUITE_P(Seeds, SimulatedNoise, ::testing::Values(3u, 11u));
 
+/// `world` with `from` replaced by `to` (a test world's key; one that is not there is a mistake
+/// in the test).
+std::string replaced(std::string world, const std::string& from, const std::string& to) {
+  const auto at = world.find(from);
+  if (at == std::string::npos) throw std::logic_error("the world has no '" + from + "'");
+  return world.replace(at, from.size(), to);
+}
+
+/// A run of `world` (YAML) recorded into `dir`: the log's path.
+fs::path record(const fs::path& dir, const std::string& world, std::uint64_t seed,
+                std::optional<double> duration_s = std::nullopt) {
+  std::ofstream(dir / "world.yaml") << world;
+  RunOptions options;
+  options.world_file = dir / "world.yaml";
+  options.seed = seed;
+  if (duration_s) options.duration_s = *duration_s;
+  options.out_dir = dir / "run";
+  options.readings = false;
+  options.log_file = dir / "recorded.locsimlog";
+  run_simulation(options);
+  return *options.log_file;
+}
+
 /// The noisy world with its range-bearing sensor's `range_model` given, MRCLAM's order of range
 /// bias (5 cm + 2 % of the range) and small independent noise without false detections, so that
 /// the fitted lines are tight: 120 s recorded.
@@ -97,20 +121,9 @@ fs::path record_range_model_run(const fs::path& dir, const std::string& range_mo
            {"range_bias_per_m: -0.05",
             "range_bias_per_m: 0.02\n        range_model: " + range_model},
            {"false_detections: 0.3", "false_detections: 0"}}) {
-    const auto at = world.find(from);
-    if (at == std::string::npos) throw std::logic_error("noisy_world has no '" + from + "'");
-    world.replace(at, from.size(), to);
+    world = replaced(world, from, to);
   }
-  std::ofstream(dir / "world.yaml") << world;
-  RunOptions options;
-  options.world_file = dir / "world.yaml";
-  options.seed = 5;
-  options.duration_s = 120.0;
-  options.out_dir = dir / "run";
-  options.readings = false;
-  options.log_file = dir / "recorded.locsimlog";
-  run_simulation(options);
-  return *options.log_file;
+  return record(dir, world, 5, 120.0);
 }
 
 TEST(Calibrate, ADepthCameraIsFittedAsOneAndItsSensorSettingsSayDepth) {
@@ -152,6 +165,63 @@ TEST(Calibrate, ADistanceCameraKeepsTheDistanceModel) {
   const YAML::Node sensor = YAML::Load(c.to_yaml())["sensors"]["range_bearing"];
   EXPECT_EQ(sensor["range_model"].as<std::string>(), "distance");
   EXPECT_NEAR(sensor["range_bias_m"].as<double>(), rb.range_bias_m.at_zero, 1e-3);
+}
+
+TEST(Calibrate, TellsABearingWhoseErrorsPersistOtherwiseThanTheRangesAndWritesBoth) {
+  // The range's errors persist over 1 s, the bearing's are independent: one process for both
+  // would give the bearing the range's memory (a filter would then trust the bearing too little,
+  // and a twin would hold its errors too long).
+  const fs::path dir = testing::temp_dir("calibrate_bearing_apart");
+  const std::string key = "noise_correlation_s: " + std::to_string(1.0);
+  const Calibration c =
+      calibrate({record(dir,
+                        replaced(testing::noisy_world(1.0), key,
+                                 key + "\n        bearing_noise_correlation_s: 0"),
+                        7)},
+                {});
+  ASSERT_EQ(c.cameras.size(), 1u);
+  const auto& apart = c.cameras[0].channel_correlations;
+  ASSERT_TRUE(apart) << describe(c);
+  expect_within(apart->range.fast_s, 1.0, "the range's time constant");
+  EXPECT_EQ(apart->range.slow_share, 0.0);
+  EXPECT_EQ(apart->bearing.fast_s, 0.0) << "the bearing's errors are independent";
+  EXPECT_EQ(apart->bearing.slow_share, 0.0);
+  testing::expect_contains(describe(c), "range and bearing apart");
+  // Written for the twin's sensor and for the localizers, each channel its own.
+  const YAML::Node yaml = YAML::Load(c.to_yaml());
+  const YAML::Node sensor = yaml["sensors"]["range_bearing"];
+  EXPECT_NEAR(sensor["noise_correlation_s"].as<double>(), apart->range.fast_s, 1e-3);
+  EXPECT_EQ(sensor["bearing_noise_correlation_s"].as<double>(), 0.0);
+  EXPECT_EQ(sensor["bearing_noise_correlation_slow_share"].as<double>(), 0.0);
+  EXPECT_EQ(yaml["localizer_params"]["bearing_noise_correlation_s"].as<double>(), 0.0);
+  EXPECT_NEAR(yaml["localizer_params"]["noise_correlation_s"].as<double>(), apart->range.fast_s,
+              1e-3);
+}
+
+TEST(Calibrate, RecoversWheelsWhoseErrorsMoveTogetherAndGivesTheTwinThem) {
+  // Wheels whose errors are correlated 0.7: the robot's travel errs more and its heading less
+  // than independent wheels of the same k would make them. The localizers keep the independent
+  // fit (what the SDK's wheel model gives them); the twin's encoders take the correlated one.
+  const fs::path dir = testing::temp_dir("calibrate_wheels_together");
+  const Calibration c = calibrate(
+      {record(dir,
+              replaced(testing::noisy_world(0.0),
+                       "encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}",
+                       "encoders: {rate_hz: 50, k_left: 0.02, k_right: 0.02, k_correlation: 0.7}"),
+              4)},
+      {});
+  ASSERT_TRUE(c.motion);
+  const auto& wheels = c.motion->correlated_wheels;
+  ASSERT_TRUE(wheels) << describe(c);
+  expect_within(wheels->k_correlation, 0.7, "k_correlation");
+  expect_within(wheels->k_left, 0.02, "k_left");
+  expect_within(wheels->k_right, 0.02, "k_right");
+  testing::expect_contains(describe(c), "the wheels' errors correlated");
+  const YAML::Node yaml = YAML::Load(c.to_yaml());
+  EXPECT_NEAR(yaml["sensors"]["encoders"]["k_correlation"].as<double>(), wheels->k_correlation,
+              1e-3);
+  EXPECT_NEAR(yaml["localizer_params"]["k_left"].as<double>(), c.motion->k_left, 1e-4);
+  EXPECT_FALSE(yaml["localizer_params"]["k_correlation"]);
 }
 
 TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {

@@ -32,7 +32,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     k_right_ = params.number("k_right");
     noise_ = locsim::sdk::DetectionNoise::from(params);
     bias_ = locsim::sdk::DetectionBias::from(params);
-    correlated_ = locsim::sdk::CorrelatedDetections::from(params);
+    correlated_ = locsim::sdk::CorrelatedRangeBearing::from(params);
     response_ = locsim::sdk::CommandFollower(locsim::sdk::CommandResponse::from(params));
     wander_ = locsim::sdk::GainWander::from(params);
     gate_ = params.number("gate_chi2");
@@ -94,7 +94,8 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       // would need that robot's estimate, which this filter does not have.
       const locsim_detection& detection = reading.detections[i];
       if (detection.target != LOCSIM_TARGET_LANDMARK) continue;
-      const double inflation = correlated_.inflation(reading.camera, detection, t_s);
+      const auto inflated = correlated_.inflation(reading.camera, detection, t_s);
+      const Eigen::DiagonalMatrix<double, 2> inflation(inflated.range, inflated.bearing);
       if (reading.camera == LOCSIM_CAMERA_OMNI) {
         correct(detection, {detection.range_m, detection.bearing_rad},
                 inflation * noise(reading.camera, detection.range_m));
@@ -197,7 +198,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   double k_left_, k_right_, gate_, wheel_base_m_;
   locsim::sdk::DetectionNoise noise_;
   locsim::sdk::DetectionBias bias_;
-  locsim::sdk::CorrelatedDetections correlated_;
+  locsim::sdk::CorrelatedRangeBearing correlated_;
   locsim::sdk::CommandFollower response_;
   locsim::sdk::GainWander wander_;
   bool use_ptz_, use_omni_, use_range_bearing_;

@@ -51,7 +51,7 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
                 std::numbers::pi / 180.0};
   detection_noise_ = sdk::DetectionNoise::from(params);
   detection_bias_ = sdk::DetectionBias::from(params);
-  correlated_ = sdk::CorrelatedDetections::from(params);
+  correlated_ = sdk::CorrelatedRangeBearing::from(params);
   response_ = sdk::CommandFollower(sdk::CommandResponse::from(params));
   wander_ = sdk::GainWander::from(params);
   regularization_ = params.number("regularization");
@@ -137,20 +137,22 @@ void LandmarkParticleFilter::prepare_step(double t_s, const locsim_landmarks& re
     // camera's measured bias is taken out (not the omnidirectional camera's: its noise is an
     // ellipse, not a range and a bearing), and a target seen again while its errors persist
     // weighs less.
-    const double spread = std::sqrt(correlated_.inflation(reading.camera, d, t_s));
+    const auto inflation = correlated_.inflation(reading.camera, d, t_s);
+    const double range_spread = std::sqrt(inflation.range);
+    const double bearing_spread = std::sqrt(inflation.bearing);
     if (reading.camera == LOCSIM_CAMERA_OMNI) {
       const auto sigma = detection_noise_.at(reading.camera, d.range_m);
       s.range_m = d.range_m;
       s.bearing_rad = d.bearing_rad;
-      s.sigma_range_m = spread * sigma.range_m;
-      s.sigma_bearing_rad = spread * sigma.bearing_rad;
+      s.sigma_range_m = range_spread * sigma.range_m;
+      s.sigma_bearing_rad = bearing_spread * sigma.bearing_rad;
     } else {
       const auto z = detection_bias_.corrected(d.range_m, d.bearing_rad);
       const auto sigma = detection_noise_.at(reading.camera, z.model_x_m);
       s.range_m = z.range_m;
       s.bearing_rad = z.bearing_rad;
-      s.sigma_range_m = spread * sigma.range_m * z.range_scale;
-      s.sigma_bearing_rad = spread * sigma.bearing_rad;
+      s.sigma_range_m = range_spread * sigma.range_m * z.range_scale;
+      s.sigma_bearing_rad = bearing_spread * sigma.bearing_rad;
     }
     ++step_count_;
   }

@@ -148,7 +148,7 @@ class LandmarkParticleFilter : public sdk::Localizer {
   sdk::OdometryNoise noise_;
   sdk::DetectionNoise detection_noise_;  // by camera and range
   sdk::DetectionBias detection_bias_;    // taken out of each detection
-  sdk::CorrelatedDetections correlated_;
+  sdk::CorrelatedRangeBearing correlated_;
   sdk::CommandFollower response_;  // odometry that reports the command
   double regularization_ = 0.0;    // the regularised filter's kernel scale (0: off)
   sdk::GainWander wander_;         // each particle's gains wander

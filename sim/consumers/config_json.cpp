@@ -48,6 +48,7 @@ json sensors(const SensorsDef& s) {
     out["encoders"] = common(d.common);
     out["encoders"].update(
         {{"ticks_per_rev", d.ticks_per_rev}, {"k_left", d.k_left}, {"k_right", d.k_right}});
+    if (d.k_correlation != 0.0) out["encoders"]["k_correlation"] = d.k_correlation;
     if (d.odometry_wheel_base_m)
       out["encoders"]["odometry_wheel_base_m"] = *d.odometry_wheel_base_m;
     json reports = json::array();
@@ -159,6 +160,11 @@ json sensors(const SensorsDef& s) {
     if (d.noise_correlation_slow_share > 0.0) {
       out["range_bearing"]["noise_correlation_slow_s"] = d.noise_correlation_slow_s;
       out["range_bearing"]["noise_correlation_slow_share"] = d.noise_correlation_slow_share;
+    }
+    if (const auto& b = d.bearing_correlation) {
+      out["range_bearing"]["bearing_noise_correlation_s"] = b->fast_s;
+      out["range_bearing"]["bearing_noise_correlation_slow_s"] = b->slow_s;
+      out["range_bearing"]["bearing_noise_correlation_slow_share"] = b->slow_share;
     }
   }
   return out;

@@ -130,6 +130,14 @@ struct DetectionCalibration {
     double gain_nats = 0.0;  // log-likelihood over the single time constant's
   };
   std::optional<TwoCorrelations> noise_correlation_two;
+  // The range's and the bearing's each their own (one time constant: slow_share 0), when that
+  // explains the pairs better than the joint fit above (Bayesian information criterion): the
+  // sensor's noise_correlation_* and bearing_noise_correlation_*, the localizers' likewise.
+  struct ChannelCorrelations {
+    TwoCorrelations range, bearing;
+    double gain_nats = 0.0;  // log-likelihood over the joint fit's
+  };
+  std::optional<ChannelCorrelations> channel_correlations;
 };
 
 /// Spells of silence in a sensor's readings (its outage_fraction, outage_mean_s): an interval
@@ -205,6 +213,15 @@ struct OdometryModelFit {
   double log_likelihood = 0.0;  // per interval [nats]
 };
 
+/// The wheel model with its two wheels' errors correlated (the simulated encoders'
+/// k_correlation): what a twin's encoders take when the correlation explains the intervals
+/// better than independent wheels. The localizers keep the independent fit.
+struct CorrelatedWheels {
+  double k_left = 0.0, k_right = 0.0;  // [m^1/2]
+  double k_correlation = 0.0;          // [-]
+  double gain_nats = 0.0;              // log-likelihood over independent wheels'
+};
+
 /// The wheel model (paper 002's k per wheel, with a floor per interval whatever the motion).
 struct WheelModelFit {
   double k_left = 0.0, k_right = 0.0;                      // [m^1/2]
@@ -230,6 +247,8 @@ struct CommandResponseFit {
   // The wheel model's noise of the odometry passed through the response (what the motion does
   // beyond it): the noise a simulated base that measures its command adds. [m^1/2]
   std::optional<double> k_left, k_right;
+  // The same with the wheels' errors correlated, when that explains them better (the twin's).
+  std::optional<CorrelatedWheels> correlated_wheels;
   // The wheel model of the odometry run through the whole response (sdk::CommandFollower): the
   // noise a localizer that follows the response (command_*) is left with.
   std::optional<WheelModelFit> localizer;
@@ -267,7 +286,10 @@ struct MotionCalibration {
   bool variance_form = false;          // the form with the higher likelihood
   double k_left = 0.0, k_right = 0.0;  // wheel model [m^1/2]
   double k_floor_position_m = 0.0, k_floor_heading_rad = 0.0;  // as OdometryModelFit's
-  double k_log_likelihood = 0.0;                               // per interval [nats]
+  // The wheel model with the wheels' errors correlated, when that explains them better (the
+  // twin's encoders; the localizers take k_left, k_right above).
+  std::optional<CorrelatedWheels> correlated_wheels;
+  double k_log_likelihood = 0.0;  // per interval [nats]
   /// The fitted wheel model's normalised estimation error squared, mean over the intervals
   /// (3 when the model's covariance matches the errors).
   double k_mean_nees = 0.0;

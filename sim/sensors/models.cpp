@@ -58,16 +58,26 @@ std::optional<ReadingData> EncoderSensor::measure(const SensorContext& context) 
   const bool command = def_.measures == EncodersDef::Measures::kCommand;
   const double k[2] = {def_.k_left, def_.k_right};
   const double radians_per_tick = kTwoPi / def_.ticks_per_rev;
-  double travel_m[2];
+  double travel_m[2], turned[2], sigma_m[2], error_m[2];
   for (int i = 0; i < 2; ++i) {
     const double angle_rad = command ? commanded_angle_rad_[i] : wheels[i]->angle_rad;
-    const double turned = angle_rad - true_angle_rad_[i];
+    turned[i] = angle_rad - true_angle_rad_[i];
     true_angle_rad_[i] = angle_rad;
     // Random error: a random walk in rolled distance with variance K^2 |d|, counted as rotation
     // of the nominal wheel so that odometry sees exactly that distance error.
-    const double rolled_m = std::abs(turned) * (command ? nominal_radius_m_ : wheels[i]->radius_m);
-    const double error_m = rolled_m > 0.0 ? rng().normal(0.0, k[i] * std::sqrt(rolled_m)) : 0.0;
-    counted_angle_rad_[i] += turned + error_m / nominal_radius_m_;
+    const double rolled_m =
+        std::abs(turned[i]) * (command ? nominal_radius_m_ : wheels[i]->radius_m);
+    sigma_m[i] = k[i] * std::sqrt(rolled_m);
+    error_m[i] = rolled_m > 0.0 ? rng().normal(0.0, sigma_m[i]) : 0.0;
+  }
+  // Correlated wheels: the right's error takes rho of the left's standardised one (the same
+  // draws, so that a world without k_correlation keeps its numbers).
+  if (const double rho = def_.k_correlation; rho != 0.0 && sigma_m[0] > 0.0) {
+    error_m[1] =
+        rho * sigma_m[1] * (error_m[0] / sigma_m[0]) + std::sqrt(1.0 - rho * rho) * error_m[1];
+  }
+  for (int i = 0; i < 2; ++i) {
+    counted_angle_rad_[i] += turned[i] + error_m[i] / nominal_radius_m_;
     const auto ticks =
         static_cast<std::int64_t>(std::floor(counted_angle_rad_[i] / radians_per_tick));
     travel_m[i] = static_cast<double>(ticks - ticks_[i]) * radians_per_tick * nominal_radius_m_;
@@ -479,23 +489,24 @@ void OmniCameraSensor::apply_bias(ReadingData& data, double bias) const {
 }
 
 // ---------------------------------------------------------------------------------------------
-double RangeBearingSensor::correlated(std::vector<TargetNoise>& state, std::size_t target,
-                                      double t_s, double draw, double slow_draw) const {
-  const double share = def_.noise_correlation_slow_share;
-  if (def_.noise_correlation_s <= 0.0 && share <= 0.0) return draw;
+double RangeBearingSensor::correlated(const RangeBearingDef::Correlation& correlation,
+                                      std::vector<TargetNoise>& state, std::size_t target,
+                                      double t_s, double draw, double slow_draw) {
+  const double share = correlation.slow_share;
+  if (correlation.fast_s <= 0.0 && share <= 0.0) return draw;
   if (state.size() <= target) state.resize(target + 1);
   TargetNoise& s = state[target];
   // The first detection of a target, or one after a long gap, is a fresh draw (rho ~ 0).
   const auto rho = [&](double tau_s) {
     return s.last_t_s < 0.0 || !(tau_s > 0.0) ? 0.0 : std::exp(-(t_s - s.last_t_s) / tau_s);
   };
-  const double rho_fast = rho(def_.noise_correlation_s);
+  const double rho_fast = rho(correlation.fast_s);
   s.fast = rho_fast * s.fast + std::sqrt(1.0 - rho_fast * rho_fast) * draw;
   if (share <= 0.0) {
     s.last_t_s = t_s;
     return s.fast;
   }
-  const double rho_slow = rho(def_.noise_correlation_slow_s);
+  const double rho_slow = rho(correlation.slow_s);
   s.slow = rho_slow * s.slow + std::sqrt(1.0 - rho_slow * rho_slow) * slow_draw;
   s.last_t_s = t_s;
   return std::sqrt(1.0 - share) * s.fast + std::sqrt(share) * s.slow;
@@ -523,7 +534,8 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   const double range_draw = rng().normal(0.0, 1.0);
   const double bearing_draw = rng().normal(0.0, 1.0);
   // The slow part's own draws, only when there is one: other worlds keep their numbers.
-  const bool slow = def_.noise_correlation_slow_share > 0.0;
+  const bool slow = def_.noise_correlation_slow_share > 0.0 ||
+                    def_.bearing_or_range_correlation().slow_share > 0.0;
   const double range_slow_draw = slow ? rng().normal(0.0, 1.0) : 0.0;
   const double bearing_slow_draw = slow ? rng().normal(0.0, 1.0) : 0.0;
   // The value reported before noise, in which the bias and spread lines are: the distance, or
@@ -532,12 +544,12 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   // world without the key keeps its outputs.
   const double reported =
       def_.range_model == RangeBearingDef::RangeModel::kDepth ? range * std::cos(bearing) : range;
-  const double range_noise_m =
-      (def_.sigma_range_m + def_.sigma_range_per_m * reported) *
-      correlated(range_noise_, target, context.t_s, range_draw, range_slow_draw);
+  const double range_noise_m = (def_.sigma_range_m + def_.sigma_range_per_m * reported) *
+                               correlated(def_.range_correlation(), range_noise_, target,
+                                          context.t_s, range_draw, range_slow_draw);
   const double bearing_noise_rad =
-      def_.sigma_bearing_rad *
-      correlated(bearing_noise_, target, context.t_s, bearing_draw, bearing_slow_draw);
+      def_.sigma_bearing_rad * correlated(def_.bearing_or_range_correlation(), bearing_noise_,
+                                          target, context.t_s, bearing_draw, bearing_slow_draw);
   // A range is never negative, however large the noise.
   const double measured_range = std::max(
       0.0, reported + def_.range_bias_m + def_.range_bias_per_m * reported + range_noise_m);

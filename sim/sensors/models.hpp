@@ -129,10 +129,11 @@ class RangeBearingSensor final : public Sensor {
     double last_t_s = -1.0, fast = 0.0, slow = 0.0;
   };
   /// Standard normal noise of a target's detection at `t_s`, correlated with its previous one
-  /// (noise_correlation_s, and the slow part's); `draw` and `slow_draw` are this detection's fresh
-  /// N(0, 1) for each process.
-  double correlated(std::vector<TargetNoise>& state, std::size_t target, double t_s, double draw,
-                    double slow_draw) const;
+  /// as `correlation` says (the range's, or the bearing's); `draw` and `slow_draw` are this
+  /// detection's fresh N(0, 1) for each process.
+  static double correlated(const RangeBearingDef::Correlation& correlation,
+                           std::vector<TargetNoise>& state, std::size_t target, double t_s,
+                           double draw, double slow_draw);
   RangeBearingDef def_;
   std::vector<TargetNoise> range_noise_, bearing_noise_;
 };

@@ -43,6 +43,12 @@ struct EncodersDef {
   double k_left = 0.0013;
   double k_right = 0.0012;
   static constexpr Range kKRange{0.0, 1.0, "m^1/2"};
+  // Correlation of the two wheels' errors over a step: a common-mode part (both counts long or
+  // short together: tyre compression, a soft floor, a base whose reported motion is its command)
+  // moves the robot along its heading without turning it. The distance's variance goes as
+  // (1 + rho), the turn's as (1 - rho), for equal k. 0: independent wheels (paper 002). [-]
+  double k_correlation = 0.0;
+  static constexpr Range kKCorrelationRange{-0.99, 0.99, ""};
   std::optional<double> odometry_wheel_base_m;  // the base's belief; default: the true one [m]
   static constexpr Range kWheelBaseRange{0.01, 100.0, "m"};
   // What each reading carries (OdometryField bits; YAML: a list of ticks, pose, velocity). A
@@ -197,6 +203,23 @@ struct RangeBearingDef {
   double noise_correlation_slow_share = 0.0;
   static constexpr Range kSlowShareRange{0.0, 0.99, ""};
   double noise_correlation_slow_s = 0.0;
+  /// A noise process's time constants and slow share, as the three keys above give them.
+  struct Correlation {
+    double fast_s = 0.0;      // [s]
+    double slow_s = 0.0;      // [s]
+    double slow_share = 0.0;  // [-]
+  };
+  Correlation range_correlation() const {
+    return {noise_correlation_s, noise_correlation_slow_s, noise_correlation_slow_share};
+  }
+  // The bearing's own (keys bearing_noise_correlation_s, _slow_s, _slow_share; any of them set
+  // sets all three, the others 0). Unset, the bearing's noise persists as the range's. A camera's
+  // bearing and range errors need not persist alike: MRCLAM's bearing errors are half white where
+  // its ranges' persist for seconds (docs/reports/sim_to_real/measurements.md).
+  std::optional<Correlation> bearing_correlation;
+  Correlation bearing_or_range_correlation() const {
+    return bearing_correlation.value_or(range_correlation());
+  }
   bool report_ids = true;
   bool sees_robots = false;  // other robots are detected too (target robot, id = index)
 };

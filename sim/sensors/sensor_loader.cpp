@@ -76,8 +76,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
   if (const auto n = node.find("encoders")) {
     sensors.encoders = parse_section(
         *n, EncodersDef{}, step_hz,
-        {"ticks_per_rev", "k_left", "k_right", "odometry_wheel_base_m", "reports", "measures",
-         "heading", "gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density", "gyro_scale_error"},
+        {"ticks_per_rev", "k_left", "k_right", "k_correlation", "odometry_wheel_base_m", "reports",
+         "measures", "heading", "gyro_bias_radps", "gyro_bias_sigma", "gyro_noise_density",
+         "gyro_scale_error"},
         [&](EncodersDef& d) {
           d.measures = get_choice(*n, "measures", d.measures,
                                   {{"wheels", EncodersDef::Measures::kWheels},
@@ -99,6 +100,8 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_int("ticks_per_rev", d.ticks_per_rev, EncodersDef::kTicksRange));
           d.k_left = n->get_double("k_left", d.k_left, EncodersDef::kKRange);
           d.k_right = n->get_double("k_right", d.k_right, EncodersDef::kKRange);
+          d.k_correlation =
+              n->get_double("k_correlation", d.k_correlation, EncodersDef::kKCorrelationRange);
           if (const auto base = n->find("odometry_wheel_base_m")) {
             d.odometry_wheel_base_m = base->as_double(EncodersDef::kWheelBaseRange);
           }
@@ -308,6 +311,9 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
          "noise_correlation_s",
          "noise_correlation_slow_s",
          "noise_correlation_slow_share",
+         "bearing_noise_correlation_s",
+         "bearing_noise_correlation_slow_s",
+         "bearing_noise_correlation_slow_share",
          "report_ids",
          "sees_robots"},
         [&](RangeBearingDef& d) {
@@ -345,6 +351,15 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               "noise_correlation_slow_s", d.noise_correlation_slow_s, D::kCorrelationRange);
           d.noise_correlation_slow_share = n->get_double(
               "noise_correlation_slow_share", d.noise_correlation_slow_share, D::kSlowShareRange);
+          if (n->find("bearing_noise_correlation_s") ||
+              n->find("bearing_noise_correlation_slow_s") ||
+              n->find("bearing_noise_correlation_slow_share")) {
+            RangeBearingDef::Correlation& b = d.bearing_correlation.emplace();
+            b.fast_s = n->get_double("bearing_noise_correlation_s", 0.0, D::kCorrelationRange);
+            b.slow_s = n->get_double("bearing_noise_correlation_slow_s", 0.0, D::kCorrelationRange);
+            b.slow_share =
+                n->get_double("bearing_noise_correlation_slow_share", 0.0, D::kSlowShareRange);
+          }
           d.report_ids = n->get_bool("report_ids", d.report_ids);
           d.sees_robots = n->get_bool("sees_robots", d.sees_robots);
         });

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "locsim/models.hpp"
@@ -197,23 +198,42 @@ void BM_PredictByWheels(benchmark::State& state) {
 }
 BENCHMARK(BM_PredictByWheels)->ArgName("gains")->Arg(0)->Arg(1);
 
-// CorrelatedDetections per detection, eight landmarks seen in turn every 0.1 s: the first-order
-// rule (arg 0) and the slow part's per-target Kalman filter (arg 1).
-void BM_CorrelatedDetections(benchmark::State& state) {
-  CorrelatedDetections seen =
-      state.range(0) != 0 ? CorrelatedDetections(0.4, 40.0, 0.5) : CorrelatedDetections(1.0);
+// Eight landmarks seen in turn every 0.1 s, each detection's variance factors summed by
+// `factors` from what `seen.inflation` gives.
+template <class Seen, class Factors>
+void detections_in_turn(benchmark::State& state, Seen& seen, Factors factors) {
   locsim_detection d{};
   double t_s = 0.0, sum = 0.0;
   std::int32_t k = 0;
   for (auto _ : state) {
     d.id = ++k % 8;
     t_s += 0.1;
-    sum += seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s);
+    sum += factors(seen.inflation(LOCSIM_CAMERA_RANGE_BEARING, d, t_s));
     benchmark::DoNotOptimize(sum);
   }
   state.SetItemsProcessed(state.iterations());
 }
+
+// CorrelatedDetections per detection: the first-order rule (arg 0) and the slow part's
+// per-target Kalman filter (arg 1).
+void BM_CorrelatedDetections(benchmark::State& state) {
+  CorrelatedDetections seen =
+      state.range(0) != 0 ? CorrelatedDetections(0.4, 40.0, 0.5) : CorrelatedDetections(1.0);
+  detections_in_turn(state, seen, [](double factor) { return factor; });
+}
 BENCHMARK(BM_CorrelatedDetections)->ArgName("slow")->Arg(0)->Arg(1);
+
+// CorrelatedRangeBearing per detection, with the slow part: the bearing persisting as the range
+// (arg 0: one filter serves both) or its own way (arg 1: a second filter).
+void BM_CorrelatedRangeBearing(benchmark::State& state) {
+  CorrelatedRangeBearing seen(
+      CorrelatedDetections(0.4, 40.0, 0.5),
+      state.range(0) != 0 ? std::optional(CorrelatedDetections(0.02, 18.0, 0.65)) : std::nullopt);
+  detections_in_turn(state, seen, [](const CorrelatedRangeBearing::Inflation& factor) {
+    return factor.range + factor.bearing;
+  });
+}
+BENCHMARK(BM_CorrelatedRangeBearing)->ArgName("bearing_apart")->Arg(0)->Arg(1);
 
 // The SDK's OdometryFollower per odometry reading and the IMU's two readings before it (as the
 // host streams them: 50 and 100 Hz), with the gyro turning the odometry (Arg 1) or not (0).

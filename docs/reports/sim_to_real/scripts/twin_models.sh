@@ -2,9 +2,9 @@
 # The real logs of MRCLAM Dataset 6 against their twins with and without each modelled effect
 # (README.md, "Real against twin"). Calibrates all five robots' 900 s, writes five calibration
 # files that differ only in what the twin is given (none; the depth range model; the command
-# response; both; all: both with the gains' wander and the detections' slow part) and one per
-# robot (own: all, from that robot's log alone), makes 5 robots x 3 seeds of twin recordings for
-# each, and sweeps
+# response; both; all: both with the gains' wander, the detections' slow part, range and
+# bearing errors each their own, and the wheels' errors correlated) and one per robot (own: all,
+# from that robot's log alone), makes 5 robots x 3 seeds of twin recordings for each, and sweeps
 # the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
 # twins, with the calibration's localizer parameters. Prints the table of the README.
 #
@@ -20,7 +20,8 @@ source "$HERE/mrclam_logs.sh" /tmp/s2r
 # The variants: the calibration file with the twin's models taken out one at a time. Without the
 # response the encoders get the raw odometry's k; without the depth model the camera gets the
 # distance model's lines (both from calibration.json); without "all" the robot's gains do not
-# wander and the camera's errors have one time constant (the single one calibration.json fits).
+# wander, the camera's errors have one time constant for range and bearing (the single one
+# calibration.json fits) and the wheels' errors are independent.
 "${PYTHON:-python3}" - <<'PY'
 import json, re
 text = open("cal6/calibration.yaml").read()
@@ -42,6 +43,12 @@ def variant(response, depth, rest):
         t = re.sub(r"    noise_correlation_s: .*\n    noise_correlation_slow_s: .*\n"
                    r"    noise_correlation_slow_share: .*\n",
                    f"    noise_correlation_s: {single_tau:.4g}\n", t)
+        t = re.sub(r"    bearing_noise_correlation_.*\n", "", t)
+        response_k = fits["motion"].get("command_response", {})
+        if "k_left" in response_k:
+            t = re.sub(r"  encoders: \{measures: command, .*\}",
+                       f"  encoders: {{measures: command, k_left: {response_k['k_left']:.4g}, "
+                       f"k_right: {response_k['k_right']:.4g}}}", t)
     if not response:
         t = re.sub(r"robot: .*\n  command_response: .*\n", "", t)
         t = re.sub(r"  encoders: \{.*\}", raw_encoders, t)

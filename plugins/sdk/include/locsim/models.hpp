@@ -62,18 +62,22 @@ inline Pose diff_drive_motion(const Pose& x, double d_left, double d_right, doub
 
 /// Kalman prediction of pose x and covariance P by one step of wheel travel, with paper 002's
 /// input noise Q = diag(k_left^2 |d_left|, k_right^2 |d_right|) (plus slip_m^2 on each wheel:
-/// travel the wheels slipped by, OdometryStep::slip_rad times half the wheel base):
+/// travel the wheels slipped by, OdometryStep::slip_rad times half the wheel base), the two
+/// wheels' errors correlated by k_correlation rho (Q's off-diagonal rho k_left k_right
+/// sqrt(|d_left| |d_right|), as the simulated encoders' k_correlation makes them):
 /// P' = F P F^T + G Q G^T.
 inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double d_right,
-                              double wheel_base, double k_left, double k_right,
-                              double slip_m = 0.0) {
+                              double wheel_base, double k_left, double k_right, double slip_m = 0.0,
+                              double k_correlation = 0.0) {
   Eigen::Matrix3d F;
   Eigen::Matrix<double, 3, 2> G;
   x = diff_drive_motion(x, d_left, d_right, wheel_base, &F, &G);
   const double slip_m2 = slip_m * slip_m;
-  const Eigen::Matrix2d Q = Eigen::Vector2d(k_left * k_left * std::abs(d_left) + slip_m2,
-                                            k_right * k_right * std::abs(d_right) + slip_m2)
-                                .asDiagonal();
+  Eigen::Matrix2d Q = Eigen::Vector2d(k_left * k_left * std::abs(d_left) + slip_m2,
+                                      k_right * k_right * std::abs(d_right) + slip_m2)
+                          .asDiagonal();
+  Q(0, 1) = Q(1, 0) =
+      k_correlation * k_left * k_right * std::sqrt(std::abs(d_left) * std::abs(d_right));
   P = F * P * F.transpose() + G * Q * G.transpose();
 }
 
@@ -180,7 +184,14 @@ struct DetectionNoise {
    "... a slower part of the errors persists this long (locsim calibrate; 0: none) [s]"},          \
   {"noise_correlation_slow_share", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 0.99, nullptr,                  \
    "... the slow part's share of the errors' variance: however often a target is seen, its "      \
-   "detections together weigh at most 1 / this of one [-]"}
+   "detections together weigh at most 1 / this of one [-]"},                                      \
+  {"bearing_noise_correlation_s", LOCSIM_PARAM_DOUBLE, -1.0, -1.0, 1e6, nullptr,                  \
+   "the bearing's own noise_correlation_s, when its errors persist otherwise than the range's "    \
+   "(locsim calibrate); -1: the range's [s]"},                                                     \
+  {"bearing_noise_correlation_slow_s", LOCSIM_PARAM_DOUBLE, -1.0, -1.0, 1e6, nullptr,             \
+   "the bearing's own noise_correlation_slow_s; -1: the range's [s]"},                            \
+  {"bearing_noise_correlation_slow_share", LOCSIM_PARAM_DOUBLE, -1.0, -1.0, 0.99, nullptr,        \
+   "the bearing's own noise_correlation_slow_share; -1: the range's [-]"}
 // clang-format on
 
 struct DetectionBias {
@@ -281,6 +292,9 @@ class CorrelatedDetections {
     const Eigen::RowVector3d H(1.0, std::sqrt(slow_share_), std::sqrt(1.0 - slow_share_));
     const double before = 1.0 / seen.P(0, 0);
     const Eigen::Vector3d PHt = seen.P * H.transpose();
+    // A second detection at the instant of the last (a camera that reports a target twice)
+    // has the same errors: nothing new, and no variance left to divide by.
+    if (!(H.dot(PHt) > 1e-12)) return 1e12;
     seen.P -= PHt * PHt.transpose() / H.dot(PHt);
     seen.P = 0.5 * (seen.P + seen.P.transpose()).eval();
     if (first) return 1.0;
@@ -296,6 +310,49 @@ class CorrelatedDetections {
   };
   double tau_s_, slow_tau_s_, slow_share_;
   std::map<std::tuple<std::int32_t, std::int32_t, std::string>, Seen> seen_;
+};
+
+/// A range and bearing detection's two errors, each persisting as its own CorrelatedDetections
+/// says (noise_correlation_* for the range; bearing_noise_correlation_*, each -1 by default, the
+/// range's, for the bearing): a camera's bearing errors may decorrelate faster than its ranges'
+/// (MRCLAM's are half white, where its ranges' persist for seconds), and a filter that weighs
+/// both alike trusts one too much and the other too little.
+class CorrelatedRangeBearing {
+ public:
+  CorrelatedRangeBearing() = default;
+  CorrelatedRangeBearing(CorrelatedDetections range, std::optional<CorrelatedDetections> bearing)
+      : range_(std::move(range)), bearing_(std::move(bearing)) {}
+  /// From a plugin's parameters LOCSIM_DETECTION_BIAS_PARAMS declares.
+  template <class Params>
+  static CorrelatedRangeBearing from(const Params& params) {
+    const double tau_s = params.number("noise_correlation_s");
+    const double slow_s = params.number("noise_correlation_slow_s");
+    const double share = params.number("noise_correlation_slow_share");
+    const auto own = [&](const char* key, double range_value) {
+      const double value = params.number(key);
+      return value < 0.0 ? range_value : value;
+    };
+    const double bearing_tau_s = own("bearing_noise_correlation_s", tau_s);
+    const double bearing_slow_s = own("bearing_noise_correlation_slow_s", slow_s);
+    const double bearing_share = own("bearing_noise_correlation_slow_share", share);
+    const bool same = bearing_tau_s == tau_s && bearing_slow_s == slow_s && bearing_share == share;
+    return {
+        CorrelatedDetections(tau_s, slow_s, share),
+        same ? std::nullopt
+             : std::optional(CorrelatedDetections(bearing_tau_s, bearing_slow_s, bearing_share))};
+  }
+  /// The factors on a detection's range and bearing variances (CorrelatedDetections::inflation).
+  struct Inflation {
+    double range = 1.0, bearing = 1.0;
+  };
+  Inflation inflation(std::int32_t camera, const locsim_detection& detection, double t_s) {
+    const double range = range_.inflation(camera, detection, t_s);
+    return {range, bearing_ ? bearing_->inflation(camera, detection, t_s) : range};
+  }
+
+ private:
+  CorrelatedDetections range_;
+  std::optional<CorrelatedDetections> bearing_;  // none: the range's
 };
 
 /// Pose composition a (+) b: b expressed in a's frame, mapped to a's parent frame.
