@@ -154,6 +154,16 @@ struct OmniCameraDef {
   bool report_ids = true;
 };
 
+/// A detector's noise process per target (RangeBearingDef's noise_correlation_* keys): a fast
+/// first-order part and a slow part holding slow_share of the variance. Outside RangeBearingDef so
+/// that std::optional of it is constructible inside it (a nested class's member initialisers are
+/// not complete until the enclosing class is, for clang).
+struct NoiseCorrelation {
+  double fast_s = 0.0;      // [s]
+  double slow_s = 0.0;      // [s]
+  double slow_share = 0.0;  // [-]
+};
+
 /// A range-bearing landmark sensor with a limited field of view: a camera reading barcodes (the
 /// MRCLAM robots'), or any detector that gives a range and a bearing per landmark. Gaussian noise
 /// in range and bearing (spread growing with range, and a bias, as `locsim calibrate` fits them),
@@ -203,12 +213,7 @@ struct RangeBearingDef {
   double noise_correlation_slow_share = 0.0;
   static constexpr Range kSlowShareRange{0.0, 0.99, ""};
   double noise_correlation_slow_s = 0.0;
-  /// A noise process's time constants and slow share, as the three keys above give them.
-  struct Correlation {
-    double fast_s = 0.0;      // [s]
-    double slow_s = 0.0;      // [s]
-    double slow_share = 0.0;  // [-]
-  };
+  using Correlation = NoiseCorrelation;
   Correlation range_correlation() const {
     return {noise_correlation_s, noise_correlation_slow_s, noise_correlation_slow_share};
   }
