@@ -224,6 +224,134 @@ TEST(Calibrate, RecoversWheelsWhoseErrorsMoveTogetherAndGivesTheTwinThem) {
   EXPECT_FALSE(yaml["localizer_params"]["k_correlation"]);
 }
 
+TEST(Calibrate, FindsACameraOffItsBelievedPlaceAndTheTwinMountsItThere) {
+  // Two robots' logs: one whose camera sits 10 cm ahead and 5 cm left of where its detections are
+  // given from (MRCLAM robot 4's is 8 cm ahead), one whose camera is where it is believed. The
+  // offset errs each bearing by its own amount (more for landmarks near and off the axis), which
+  // no bias takes out: calibrate finds it from the bearings, measures the bearings' noise from
+  // the camera's place for the twin's sensor, and the twin mounts that robot's camera there.
+  const fs::path dir = testing::temp_dir("calibrate_camera_offset");
+  fs::create_directories(dir / "shifted");
+  fs::create_directories(dir / "placed");
+  std::string shifted = replaced(
+      replaced(testing::noisy_world(0.0), "        rate_hz: 10\n        fov_deg: 120",
+               "        rate_hz: 10\n        fov_deg: 120\n        mount: {x: 0.1, y: 0.05}\n"
+               "        believed_mount: {x: 0, y: 0}"),
+      "name: robot", "name: shifted");
+  shifted = replaced(shifted, "duration_s: 300", "duration_s: 600");
+  const std::string placed =
+      replaced(testing::noisy_world(0.0), "duration_s: 300", "duration_s: 600");
+  const fs::path shifted_log = record(dir / "shifted", shifted, 5);
+  const Calibration c = calibrate({shifted_log, record(dir / "placed", placed, 6)}, {});
+  ASSERT_EQ(c.cameras.size(), 1u);
+  const DetectionCalibration& camera = c.cameras[0];
+  ASSERT_EQ(camera.camera_offsets.size(), 2u) << describe(c);
+  const CameraOffset* found = nullptr;
+  for (const CameraOffset& o : camera.camera_offsets) {
+    if (o.robot == "shifted") {
+      found = &o;
+      EXPECT_TRUE(o.significant) << describe(c);
+      expect_within(o.x_m, 0.1, "the camera's forward offset");
+      expect_within(o.y_m, 0.05, "the camera's left offset");
+      EXPECT_GE(o.blocks, CameraOffset::kMinBlocks);
+    } else {
+      EXPECT_EQ(o.robot, "robot");
+      EXPECT_FALSE(o.significant) << describe(c);
+      EXPECT_LT(std::hypot(o.x_m, o.y_m), 0.02) << describe(c);
+    }
+  }
+  ASSERT_NE(found, nullptr);
+  const CameraOffset& offset = *found;
+  testing::expect_contains(describe(c), "shifted's camera off its believed place");
+  // From the believed places the offset passes for bearing noise; from the cameras' places the
+  // bearings' noise is the sensors' own: 2 deg bias, 1.5 deg spread.
+  ASSERT_TRUE(camera.from_camera_places);
+  expect_within(rad_to_deg(camera.from_camera_places->bearing_bias_rad), 2.0, "bearing bias");
+  expect_within(rad_to_deg(camera.from_camera_places->bearing_spread_rad), 1.5, "bearing spread");
+  EXPECT_GT(camera.bearing_spread_rad, camera.from_camera_places->bearing_spread_rad);
+
+  const fs::path calibration = dir / "calibration.yaml";
+  std::ofstream(calibration) << c.to_yaml();
+  const YAML::Node yaml = YAML::LoadFile(calibration.string());
+  EXPECT_NEAR(yaml["camera_offsets"]["shifted"]["x"].as<double>(), offset.x_m, 1e-4);
+  EXPECT_FALSE(yaml["camera_offsets"]["robot"]);
+  EXPECT_NEAR(yaml["sensors"]["range_bearing"]["sigma_bearing_deg"].as<double>(),
+              rad_to_deg(camera.from_camera_places->bearing_spread_rad), 1e-3);
+  // The localizers, which do not know the offset, keep the noise from the believed places.
+  EXPECT_NEAR(yaml["localizer_params"]["sigma_bearing_deg"].as<double>(),
+              rad_to_deg(camera.bearing_spread_rad), 1e-3);
+
+  const auto twin =
+      testing::locsim("twin " + shifted_log.string() + " --calibration " + calibration.string() +
+                      " --out " + (dir / "twin" / "world.yaml").string());
+  ASSERT_EQ(twin.exit_code, 0) << twin.output;
+  testing::expect_contains(twin.output, "range_bearing mounted");
+  const YAML::Node sensor = YAML::LoadFile(
+      (dir / "twin" / "world.yaml").string())["robots"][0]["sensors"]["range_bearing"];
+  EXPECT_NEAR(sensor["mount"]["x"].as<double>(), offset.x_m, 1e-4);
+  EXPECT_NEAR(sensor["mount"]["y"].as<double>(), offset.y_m, 1e-4);
+  EXPECT_EQ(sensor["believed_mount"]["x"].as<double>(), 0.0);
+  // Its ranges as the log's, from the believed place: the camera's depth ahead is added back.
+  EXPECT_NEAR(sensor["range_bias_m"].as<double>(),
+              yaml["sensors"]["range_bearing"]["range_bias_m"].as<double>() +
+                  yaml["camera_offsets"]["shifted"]["x"].as<double>(),
+              1e-6);
+}
+
+TEST(Calibrate, TellsACameraBlindForSpellsFromOneThatMissesAtRandom) {
+  // A camera silent 0.3 of the time in spells of 3 s on average (and missing 0.2 of what it sees
+  // besides): calibrate finds the spells from the cells along the path where landmarks were in
+  // view and none was detected, and writes them for the twin's sensor. A camera that only misses
+  // at random has none; one whose spells are of two kinds (0.2 of them 20 s long, the rest 2 s)
+  // has both.
+  const fs::path dir = testing::temp_dir("calibrate_camera_silences");
+  const std::string key = "noise_correlation_s: " + std::to_string(0.0);
+  const auto blind = [&](const std::string& name, const std::string& spells, double duration_s,
+                         std::uint64_t seed) {
+    fs::create_directories(dir / name);
+    const std::string world =
+        replaced(replaced(testing::noisy_world(0.0), key, key + spells), "duration_s: 300",
+                 "duration_s: " + std::to_string(duration_s));
+    return calibrate({record(dir / name, world, seed)}, {});
+  };
+  const Calibration one =
+      blind("one", "\n        outage_fraction: 0.3\n        outage_mean_s: 3", 3600.0, 3);
+  ASSERT_EQ(one.cameras.size(), 1u);
+  const auto& silences = one.cameras[0].silences;
+  ASSERT_TRUE(silences);
+  EXPECT_TRUE(silences->significant) << describe(one);
+  expect_within(silences->fraction, 0.3, "outage_fraction");
+  expect_within(silences->mean_s, 3.0, "outage_mean_s");
+  EXPECT_EQ(silences->long_share, 0.0) << describe(one);
+  testing::expect_contains(describe(one), "blind spells");
+  const YAML::Node sensor = YAML::Load(one.to_yaml())["sensors"]["range_bearing"];
+  EXPECT_NEAR(sensor["outage_fraction"].as<double>(), silences->fraction, 1e-3);
+  EXPECT_NEAR(sensor["outage_mean_s"].as<double>(), silences->mean_s, 1e-3);
+  EXPECT_FALSE(sensor["outage_long_share"]);
+
+  const Calibration two = blind("two",
+                                "\n        outage_fraction: 0.4\n        outage_mean_s: 2"
+                                "\n        outage_long_share: 0.2\n        outage_long_mean_s: 20",
+                                7200.0, 3);
+  ASSERT_EQ(two.cameras.size(), 1u);
+  const auto& kinds = two.cameras[0].silences;
+  ASSERT_TRUE(kinds && kinds->significant) << describe(two);
+  expect_within(kinds->fraction, 0.4, "outage_fraction");
+  expect_within(kinds->mean_s, 2.0, "outage_mean_s");
+  expect_within(kinds->long_share, 0.2, "outage_long_share");
+  expect_within(kinds->long_mean_s, 20.0, "outage_long_mean_s");
+  testing::expect_contains(describe(two), "of two kinds");
+  const YAML::Node both = YAML::Load(two.to_yaml())["sensors"]["range_bearing"];
+  EXPECT_NEAR(both["outage_long_share"].as<double>(), kinds->long_share, 1e-3);
+  EXPECT_NEAR(both["outage_long_mean_s"].as<double>(), kinds->long_mean_s, 1e-2);
+
+  const Calibration seeing = blind("seeing", "", 600.0, 3);
+  ASSERT_EQ(seeing.cameras.size(), 1u);
+  ASSERT_TRUE(seeing.cameras[0].silences);
+  EXPECT_FALSE(seeing.cameras[0].silences->significant) << describe(seeing);
+  EXPECT_FALSE(YAML::Load(seeing.to_yaml())["sensors"]["range_bearing"]["outage_fraction"]);
+}
+
 TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
   // The noisy world's detections (errors correlated over 0.5 s, 0.3 false ones per reading) make
   // the truth's own w_fast / w_slow dip below 1 all the time when a filter counts each detection

@@ -533,6 +533,57 @@ TEST(RangeBearing, DepthModeReportsTheDistanceAlongTheAxisWithItsBiasAndSpread) 
   EXPECT_NEAR(in_distance.stddev, 0.1, 0.006);
 }
 
+TEST(RangeBearing, ACameraOffItsBelievedMountSeesFromWhereItIsAndReportsFromWhereItIsBelieved) {
+  // The camera 0.1 m ahead and 0.05 m left of the robot's origin, believed at the origin: the
+  // landmark at (3, 1) is 2.9 m ahead and 0.95 m left of it, and that is what is reported, as if
+  // seen from the origin. Believed where it is, the report is the landmark's true place.
+  const std::string landmark = "  - {id: 1, position: [3, 1]}\n";
+  const std::string exact = "sigma_range_m: 0, sigma_bearing: 0, mount: {x: 0.1, y: 0.05}";
+  const auto detection = [&](const std::string& sensor) {
+    const auto readings = range_bearing_readings(range_bearing_world(landmark, sensor), 0.0);
+    EXPECT_EQ(readings.size(), 1u);
+    EXPECT_EQ(readings.at(0).data.detections.size(), 1u);
+    return readings.at(0).data.detections.at(0);
+  };
+  const Detection off = detection("{" + exact + ", believed_mount: {x: 0, y: 0}}");
+  EXPECT_NEAR(off.range_m, std::hypot(2.9, 0.95), 1e-9);
+  EXPECT_NEAR(off.bearing_rad, std::atan2(0.95, 2.9), 1e-9);
+  const Detection known = detection("{" + exact + "}");
+  EXPECT_NEAR(known.range_m, std::hypot(3.0, 1.0), 1e-9);
+  EXPECT_NEAR(known.bearing_rad, std::atan2(1.0, 3.0), 1e-9);
+  // A believed heading turns the report too: the camera's (2.9, 0.95) turned by 10 degrees.
+  const Detection turned =
+      detection("{" + exact + ", believed_mount: {x: 0.1, y: 0.05, theta_deg: 10}}");
+  const double c = std::cos(deg_to_rad(10.0)), s = std::sin(deg_to_rad(10.0));
+  const double x = 0.1 + c * 2.9 - s * 0.95, y = 0.05 + s * 2.9 + c * 0.95;
+  EXPECT_NEAR(turned.range_m, std::hypot(x, y), 1e-9);
+  EXPECT_NEAR(turned.bearing_rad, std::atan2(y, x), 1e-9);
+}
+
+TEST(RangeBearing, SpellsOfTwoKindsKeepTheShareSilentAndGiveTheLongOnesTheirShare) {
+  // Silent 0.3 of the time; 0.2 of the spells 5 s long on average, the rest 0.5 s. At 50 Hz the
+  // gaps between readings are the spells (a frame each way). 4000 s: about 600 spells, 120 long.
+  const auto readings = range_bearing_readings(
+      range_bearing_world("  - {id: 1, position: [3, 0]}\n",
+                          "{rate_hz: 50, outage_fraction: 0.3, outage_mean_s: 0.5, "
+                          "outage_long_share: 0.2, outage_long_mean_s: 5}"),
+      4000.0);
+  std::vector<double> spells_s;
+  for (std::size_t k = 1; k < readings.size(); ++k) {
+    const double gap_s = readings[k].t_s - readings[k - 1].t_s;
+    if (gap_s > 0.03) spells_s.push_back(gap_s - 0.02);
+  }
+  const double silent_s = std::accumulate(spells_s.begin(), spells_s.end(), 0.0);
+  EXPECT_NEAR(silent_s / 4000.0, 0.3, 0.03);
+  // The mean spell (0.8 x 0.5 + 0.2 x 5 = 1.4 s), and the spells beyond 3 s: 0.2 e^(-3/5) of
+  // them (0.11; short ones almost never last so long), within about three standard errors.
+  const double n = static_cast<double>(spells_s.size());
+  EXPECT_NEAR(silent_s / n, 1.4, 0.25);
+  const double beyond = static_cast<double>(
+      std::count_if(spells_s.begin(), spells_s.end(), [](double s) { return s > 3.0; }));
+  EXPECT_NEAR(beyond / n, 0.2 * std::exp(-0.6), 0.04);
+}
+
 TEST(RangeBearing, FieldOfViewRangeLimitsAndWallsDecideWhatIsSeen) {
   // fov 60 deg (+-30): 26.6 deg is inside, 33.7 deg and behind outside; range [1, 5].
   const auto readings = range_bearing_world(

@@ -35,9 +35,14 @@ json footprint(const FootprintDef& f) {
 }
 json common(const SensorCommon& c) {
   json out{{"enabled", c.enabled}, {"rate_hz", c.rate_hz}, {"mount", pose(c.mount)}};
+  if (c.believed_mount) out["believed_mount"] = pose(*c.believed_mount);
   if (c.outage_fraction > 0.0) {  // listed when set: the files of runs without stay as they were
     out["outage_fraction"] = c.outage_fraction;
     out["outage_mean_s"] = c.outage_mean_s;
+    if (c.outage_long_share > 0.0) {
+      out["outage_long_share"] = c.outage_long_share;
+      out["outage_long_mean_s"] = c.outage_long_mean_s;
+    }
   }
   return out;
 }

@@ -128,6 +128,21 @@ std::optional<CommandResponseDef> read_calibration_robot(const fs::path& file) {
   return parse_command_response(*response);
 }
 
+/// The `camera_offsets:` of the calibration file `file` (robot name -> where its range-bearing
+/// camera is from where its detections are given, forward and left [m]); empty without.
+std::map<std::string, Vec2> read_camera_offsets(const fs::path& file) {
+  const YamlNode root = YamlNode::load_file(file);
+  std::map<std::string, Vec2> out;
+  const auto offsets = root.find("camera_offsets");
+  if (!offsets || offsets->is_null()) return out;
+  for (const auto& [name, offset] : offsets->entries()) {
+    offset.allow_keys({"x", "y"});
+    out[name] =
+        Vec2(offset["x"].as_double(kBodyFrameRange), offset["y"].as_double(kBodyFrameRange));
+  }
+  return out;
+}
+
 /// Headroom over the path's demand on the motors: the trajectory drive's feedback needs some.
 constexpr double kDriveMargin = 1.5;
 
@@ -240,6 +255,9 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   const SensorSettings calibrated =
       options.calibration ? read_calibration_sensors(*options.calibration, world.physics.step_hz)
                           : SensorSettings{};
+  std::map<std::string, Vec2> camera_offsets = options.calibration
+                                                   ? read_camera_offsets(*options.calibration)
+                                                   : std::map<std::string, Vec2>{};
   // On the heap: GCC 12 takes a std::optional's members for maybe uninitialised below.
   const std::unique_ptr<const CommandResponseDef> response = [&] {
     std::unique_ptr<const CommandResponseDef> read;
@@ -303,11 +321,16 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     c.rate_hz = camera_def->common.rate_hz;
     c.miss_probability = c.calibrated_miss_probability;
     c.false_per_reading = c.calibrated_false_per_reading;
-    if (robot_seconds > 0.0) {
+    // A camera silent for spells (the calibration's outage_fraction) sees only the rest of the
+    // time: its rate and misses are matched to the log's detections over that rest.
+    c.outage_fraction =
+        setting(calibrated, "range_bearing", "outage_fraction", camera_def->common.outage_fraction);
+    const double seeing_s = robot_seconds * (1.0 - c.outage_fraction);
+    if (seeing_s > 0.0) {
       c.data_detections_per_s = static_cast<double>(data_detections) / robot_seconds;
       const double false_per_s =
-          c.calibrated_false_per_reading * static_cast<double>(data_readings) / robot_seconds;
-      const double true_per_s = c.data_detections_per_s - false_per_s;
+          c.calibrated_false_per_reading * static_cast<double>(data_readings) / seeing_s;
+      const double true_per_s = static_cast<double>(data_detections) / seeing_s - false_per_s;
       if (!(c.in_view_mean > 0.0)) {
         c.note = "no landmark is ever in view along the paths: the camera's settings are kept";
       } else if (!(true_per_s > 0.0)) {
@@ -406,6 +429,33 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       used_sensors.insert(sensor);
       for (const auto& [key, value] : settings) sensors[sensor][key] = value;
     }
+    const auto offset = camera_offsets.find(world.robots[i].name);
+    if (offset != camera_offsets.end() && world.robots[i].sensors.range_bearing) {
+      // The camera where the log's detections say it is; its detections still given from where
+      // the log's robot believes it is.
+      const Pose2 believed = world.robots[i].sensors.range_bearing->common.reported_mount();
+      const auto pose_node = [](const Pose2& p) {
+        YAML::Node n(YAML::NodeType::Map);
+        n.SetStyle(YAML::EmitterStyle::Flow);
+        n["x"] = seven_digits(p.x);
+        n["y"] = seven_digits(p.y);
+        n["theta"] = seven_digits(p.theta);
+        return n;
+      };
+      sensors["range_bearing"]["mount"] = pose_node(
+          Pose2{believed.x + offset->second.x(), believed.y + offset->second.y(), believed.theta});
+      sensors["range_bearing"]["believed_mount"] = pose_node(believed);
+      // Its ranges as the log's: a camera's range is its own calibration's, reported from its
+      // believed place (MRCLAM robot 4's camera, 8 cm ahead, ranges 4.5 cm longer than the five
+      // robots' pooled bias, not 8 cm shorter). A camera c_x ahead sees a landmark's depth c_x
+      // shorter (exactly, in depth mode; in distance mode within (1 - cos(bearing)) c_x).
+      const RangeBearingDef& camera = *world.robots[i].sensors.range_bearing;
+      const double bias_m =
+          setting(calibrated, "range_bearing", "range_bias_m", camera.range_bias_m);
+      sensors["range_bearing"]["range_bias_m"] = seven_digits(bias_m + offset->second.x());
+      twin.robots[twin_index - 1].camera_offset_m = offset->second;
+      camera_offsets.erase(offset);
+    }
     if (twin.ranging_silences && world.robots[i].sensors.ultrasonic) {
       const OutageFit& silences = *twin.ranging_silences;
       sensors["ultrasonic"]["outage_fraction"] = seven_digits(silences.fraction);
@@ -419,6 +469,11 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       sensors["range_bearing"]["false_detections"] = seven_digits(twin.camera->false_per_reading);
     }
     robots.push_back(YAML::Clone(robot));
+  }
+  for (const auto& [name, offset] : camera_offsets) {
+    twin.warnings.push_back("the calibration's camera offset of robot '" + name +
+                            "' is not used: no robot of the twin with a range-bearing sensor has "
+                            "that name");
   }
   for (const auto& [sensor, settings] : calibrated) {
     if (!used_sensors.contains(sensor))
@@ -618,6 +673,12 @@ std::string describe(const Twin& twin) {
     text += "twin: " + r.name + ": " + std::to_string(r.path.size()) + " poses over " +
             fixed(r.to_s - r.from_s, 1) + " s, " + fixed(r.path_length_m, 1) + " m (" +
             r.poses_file.string() + ")\n";
+    if (r.camera_offset_m) {
+      text += "twin: " + r.name + ": range_bearing mounted " +
+              fixed(100.0 * r.camera_offset_m->x(), 1) + " cm forward, " +
+              fixed(100.0 * r.camera_offset_m->y(), 1) +
+              " cm left of where its detections are given from (the calibration's camera offset)\n";
+    }
     if (r.truth_jumps > 0) {
       text += "twin: " + r.name + ": the truth jumps " + std::to_string(r.truth_jumps) +
               " time(s), by up to " + fixed(r.largest_truth_jump_m, 2) +
@@ -644,7 +705,11 @@ std::string describe(const Twin& twin) {
               fixed(c.calibrated_miss_probability, 3) + "), " + fixed(c.false_per_reading, 4) +
               " false per reading: " + fixed(c.data_detections_per_s, 2) +
               " landmark detections per second as the log, " + fixed(c.in_view_mean, 2) +
-              " landmarks in view on average\n";
+              " landmarks in view on average" +
+              (c.outage_fraction > 0.0
+                   ? ", blind " + fixed(c.outage_fraction, 3) + " of the time (the calibration's)"
+                   : std::string()) +
+              "\n";
     } else {
       text += "twin: range_bearing: " + c.note + "\n";
     }

@@ -6,7 +6,9 @@
 // What the twin matches, and how:
 // - the path: each robot's ground truth, sampled at `pose_rate_hz`, written as a TUM file beside
 //   the world and tracked by a `trajectory` drive (feedback: the robot does not drift off it);
-// - the noise: calibration.yaml's `sensors:` merged into every robot's sensors;
+// - the noise: calibration.yaml's `sensors:` merged into every robot's sensors, and each robot's
+//   camera mounted where its `camera_offsets:` entry says, its detections given from its
+//   believed place as the log's are;
 // - how much the camera sees: the range-bearing sensor's rate and miss probability are set so that
 //   the twin's expected number of landmark detections per second equals the log's. A real camera
 //   that logs only the frames in which it read something has no rate to copy, and the calibrated
@@ -43,7 +45,8 @@ struct TwinCamera {
   double in_view_mean = 0.0;  // landmarks in range and field of view along the true paths
   double calibrated_miss_probability = 0.0;
   double calibrated_false_per_reading = 0.0;
-  double rate_hz = 0.0;  // the twin's
+  double outage_fraction = 0.0;  // the calibration's: the share of the time it sees nothing [-]
+  double rate_hz = 0.0;          // the twin's
   double miss_probability = 0.0;
   double false_per_reading = 0.0;
   std::string note;  // why nothing was matched, when it was not
@@ -62,6 +65,9 @@ struct TwinRobot {
   // The truth's jumps smoothed out of the path (clear_truth_jumps): how many, the largest [m].
   std::size_t truth_jumps = 0;
   double largest_truth_jump_m = 0.0;
+  // The calibration's camera offset for this robot (its `camera_offsets:`), where the twin's
+  // range-bearing camera is mounted from its believed place: forward, left [m].
+  std::optional<Vec2> camera_offset_m;
 };
 
 struct Twin {

@@ -65,6 +65,8 @@ class TruthTrack {
     }
   }
   bool empty() const { return t_.empty(); }
+  /// The first and last sample's times (after finish(); not empty).
+  std::pair<double, double> span() const { return {t_.front(), t_.back()}; }
   double median_period_s() const { return median_period_s_; }  // 0 before finish()
 
   /// The pose at t, interpolated between its neighbours; none outside the samples or in a break.
@@ -232,12 +234,21 @@ struct LaserData {
   double max_range_m = 0.0;  // the first robot's; every laser's must be the same
 };
 
+/// A stretch of a robot's truth in cells of `cell_s`: each one's landmarks in view and whether any
+/// landmark was detected in it.
+struct CameraCells {
+  double cell_s = 0.0;
+  std::vector<std::pair<double, bool>> cells;
+};
+
 struct Pooled {
   std::vector<MotionSample> motion;
   std::map<SensorKind, CameraData> cameras;
   RangingData ranging;
   LaserData laser;
-  std::size_t tracks = 0;  // robots collected so far
+  std::size_t tracks = 0;                 // robots collected so far
+  std::vector<std::string> track_names;   // each track's robot
+  std::vector<CameraCells> camera_cells;  // range_bearing only: per stretch of a robot's truth
 };
 
 struct RobotLog {
@@ -416,10 +427,58 @@ std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRa
 
 namespace {
 
+double median(std::vector<double> v);
+
+/// The robot's true path in cells of CameraSilences::kFramesPerCell of its camera's frames (a
+/// stretch ends where the truth does): the landmarks in view at each cell's middle, and whether
+/// any landmark was detected in it. None with fewer than two readings with a detection.
+void collect_camera_cells(const RobotLog& robot, const WorldDef& world,
+                          const StaticRaycaster& walls, const RangeBearingDef& sensor,
+                          std::vector<CameraCells>& out) {
+  std::vector<double> detection_times;
+  for (const RobotLog::Seen& seen : robot.seen) {
+    if (seen.kind != SensorKind::kRangeBearing) continue;
+    if (std::any_of(seen.detections.begin(), seen.detections.end(),
+                    [](const Detection& d) { return d.target == DetectionTarget::kLandmark; }))
+      detection_times.push_back(seen.t_s);
+  }
+  std::sort(detection_times.begin(), detection_times.end());
+  detection_times.erase(std::unique(detection_times.begin(), detection_times.end()),
+                        detection_times.end());
+  if (detection_times.size() < 2) return;
+  std::vector<double> intervals(detection_times.size() - 1);
+  for (std::size_t k = 1; k < detection_times.size(); ++k)
+    intervals[k - 1] = detection_times[k] - detection_times[k - 1];
+  const double cell_s = CameraSilences::kFramesPerCell * median(intervals);
+  if (!(cell_s > 0.0)) return;
+  const auto [from_s, to_s] = robot.truth.span();
+  CameraCells stretch{cell_s, {}};
+  const auto close = [&] {
+    if (!stretch.cells.empty()) out.push_back(std::move(stretch));
+    stretch = CameraCells{cell_s, {}};
+  };
+  const auto cells = static_cast<std::size_t>(std::floor((to_s - from_s) / cell_s));
+  for (std::size_t k = 0; k < cells; ++k) {
+    const double t = from_s + static_cast<double>(k) * cell_s;
+    const auto pose = robot.truth.at(t + 0.5 * cell_s);
+    if (!pose || !robot.truth.continuous(t, t + cell_s)) {
+      close();
+      continue;
+    }
+    const double in_view = static_cast<double>(
+        landmarks_in_view(world, walls, sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)}).size());
+    const auto first = std::lower_bound(detection_times.begin(), detection_times.end(), t);
+    stretch.cells.emplace_back(in_view, first != detection_times.end() && *first < t + cell_s);
+  }
+  close();
+}
+
 void collect_detections(const RobotLog& robot, const WorldDef& world, const StaticRaycaster& walls,
                         Pooled& pooled) {
   const std::optional<RangeBearingDef>& fov_sensor = robot.def.sensors.range_bearing;
   const std::size_t track = pooled.tracks++;
+  pooled.track_names.push_back(robot.def.name);
+  if (fov_sensor) collect_camera_cells(robot, world, walls, *fov_sensor, pooled.camera_cells);
   for (const RobotLog::Seen& seen : robot.seen) {
     const auto pose = robot.truth.at(seen.t_s);
     if (!pose) continue;
@@ -894,8 +953,274 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
   c.augmented_injection_level = std::clamp(quantile(ratios, kQuantile), 1e-6, 1.0);
 }
 
+/// The robot's own bearing bias b and camera offset c (forward, left of the believed mount) that
+/// best explain the bearing errors of `residuals[indices]`, by Gauss-Newton on
+/// e = atan2(d - c) - atan2(d) + b with d the landmark's true place in the robot frame; unset when
+/// the bearings do not determine them (all landmarks in one direction).
+std::optional<Eigen::Vector3d> solve_camera_offset(const std::vector<Residual>& residuals,
+                                                   const std::vector<std::size_t>& indices) {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // b, c_x, c_y
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (const std::size_t i : indices) {
+      const Residual& r = residuals[i];
+      const Eigen::Vector2d from_camera =
+          r.range_m * Eigen::Vector2d(std::cos(r.bearing_rad), std::sin(r.bearing_rad)) -
+          p.tail<2>();
+      const double squared = from_camera.squaredNorm();
+      if (squared < 1e-6) continue;
+      const double predicted =
+          sdk::wrap(std::atan2(from_camera.y(), from_camera.x()) - r.bearing_rad) + p(0);
+      const double error = sdk::wrap(r.bearing_error_rad - predicted);
+      const Eigen::Vector3d j(1.0, from_camera.y() / squared, -from_camera.x() / squared);
+      h += j * j.transpose();
+      g += j * error;
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(h);
+    // A design without spread in bearing or range over the range of landmarks: no offset.
+    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-10)) return std::nullopt;
+    const Eigen::Vector3d step = ldlt.solve(g);
+    p += step;
+    if (step.tail<2>().norm() < 1e-7 && std::abs(step(0)) < 1e-9) break;
+  }
+  return p;
+}
+
+/// Each robot's camera offset from its inlier detections' bearings (range_bearing), with a block
+/// jackknife over kBlock_s blocks of each of its logs: the errors persist for tens of seconds, so
+/// detections are far from independent and a least-squares interval would be far too narrow.
+std::vector<CameraOffset> fit_camera_offsets(const std::vector<Residual>& residuals,
+                                             const std::vector<std::string>& track_names) {
+  constexpr std::size_t kMinDetections = 50;
+  std::map<std::string, std::map<std::pair<std::size_t, long long>, std::vector<std::size_t>>>
+      blocks;  // robot -> (track, block) -> residuals
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    const Residual& r = residuals[i];
+    if (!r.inlier || r.track >= track_names.size()) continue;
+    blocks[track_names[r.track]]
+          [{r.track, static_cast<long long>(std::floor(r.t_s / CameraOffset::kBlock_s))}]
+              .push_back(i);
+  }
+  std::vector<CameraOffset> out;
+  for (const auto& [robot, of_robot] : blocks) {
+    std::vector<std::size_t> all;
+    for (const auto& [block, indices] : of_robot)
+      all.insert(all.end(), indices.begin(), indices.end());
+    if (all.size() < kMinDetections) continue;
+    const auto fit = solve_camera_offset(residuals, all);
+    if (!fit) continue;
+    CameraOffset o;
+    o.robot = robot;
+    o.detections = all.size();
+    o.blocks = of_robot.size();
+    o.bearing_bias_rad = (*fit)(0);
+    o.x_m = (*fit)(1);
+    o.y_m = (*fit)(2);
+    std::vector<Eigen::Vector2d> left_out;
+    for (const auto& [block, indices] : of_robot) {
+      std::vector<std::size_t> rest;
+      for (const auto& [other, others] : of_robot)
+        if (other != block) rest.insert(rest.end(), others.begin(), others.end());
+      if (const auto without = solve_camera_offset(residuals, rest))
+        left_out.push_back(without->tail<2>());
+    }
+    if (left_out.size() >= 2) {
+      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+      for (const Eigen::Vector2d& v : left_out) mean += v;
+      mean /= static_cast<double>(left_out.size());
+      Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+      for (const Eigen::Vector2d& v : left_out) cov += (v - mean) * (v - mean).transpose();
+      const double k = static_cast<double>(left_out.size());
+      cov *= (k - 1.0) / k;
+      o.sd_x_m = std::sqrt(cov(0, 0));
+      o.sd_y_m = std::sqrt(cov(1, 1));
+      if (o.sd_x_m > 0.0 && o.sd_y_m > 0.0) o.correlation = cov(0, 1) / (o.sd_x_m * o.sd_y_m);
+      const Eigen::Vector2d c(o.x_m, o.y_m);
+      const Eigen::LDLT<Eigen::Matrix2d> ldlt(cov);
+      if (ldlt.info() == Eigen::Success && ldlt.rcond() > 1e-12) o.wald = c.dot(ldlt.solve(c));
+      o.significant = left_out.size() >= CameraOffset::kMinBlocks && o.wald > CameraOffset::kWald;
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+/// The bearings' bias and spread over the inliers `kept`, those of the robots whose camera offset
+/// is significant taken from where their cameras are; unset when none is.
+std::optional<CameraPlaceNoise> bearings_from_camera_places(
+    const std::vector<CameraOffset>& offsets, const std::vector<std::string>& track_names,
+    const std::vector<Residual>& residuals, const std::vector<std::size_t>& kept) {
+  std::map<std::string, Eigen::Vector2d> places;
+  for (const CameraOffset& o : offsets)
+    if (o.significant) places[o.robot] = Eigen::Vector2d(o.x_m, o.y_m);
+  if (places.empty() || kept.empty()) return std::nullopt;
+  double sum = 0.0, squares = 0.0;
+  for (const std::size_t i : kept) {
+    const Residual& r = residuals[i];
+    double error = r.bearing_error_rad;
+    const auto place =
+        r.track < track_names.size() ? places.find(track_names[r.track]) : places.end();
+    if (place != places.end()) {
+      const Eigen::Vector2d from_camera =
+          r.range_m * Eigen::Vector2d(std::cos(r.bearing_rad), std::sin(r.bearing_rad)) -
+          place->second;
+      error = sdk::wrap(r.bearing_rad + r.bearing_error_rad -
+                        std::atan2(from_camera.y(), from_camera.x()));
+    }
+    sum += error, squares += error * error;
+  }
+  const double n = static_cast<double>(kept.size());
+  CameraPlaceNoise out;
+  out.bearing_bias_rad = sum / n;
+  out.bearing_spread_rad =
+      std::sqrt(std::max(0.0, squares / n - out.bearing_bias_rad * out.bearing_bias_rad) *
+                (n > 1 ? n / (n - 1) : 1.0));
+  return out;
+}
+
+/// How a camera goes blind (the sensor's outage_* keys): `fraction` of the time, in spells of
+/// `mean_s` on average, `long_share` of them of `long_mean_s`.
+struct Spells {
+  double fraction = 0.0, mean_s = 1.0, long_share = 0.0, long_mean_s = 1.0;
+  double spell_mean_s() const { return (1.0 - long_share) * mean_s + long_share * long_mean_s; }
+};
+
+/// Minus the log-likelihood of the cells under a camera that detects each landmark in view at
+/// `rate_hz` while seeing and goes blind as `spells` says (fraction 0: never): the forward
+/// algorithm over three states (seeing, in a short spell, in a long one), each stretch starting
+/// from the stationary distribution.
+double silences_nll(const std::vector<CameraCells>& stretches, double rate_hz,
+                    const Spells& spells) {
+  const double f = spells.fraction, q = spells.long_share;
+  const double spell_mean_s = spells.spell_mean_s();
+  double nll = 0.0;
+  for (const CameraCells& stretch : stretches) {
+    const double cell_s = stretch.cell_s;
+    const double to_blind =
+        f > 0.0 ? 1.0 - std::exp(-cell_s * f / ((1.0 - f) * spell_mean_s)) : 0.0;
+    const double short_ends = 1.0 - std::exp(-cell_s / spells.mean_s);
+    const double long_ends = 1.0 - std::exp(-cell_s / spells.long_mean_s);
+    // Stationary: the silent time split by the time each kind takes.
+    double seeing = 1.0 - f;
+    double in_short = f * (1.0 - q) * spells.mean_s / spell_mean_s;
+    double in_long = f * q * spells.long_mean_s / spell_mean_s;
+    bool first = true;
+    for (const auto& [in_view, detected] : stretch.cells) {
+      if (!first) {
+        const double blinds = seeing * to_blind;
+        const double next_seeing = seeing - blinds + in_short * short_ends + in_long * long_ends;
+        in_short = in_short * (1.0 - short_ends) + blinds * (1.0 - q);
+        in_long = in_long * (1.0 - long_ends) + blinds * q;
+        seeing = next_seeing;
+      }
+      first = false;
+      // Nothing in view says nothing about the camera (a detection then is of a landmark the
+      // field of view's model leaves out).
+      if (!(in_view > 0.0)) continue;
+      const double p_detect = 1.0 - std::exp(-rate_hz * in_view * cell_s);
+      seeing *= detected ? p_detect : 1.0 - p_detect;
+      if (detected) in_short = in_long = 0.0;
+      const double total = seeing + in_short + in_long;
+      if (!(total > 1e-300)) return 1e300;
+      nll -= std::log(total);
+      seeing /= total;
+      in_short /= total;
+      in_long /= total;
+    }
+  }
+  return nll;
+}
+
+/// The camera's spells of blindness (CameraSilences), unset without cells with a landmark in view:
+/// none, one kind of spell, or two, each kept over the simpler by the Bayesian information
+/// criterion (half of ln(cells) nats per parameter more).
+std::optional<CameraSilences> fit_camera_silences(const std::vector<CameraCells>& stretches) {
+  CameraSilences out;
+  double exposure = 0.0, detected = 0.0, seconds = 0.0;
+  double min_cell_s = std::numeric_limits<double>::infinity();
+  for (const CameraCells& stretch : stretches) {
+    min_cell_s = std::min(min_cell_s, stretch.cell_s);
+    for (const auto& [in_view, seen] : stretch.cells) {
+      if (!(in_view > 0.0)) continue;
+      ++out.cells;
+      exposure += in_view * stretch.cell_s;
+      seconds += stretch.cell_s;
+      detected += seen ? 1.0 : 0.0;
+    }
+  }
+  if (out.cells < 10 || detected < 1.0) return std::nullopt;
+  out.cell_s = seconds / static_cast<double>(out.cells);
+  const double start_rate = detected / exposure;
+  constexpr double kLarge = 1e300;
+  const double two_parameters = std::log(static_cast<double>(out.cells));
+  const MinimizeResult never = minimize_restarted(
+      [&](const std::vector<double>& x) {
+        return std::abs(x[0]) > 30.0 ? kLarge
+                                     : silences_nll(stretches, start_rate * std::exp(x[0]), {});
+      },
+      {0.0}, 1.0, 500);
+  out.rate_hz = start_rate * std::exp(never.x[0]);
+  const Range& fraction_range = SensorCommon::kOutageFractionRange;
+  const Range& mean_range = SensorCommon::kOutageMeanRange;
+  // x: log rate (over the start), logit fraction, log mean; then logit long share, log of the long
+  // mean's excess ratio over the short one.
+  const auto spells_of = [&](const std::vector<double>& x) {
+    Spells s;
+    s.fraction = 1.0 / (1.0 + std::exp(-x[1]));
+    s.mean_s = std::exp(x[2]);
+    if (x.size() > 3) {
+      s.long_share = 1.0 / (1.0 + std::exp(-x[3]));
+      s.long_mean_s = s.mean_s * (1.0 + std::exp(x[4]));
+    }
+    return s;
+  };
+  const auto nll = [&](const std::vector<double>& x) {
+    const Spells s = spells_of(x);
+    if (std::abs(x[0]) > 30.0 || !(s.fraction > 1e-6) || s.fraction > fraction_range.max ||
+        s.mean_s < min_cell_s || s.mean_s > mean_range.max || s.long_mean_s > mean_range.max ||
+        s.long_share > SensorCommon::kOutageLongShareRange.max)
+      return kLarge;
+    return silences_nll(stretches, start_rate * std::exp(x[0]), s);
+  };
+  const MinimizeResult one = minimize_restarted(nll, {never.x[0], -2.0, std::log(10.0)}, 1.0, 3000);
+  out.gain_nats = never.value - one.value;
+  out.significant = out.gain_nats > two_parameters;
+  if (!out.significant) return out;
+  const Spells one_kind = spells_of(one.x);
+  out.rate_hz = start_rate * std::exp(one.x[0]);
+  // Two kinds, from one kind's fit with a few long spells ten times as long.
+  const MinimizeResult two =
+      minimize_restarted(nll, {one.x[0], one.x[1], one.x[2] - 0.5, -2.0, std::log(9.0)}, 1.0, 6000);
+  out.long_gain_nats = one.value - two.value;
+  Spells seen = one_kind;
+  if (out.long_gain_nats > two_parameters) {
+    seen = spells_of(two.x);
+    out.rate_hz = start_rate * std::exp(two.x[0]);
+  }
+  // The cells see a spell only where it covers a whole one: each spell is seen a cell shorter
+  // than it is, and one shorter than a cell not at all. Exponential spells seen so keep their
+  // mean (they are memoryless) but are fewer by exp(-cell / mean): the fraction and the share of
+  // long spells are taken back to the spells' own (on simulated cameras the fraction seen is 0.88
+  // of the true one for 3 s spells in 0.4 s cells, and the long share 1.2 times it).
+  const double short_per_s = seen.fraction * (1.0 - seen.long_share) / seen.spell_mean_s() *
+                             std::exp(std::min(out.cell_s / seen.mean_s, 10.0));
+  const double long_per_s = seen.fraction * seen.long_share / seen.spell_mean_s() *
+                            std::exp(std::min(out.cell_s / seen.long_mean_s, 10.0));
+  out.fraction =
+      std::min(short_per_s * seen.mean_s + long_per_s * seen.long_mean_s, fraction_range.max);
+  out.mean_s = seen.mean_s;
+  if (seen.long_share > 0.0) {
+    out.long_share = long_per_s / (short_per_s + long_per_s);
+    out.long_mean_s = seen.long_mean_s;
+  }
+  return out;
+}
+
 DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
-                                const CalibrationOptions& options) {
+                                const CalibrationOptions& options,
+                                const std::vector<std::string>& track_names,
+                                const std::vector<CameraCells>& camera_cells) {
   DetectionCalibration c;
   c.camera = sensor_name(kind);
   c.readings = data.readings;
@@ -991,6 +1316,11 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
       const double depth_variance = std::pow(c.depth_model->residual_rms_m, 2);
       if (depth_variance < kDepthVarianceRatio * distance_variance) c.range_model = "depth";
     }
+  }
+  if (kind == SensorKind::kRangeBearing) {
+    c.camera_offsets = fit_camera_offsets(r, track_names);
+    c.from_camera_places = bearings_from_camera_places(c.camera_offsets, track_names, r, kept);
+    c.silences = fit_camera_silences(camera_cells);
   }
   outlier_likelihood(data, c);
   noise_correlation(data, c);
@@ -2230,7 +2560,9 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
       out.motion->heading = fit_heading(pooled.motion);
   }
   for (auto& [kind, data] : pooled.cameras) {
-    if (data.residuals.size() >= 10) out.cameras.push_back(fit_camera(kind, data, options));
+    if (data.residuals.size() >= 10)
+      out.cameras.push_back(
+          fit_camera(kind, data, options, pooled.track_names, pooled.camera_cells));
   }
   if (pooled.ranging.samples.size() >= 10) out.ranging = fit_ranging(pooled.ranging, options);
   // The laser's model needs beams that hit something mapped (the hits' noise, what is short of
@@ -2396,6 +2728,38 @@ json Calibration::to_json() const {
             {"bearing", process(apart->bearing)},
             {"log_likelihood_gain", apart->gain_nats}};
       }
+    }
+    if (!c.camera_offsets.empty()) {
+      cj["camera_offsets"] = json::array();
+      for (const CameraOffset& o : c.camera_offsets) {
+        cj["camera_offsets"].push_back({{"robot", o.robot},
+                                        {"x_m", o.x_m},
+                                        {"y_m", o.y_m},
+                                        {"sd_x_m", o.sd_x_m},
+                                        {"sd_y_m", o.sd_y_m},
+                                        {"correlation", o.correlation},
+                                        {"bearing_bias_rad", o.bearing_bias_rad},
+                                        {"detections", o.detections},
+                                        {"blocks", o.blocks},
+                                        {"wald", o.wald},
+                                        {"significant", o.significant}});
+      }
+    }
+    if (const auto& silent = c.silences) {
+      cj["silences"] = {{"cells", silent->cells},
+                        {"cell_s", silent->cell_s},
+                        {"rate_per_landmark_hz", silent->rate_hz},
+                        {"outage_fraction", silent->fraction},
+                        {"outage_mean_s", silent->mean_s},
+                        {"outage_long_share", silent->long_share},
+                        {"outage_long_mean_s", silent->long_mean_s},
+                        {"log_likelihood_gain", silent->gain_nats},
+                        {"long_log_likelihood_gain", silent->long_gain_nats},
+                        {"significant", silent->significant}};
+    }
+    if (const auto& placed = c.from_camera_places) {
+      cj["from_camera_places"] = {{"bearing_bias_rad", placed->bearing_bias_rad},
+                                  {"bearing_spread_rad", placed->bearing_spread_rad}};
     }
     cj["bins"] = json::array();
     for (const RangeBin& b : c.bins) {
@@ -2732,17 +3096,33 @@ std::string Calibration::to_yaml() const {
     if (c.camera != sensor_name(SensorKind::kRangeBearing)) continue;
     // The chosen range model's lines, so that a world with them makes the errors measured; the
     // model always, so that it replaces a world's own.
+    // The chosen range model's lines, so that a world with them makes the errors measured; the
+    // model always, so that it replaces a world's own. With cameras off their believed places,
+    // the bearings' noise from where they are: the twin puts them there (camera_offsets below),
+    // and the noise from the believed places would count the offsets twice. The ranges' stays
+    // from the believed places, where a camera's own calibration reports them from (the twin
+    // keeps them so: docs/real_data.md).
     const bool depth = c.range_model == "depth" && c.depth_model;
     const LineFit& bias = depth ? c.depth_model->bias_m : c.range_bias_m;
     const LineFit& spread = depth ? c.depth_model->spread_m : c.range_spread_m;
+    const CameraPlaceNoise bearing =
+        c.from_camera_places.value_or(CameraPlaceNoise{c.bearing_bias_rad, c.bearing_spread_rad});
     y += "  range_bearing:\n    range_model: " + std::string(depth ? "depth" : "distance") +
          "\n    sigma_range_m: " + four_digits(spread.at_zero) +
          "\n    sigma_range_per_m: " + four_digits(spread.per_unit) +
          "\n    range_bias_m: " + four_digits(bias.at_zero) +
          "\n    range_bias_per_m: " + four_digits(bias.per_unit) +
-         "\n    sigma_bearing_deg: " + four_digits(rad_to_deg(c.bearing_spread_rad)) +
-         "\n    bearing_bias_deg: " + four_digits(rad_to_deg(c.bearing_bias_rad)) + "\n";
+         "\n    sigma_bearing_deg: " + four_digits(rad_to_deg(bearing.bearing_spread_rad)) +
+         "\n    bearing_bias_deg: " + four_digits(rad_to_deg(bearing.bearing_bias_rad)) + "\n";
     if (c.miss_probability) y += "    miss_probability: " + four_digits(*c.miss_probability) + "\n";
+    if (const auto& silent = c.silences; silent && silent->significant) {
+      y += "    outage_fraction: " + four_digits(silent->fraction) +
+           "\n    outage_mean_s: " + four_digits(silent->mean_s) + "\n";
+      if (silent->long_share > 0.0) {
+        y += "    outage_long_share: " + four_digits(silent->long_share) +
+             "\n    outage_long_mean_s: " + four_digits(silent->long_mean_s) + "\n";
+      }
+    }
     y += "    false_detections: " + four_digits(c.false_per_reading) + "\n";
     const auto process = [&](const std::string& prefix,
                              const DetectionCalibration::TwoCorrelations& p) {
@@ -2784,6 +3164,21 @@ std::string Calibration::to_yaml() const {
     y += "  laser: {sigma_m: " + four_digits(l.sigma_m) + ", p_short: " + four_digits(l.p_short) +
          ", lambda_short: " + four_digits(l.lambda_short) + ", p_max: " + four_digits(l.p_max) +
          ", p_random: " + four_digits(l.p_random) + "}\n";
+  }
+  // A camera off its believed place is a property of one robot, not of the noise: by name, for
+  // `locsim twin` (which mounts that robot's camera there and leaves its believed mount).
+  std::string offsets;
+  for (const DetectionCalibration& c : cameras) {
+    for (const CameraOffset& o : c.camera_offsets) {
+      if (!o.significant) continue;
+      offsets += "  " + json(o.robot).dump() + ": {x: " + four_digits(o.x_m) +
+                 ", y: " + four_digits(o.y_m) + "}\n";
+    }
+  }
+  if (!offsets.empty()) {
+    y += "camera_offsets:  # each robot's range-bearing camera from where its detections are given "
+         "[m]\n" +
+         offsets;
   }
   return y;
 }
@@ -2921,6 +3316,31 @@ std::string describe(const Calibration& c) {
       text += "    range and bearing apart (" + four_digits(apart->gain_nats) +
               " nats better): range " + process(apart->range) + "; bearing " +
               process(apart->bearing) + "\n";
+    }
+    for (const CameraOffset& o : d.camera_offsets) {
+      text += "    " + o.robot + "'s camera " + (o.significant ? "" : "not significantly ") +
+              "off its believed place: " + four_digits(100.0 * o.x_m) + " ± " +
+              four_digits(100.0 * o.sd_x_m) + " cm forward, " + four_digits(100.0 * o.y_m) + " ± " +
+              four_digits(100.0 * o.sd_y_m) + " cm left (" + std::to_string(o.detections) +
+              " detections)\n";
+    }
+    if (const auto& silent = d.silences; silent && silent->significant) {
+      text += "    blind spells (" + four_digits(silent->gain_nats) +
+              " nats better than misses alone): " + four_digits(silent->fraction) +
+              " of the time, " + four_digits(silent->mean_s) +
+              " s on average, with landmarks in view or not (the twin's outage_fraction, "
+              "outage_mean_s)\n";
+      if (silent->long_share > 0.0) {
+        text += "      of two kinds (" + four_digits(silent->long_gain_nats) +
+                " nats better than one): " + four_digits(silent->long_share) + " of the spells " +
+                four_digits(silent->long_mean_s) + " s on average, the rest " +
+                four_digits(silent->mean_s) + " s\n";
+      }
+    }
+    if (const auto& placed = d.from_camera_places) {
+      text += "    from the cameras' places: bearing bias " +
+              four_digits(rad_to_deg(placed->bearing_bias_rad)) + " deg, spread " +
+              four_digits(rad_to_deg(placed->bearing_spread_rad)) + " deg (the twin's)\n";
     }
     if (d.distance_model && d.depth_model) {
       const RangeModelFit& depth = *d.depth_model;

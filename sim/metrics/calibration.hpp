@@ -87,6 +87,54 @@ struct RangeModelFit {
   double residual_rms_m = 0.0;  // about the bias line
 };
 
+/// A robot's camera where its detections say it is: its offset from the mount they are given
+/// from (the sensor's believed mount; docs/sensors.md), fitted to the bearings. A camera off its
+/// believed place sees each landmark from there, an error that changes with the landmark's
+/// bearing and range, which neither a range nor a bearing bias takes out.
+struct CameraOffset {
+  std::string robot;
+  double x_m = 0.0, y_m = 0.0;        // forward and left of the believed mount [m]
+  double sd_x_m = 0.0, sd_y_m = 0.0;  // block jackknife, blocks of kBlock_s of one robot's log
+  double correlation = 0.0;           // of the two estimates [-]
+  double bearing_bias_rad = 0.0;      // the robot's own, fitted with them [rad]
+  std::size_t detections = 0, blocks = 0;
+  double wald = 0.0;  // offset' covariance^-1 offset: chi-square with 2 degrees of freedom [-]
+  // Beyond kWald with at least kMinBlocks blocks: the sensor's noise is measured from there and
+  // the twin mounts that robot's camera there.
+  bool significant = false;
+  static constexpr double kBlock_s = 60.0;  // the bearings' errors persist for tens of seconds
+  static constexpr std::size_t kMinBlocks = 8;
+  static constexpr double kWald = 13.82;  // chi-square(2) at 0.999
+};
+
+/// A range-bearing sensor's bearing noise measured from where each camera is (its significant
+/// offset taken out): the sensor settings calibrate writes for a twin whose cameras sit there.
+/// The ranges are a camera's own calibration's, from its believed place, and keep their fit.
+struct CameraPlaceNoise {
+  double bearing_bias_rad = 0.0, bearing_spread_rad = 0.0;
+};
+
+/// A range-bearing camera's spells of blindness: each robot's true path in cells of
+/// kFramesPerCell of its camera's frames (the median interval between its readings with a
+/// detection), each with the landmarks in view and whether any was detected, explained by a
+/// camera that is either seeing (each landmark in view detected at `rate_hz` on average, as a
+/// Poisson process: exactly a fixed-rate camera's independent misses) or silent (the sensor's
+/// outage_fraction, outage_mean_s: a two-state Markov process), by maximum likelihood (the forward
+/// algorithm of the two-state hidden Markov model). A real camera goes blind for a minute with
+/// landmarks in view (MRCLAM robot 4, 75 s), which independent misses at the same average never
+/// do.
+struct CameraSilences {
+  static constexpr double kFramesPerCell = 4.0;
+  std::size_t cells = 0;  // with a landmark in view [-]
+  double cell_s = 0.0;    // the cells' mean length [s]
+  double rate_hz = 0.0;   // per landmark in view while seeing [1/s]
+  double fraction = 0.0, mean_s = 0.0;
+  double long_share = 0.0, long_mean_s = 0.0;  // two kinds of spell: 0 when one explains them
+  double gain_nats = 0.0;                      // log-likelihood over a camera that is never silent
+  bool significant = false;     // by the Bayesian information criterion (two more parameters)
+  double long_gain_nats = 0.0;  // two kinds over one (kept by the same criterion)
+};
+
 /// One camera kind's detections (range_bearing, ptz_camera, omni_camera).
 struct DetectionCalibration {
   std::string camera;
@@ -138,6 +186,14 @@ struct DetectionCalibration {
     double gain_nats = 0.0;  // log-likelihood over the joint fit's
   };
   std::optional<ChannelCorrelations> channel_correlations;
+  // range_bearing only: each robot's camera offset (robots with too few detections left out),
+  // and, when any is significant, the bearings' noise from the cameras' places. The fields above
+  // are the noise from the believed places, which the localizers (that do not know the robots'
+  // offsets) take.
+  std::vector<CameraOffset> camera_offsets;
+  std::optional<CameraPlaceNoise> from_camera_places;
+  // range_bearing only, with a field of view to say what was in view: its spells of blindness.
+  std::optional<CameraSilences> silences;
 };
 
 /// Spells of silence in a sensor's readings (its outage_fraction, outage_mean_s): an interval

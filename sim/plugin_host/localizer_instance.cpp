@@ -364,7 +364,7 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
         } else if constexpr (std::is_same_v<T, ImuReading>) {
           out_.kind = LOCSIM_READING_IMU;
           out_.data.imu = {data.yaw_rate_radps, data.accel_mps2.x(), data.accel_mps2.y(),
-                           sensors.imu->common.mount.theta};
+                           sensors.imu->common.reported_mount().theta};
         } else if constexpr (std::is_same_v<T, PtzReading> || std::is_same_v<T, OmniReading> ||
                              std::is_same_v<T, RangeBearingReading>) {
           detections_.clear();
@@ -391,13 +391,11 @@ const locsim_reading& ReadingTranslator::translate(const Reading& reading) {
           out_.data.beacon_ranges = {ranges_.data(), ranges_.size()};
         } else if constexpr (std::is_same_v<T, LaserScan>) {
           const LaserDef& laser = *sensors.laser;
+          const Pose2& mount = laser.common.reported_mount();
           out_.kind = LOCSIM_READING_LASER;
-          out_.data.laser = {data.ranges_m.data(),
-                             laser_angles_.data(),
-                             data.ranges_m.size(),
-                             {laser.common.mount.x, laser.common.mount.y, laser.common.mount.theta},
-                             laser.min_range_m,
-                             laser.max_range_m};
+          out_.data.laser = {data.ranges_m.data(), laser_angles_.data(),
+                             data.ranges_m.size(), {mount.x, mount.y, mount.theta},
+                             laser.min_range_m,    laser.max_range_m};
         }
       },
       reading.data);

@@ -334,8 +334,8 @@ Detection PtzCameraSensor::back_project(double u_centre, double top_row, double 
   detection.color = color_label(landmark);
   detection.id = def_.report_ids ? landmark.id : -1;
   detection.truth_id = landmark.id;
-  const Pose2 camera_in_robot{def_.common.mount.x, def_.common.mount.y,
-                              def_.common.mount.theta + pan_rad_};
+  const Pose2& believed = def_.common.reported_mount();
+  const Pose2 camera_in_robot{believed.x, believed.y, believed.theta + pan_rad_};
   to_robot_frame(
       camera_in_robot,
       {centre_estimate * std::cos(bearing_estimate), centre_estimate * std::sin(bearing_estimate)},
@@ -433,8 +433,8 @@ std::optional<ReadingData> PtzCameraSensor::measure(const SensorContext& context
     phantom.truth_id = -1;
     const double range = rng().uniform(def_.min_range_m, def_.max_range_m);
     const double angle = rng().uniform(-half_fov, half_fov);
-    const Pose2 camera_in_robot{def_.common.mount.x, def_.common.mount.y,
-                                def_.common.mount.theta + pan_rad_};
+    const Pose2& believed = def_.common.reported_mount();
+    const Pose2 camera_in_robot{believed.x, believed.y, believed.theta + pan_rad_};
     to_robot_frame(camera_in_robot, {range * std::cos(angle), range * std::sin(angle)},
                    phantom.range_m, phantom.bearing_rad);
     reading.detections.push_back(std::move(phantom));
@@ -478,7 +478,7 @@ std::optional<ReadingData> OmniCameraSensor::measure(const SensorContext& contex
     detection.color = color_label(landmark);
     detection.id = def_.report_ids ? landmark.id : -1;
     detection.truth_id = landmark.id;
-    to_robot_frame(def_.common.mount, noisy, detection.range_m, detection.bearing_rad);
+    to_robot_frame(def_.common.reported_mount(), noisy, detection.range_m, detection.bearing_rad);
     reading.detections.push_back(std::move(detection));
   }
   return reading;
@@ -556,7 +556,7 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
   const double measured_bearing = bearing + def_.bearing_bias_rad + bearing_noise_rad;
   Detection detection;
   to_robot_frame(
-      def_.common.mount,
+      def_.common.reported_mount(),
       {measured_range * std::cos(measured_bearing), measured_range * std::sin(measured_bearing)},
       detection.range_m, detection.bearing_rad);
   return detection;
@@ -574,8 +574,9 @@ Detection RangeBearingSensor::phantom(const SensorContext& context) {
   }
   const double range = rng().uniform(def_.min_range_m, def_.max_range_m);
   const double bearing = rng().uniform(-0.5 * def_.fov_rad, 0.5 * def_.fov_rad);
-  to_robot_frame(def_.common.mount, {range * std::cos(bearing), range * std::sin(bearing)},
-                 detection.range_m, detection.bearing_rad);
+  to_robot_frame(def_.common.reported_mount(),
+                 {range * std::cos(bearing), range * std::sin(bearing)}, detection.range_m,
+                 detection.bearing_rad);
   return detection;
 }
 

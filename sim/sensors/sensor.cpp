@@ -147,18 +147,26 @@ std::optional<ReadingData> Sensor::sample(const SensorContext& context) {
 bool Sensor::silent(double t_s) {
   if (!outage_rng_) return false;
   const double f = common_.outage_fraction;
-  const double out_mean_s = common_.outage_mean_s;
-  const double in_mean_s = out_mean_s * (1.0 - f) / f;  // so that the share out is f
-  const auto spell = [&](bool out) {
-    return -(out ? out_mean_s : in_mean_s) * std::log(1.0 - outage_rng_->uniform());
+  const double q = common_.outage_long_share;
+  const double in_mean_s = common_.outage_spell_mean_s() * (1.0 - f) / f;  // the share out is f
+  // A spell's kind is drawn only when there are two: worlds of one kind keep their draws.
+  const auto spell = [&](bool out, double long_odds) {
+    double mean_s = in_mean_s;
+    if (out) {
+      mean_s = common_.outage_mean_s;
+      if (q > 0.0 && outage_rng_->uniform() < long_odds) mean_s = common_.outage_long_mean_s;
+    }
+    return -mean_s * std::log(1.0 - outage_rng_->uniform());
   };
   if (std::isnan(switch_s_)) {  // the first sample: in a spell with the process's own odds
     out_ = outage_rng_->uniform() < f;
-    switch_s_ = t_s + spell(out_);
+    // A spell under way is long by the share of the silent time long spells take (and, being
+    // exponential, has their whole mean still to run).
+    switch_s_ = t_s + spell(out_, q * common_.outage_long_mean_s / common_.outage_spell_mean_s());
   }
   while (t_s >= switch_s_) {
     out_ = !out_;
-    switch_s_ += spell(out_);
+    switch_s_ += spell(out_, q);
   }
   return out_;
 }

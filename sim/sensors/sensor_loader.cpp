@@ -50,17 +50,24 @@ template <class Def, class ReadOwn>
 Def parse_section(const YamlNode& node, Def def, double step_hz,
                   std::initializer_list<std::string_view> own_keys, ReadOwn read_own) {
   if (!node.is_null()) {
-    std::vector<std::string_view> allowed{"enabled", "rate_hz", "mount", "outage_fraction",
-                                          "outage_mean_s"};
+    std::vector<std::string_view> allowed{"enabled",           "rate_hz",           "mount",
+                                          "believed_mount",    "outage_fraction",   "outage_mean_s",
+                                          "outage_long_share", "outage_long_mean_s"};
     allowed.insert(allowed.end(), own_keys.begin(), own_keys.end());
     node.allow_keys(allowed);
     def.common.enabled = node.get_bool("enabled", def.common.enabled);
     def.common.rate_hz = node.get_double("rate_hz", def.common.rate_hz, SensorCommon::kRateRange);
     if (const auto mount = node.find("mount")) def.common.mount = mount->as_pose(kBodyFrameRange);
+    if (const auto believed = node.find("believed_mount"))
+      def.common.believed_mount = believed->as_pose(kBodyFrameRange);
     def.common.outage_fraction = node.get_double("outage_fraction", def.common.outage_fraction,
                                                  SensorCommon::kOutageFractionRange);
     def.common.outage_mean_s =
         node.get_double("outage_mean_s", def.common.outage_mean_s, SensorCommon::kOutageMeanRange);
+    def.common.outage_long_share = node.get_double(
+        "outage_long_share", def.common.outage_long_share, SensorCommon::kOutageLongShareRange);
+    def.common.outage_long_mean_s = node.get_double(
+        "outage_long_mean_s", def.common.outage_long_mean_s, SensorCommon::kOutageMeanRange);
     read_own(def);
   }
   check_rate(node.has("rate_hz") ? node["rate_hz"] : node, def.common.rate_hz, step_hz);

@@ -3,7 +3,8 @@
 # (README.md, "Real against twin"). Calibrates all five robots' 900 s, writes five calibration
 # files that differ only in what the twin is given (none; the depth range model; the command
 # response; both; all: both with the gains' wander, the detections' slow part, range and
-# bearing errors each their own, and the wheels' errors correlated) and one per robot (own: all,
+# bearing errors each their own, the wheels' errors correlated, the camera's blind spells, and each
+# robot's camera where its bearings say it is) and one per robot (own: all,
 # from that robot's log alone), makes 5 robots x 3 seeds of twin recordings for each, and sweeps
 # the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
 # twins, with the calibration's localizer parameters. Prints the table of the README.
@@ -21,9 +22,10 @@ source "$HERE/mrclam_logs.sh" /tmp/s2r
 # response the encoders get the raw odometry's k; without the depth model the camera gets the
 # distance model's lines (both from calibration.json); without "all" the robot's gains do not
 # wander, the camera's errors have one time constant for range and bearing (the single one
-# calibration.json fits) and the wheels' errors are independent.
+# calibration.json fits), the wheels' errors are independent, and the cameras are never blind
+# and are where their detections are given from.
 "${PYTHON:-python3}" - <<'PY'
-import json, re
+import json, math, re
 text = open("cal6/calibration.yaml").read()
 fits = json.load(open("cal6/calibration.json"))
 motion = fits["motion"]["wheel_model"]
@@ -44,6 +46,15 @@ def variant(response, depth, rest):
                    r"    noise_correlation_slow_share: .*\n",
                    f"    noise_correlation_s: {single_tau:.4g}\n", t)
         t = re.sub(r"    bearing_noise_correlation_.*\n", "", t)
+        # The cameras never blind, at their believed places, with the bearings' noise measured
+        # from there.
+        t = re.sub(r"    outage_fraction: .*\n    outage_mean_s: .*\n", "", t)
+        t = re.sub(r"camera_offsets:.*\n(  .*\n)*", "", t)
+        camera = fits["cameras"][0]
+        t = re.sub(r"    sigma_bearing_deg: .*\n",
+                   f"    sigma_bearing_deg: {math.degrees(camera['bearing_spread_rad']):.4g}\n", t)
+        t = re.sub(r"    bearing_bias_deg: .*\n",
+                   f"    bearing_bias_deg: {math.degrees(camera['bearing_bias_rad']):.4g}\n", t)
         response_k = fits["motion"].get("command_response", {})
         if "k_left" in response_k:
             t = re.sub(r"  encoders: \{measures: command, .*\}",
