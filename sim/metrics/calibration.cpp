@@ -3325,17 +3325,17 @@ std::string describe(const Calibration& c) {
               " detections)\n";
     }
     if (const auto& silent = d.silences; silent && silent->significant) {
+      // "With landmarks in view or not": the spells are the sensor's, silent whatever it faces.
       text += "    blind spells (" + four_digits(silent->gain_nats) +
               " nats better than misses alone): " + four_digits(silent->fraction) +
-              " of the time, " + four_digits(silent->mean_s) +
-              " s on average, with landmarks in view or not (the twin's outage_fraction, "
-              "outage_mean_s)\n";
-      if (silent->long_share > 0.0) {
-        text += "      of two kinds (" + four_digits(silent->long_gain_nats) +
-                " nats better than one): " + four_digits(silent->long_share) + " of the spells " +
-                four_digits(silent->long_mean_s) + " s on average, the rest " +
-                four_digits(silent->mean_s) + " s\n";
-      }
+              " of the time, with landmarks in view or not, in spells of ";
+      text += silent->long_share > 0.0
+                  ? "two kinds (" + four_digits(silent->long_gain_nats) +
+                        " nats better than one): " + four_digits(silent->long_share) + " of them " +
+                        four_digits(silent->long_mean_s) + " s on average, the rest " +
+                        four_digits(silent->mean_s) + " s"
+                  : four_digits(silent->mean_s) + " s on average";
+      text += " (the twin's outage_*)\n";
     }
     if (const auto& placed = d.from_camera_places) {
       text += "    from the cameras' places: bearing bias " +
