@@ -953,30 +953,38 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
   c.augmented_injection_level = std::clamp(quantile(ratios, kQuantile), 1e-6, 1.0);
 }
 
+/// The Gauss-Newton normal equations (J'J, J'e) of the bearing errors of `residuals[indices]`
+/// under bearing bias b and camera offset c, p = (b, c_x, c_y): e = error - (atan2(d - c) -
+/// atan2(d) + b), d the landmark's true place in the robot frame.
+std::pair<Eigen::Matrix3d, Eigen::Vector3d> camera_offset_normal(
+    const std::vector<Residual>& residuals, const std::vector<std::size_t>& indices,
+    const Eigen::Vector3d& p) {
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  for (const std::size_t i : indices) {
+    const Residual& r = residuals[i];
+    const Eigen::Vector2d from_camera =
+        r.range_m * Eigen::Vector2d(std::cos(r.bearing_rad), std::sin(r.bearing_rad)) - p.tail<2>();
+    const double squared = from_camera.squaredNorm();
+    if (squared < 1e-6) continue;
+    const double predicted =
+        sdk::wrap(std::atan2(from_camera.y(), from_camera.x()) - r.bearing_rad) + p(0);
+    const double error = sdk::wrap(r.bearing_error_rad - predicted);
+    const Eigen::Vector3d j(1.0, from_camera.y() / squared, -from_camera.x() / squared);
+    h += j * j.transpose();
+    g += j * error;
+  }
+  return {h, g};
+}
+
 /// The robot's own bearing bias b and camera offset c (forward, left of the believed mount) that
-/// best explain the bearing errors of `residuals[indices]`, by Gauss-Newton on
-/// e = atan2(d - c) - atan2(d) + b with d the landmark's true place in the robot frame; unset when
-/// the bearings do not determine them (all landmarks in one direction).
+/// best explain the bearing errors of `residuals[indices]` (least squares, by Gauss-Newton from
+/// c = 0); unset when the bearings do not determine them (all landmarks in one direction).
 std::optional<Eigen::Vector3d> solve_camera_offset(const std::vector<Residual>& residuals,
                                                    const std::vector<std::size_t>& indices) {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();  // b, c_x, c_y
   for (int iteration = 0; iteration < 10; ++iteration) {
-    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (const std::size_t i : indices) {
-      const Residual& r = residuals[i];
-      const Eigen::Vector2d from_camera =
-          r.range_m * Eigen::Vector2d(std::cos(r.bearing_rad), std::sin(r.bearing_rad)) -
-          p.tail<2>();
-      const double squared = from_camera.squaredNorm();
-      if (squared < 1e-6) continue;
-      const double predicted =
-          sdk::wrap(std::atan2(from_camera.y(), from_camera.x()) - r.bearing_rad) + p(0);
-      const double error = sdk::wrap(r.bearing_error_rad - predicted);
-      const Eigen::Vector3d j(1.0, from_camera.y() / squared, -from_camera.x() / squared);
-      h += j * j.transpose();
-      g += j * error;
-    }
+    const auto [h, g] = camera_offset_normal(residuals, indices, p);
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(h);
     // A design without spread in bearing or range over the range of landmarks: no offset.
     if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-10)) return std::nullopt;
@@ -1017,13 +1025,19 @@ std::vector<CameraOffset> fit_camera_offsets(const std::vector<Residual>& residu
     o.bearing_bias_rad = (*fit)(0);
     o.x_m = (*fit)(1);
     o.y_m = (*fit)(2);
-    std::vector<Eigen::Vector2d> left_out;
+    // Each block left out by one Gauss-Newton step from the whole fit (at which the blocks'
+    // gradients sum to zero): the jackknife's values without refitting every block's complement.
+    std::vector<std::pair<Eigen::Matrix3d, Eigen::Vector3d>> normals;
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
     for (const auto& [block, indices] : of_robot) {
-      std::vector<std::size_t> rest;
-      for (const auto& [other, others] : of_robot)
-        if (other != block) rest.insert(rest.end(), others.begin(), others.end());
-      if (const auto without = solve_camera_offset(residuals, rest))
-        left_out.push_back(without->tail<2>());
+      normals.push_back(camera_offset_normal(residuals, indices, *fit));
+      h += normals.back().first;
+    }
+    std::vector<Eigen::Vector2d> left_out;
+    for (const auto& [h_block, g_block] : normals) {
+      const Eigen::LDLT<Eigen::Matrix3d> rest(h - h_block);
+      if (rest.info() != Eigen::Success || !(rest.rcond() > 1e-10)) continue;
+      left_out.push_back((*fit - rest.solve(g_block)).tail<2>());
     }
     if (left_out.size() >= 2) {
       Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -1094,7 +1108,7 @@ double silences_nll(const std::vector<CameraCells>& stretches, double rate_hz,
                     const Spells& spells) {
   const double f = spells.fraction, q = spells.long_share;
   const double spell_mean_s = spells.spell_mean_s();
-  double nll = 0.0;
+  double nll = 0.0, scale = 1.0;
   for (const CameraCells& stretch : stretches) {
     const double cell_s = stretch.cell_s;
     const double to_blind =
@@ -1123,13 +1137,19 @@ double silences_nll(const std::vector<CameraCells>& stretches, double rate_hz,
       if (detected) in_short = in_long = 0.0;
       const double total = seeing + in_short + in_long;
       if (!(total > 1e-300)) return 1e300;
-      nll -= std::log(total);
+      // The cells' probabilities multiplied up, their logarithm taken only before the product
+      // could underflow: a logarithm per cell is most of the fit's time.
+      scale *= total;
+      if (scale < 1e-200) {
+        nll -= std::log(scale);
+        scale = 1.0;
+      }
       seeing /= total;
       in_short /= total;
       in_long /= total;
     }
   }
-  return nll;
+  return nll - std::log(scale);
 }
 
 /// The camera's spells of blindness (CameraSilences), unset without cells with a landmark in view:
