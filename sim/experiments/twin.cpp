@@ -143,6 +143,16 @@ std::map<std::string, Vec2> read_camera_offsets(const fs::path& file) {
   return out;
 }
 
+/// A pose as the world file writes it: {x, y, theta}, seven digits each.
+YAML::Node pose_node(const Pose2& pose) {
+  YAML::Node node(YAML::NodeType::Map);
+  node.SetStyle(YAML::EmitterStyle::Flow);
+  node["x"] = seven_digits(pose.x);
+  node["y"] = seven_digits(pose.y);
+  node["theta"] = seven_digits(pose.theta);
+  return node;
+}
+
 /// Headroom over the path's demand on the motors: the trajectory drive's feedback needs some.
 constexpr double kDriveMargin = 1.5;
 
@@ -392,13 +402,7 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     if (!chosen[i]) continue;
     YAML::Node robot = doc["robots"][i];
     const TwinRobot& t = twin.robots[twin_index++];
-    const Pose2& start = t.path.front().pose;
-    YAML::Node pose(YAML::NodeType::Map);
-    pose.SetStyle(YAML::EmitterStyle::Flow);
-    pose["x"] = seven_digits(start.x);
-    pose["y"] = seven_digits(start.y);
-    pose["theta"] = seven_digits(start.theta);
-    robot["start"] = pose;
+    robot["start"] = pose_node(t.path.front().pose);
     if (t.max_wheel_speed_radps)
       robot["max_wheel_speed_radps"] = seven_digits(*t.max_wheel_speed_radps);
     if (t.max_wheel_accel_radps2) {
@@ -434,14 +438,6 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       // The camera where the log's detections say it is; its detections still given from where
       // the log's robot believes it is.
       const Pose2 believed = world.robots[i].sensors.range_bearing->common.reported_mount();
-      const auto pose_node = [](const Pose2& p) {
-        YAML::Node n(YAML::NodeType::Map);
-        n.SetStyle(YAML::EmitterStyle::Flow);
-        n["x"] = seven_digits(p.x);
-        n["y"] = seven_digits(p.y);
-        n["theta"] = seven_digits(p.theta);
-        return n;
-      };
       sensors["range_bearing"]["mount"] = pose_node(
           Pose2{believed.x + offset->second.x(), believed.y + offset->second.y(), believed.theta});
       sensors["range_bearing"]["believed_mount"] = pose_node(believed);
