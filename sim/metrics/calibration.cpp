@@ -173,6 +173,8 @@ struct MotionSample {
   double true_v_mps = 0.0, true_omega_radps = 0.0;   // of the true increment
   double rolled_left_m = 0.0, rolled_right_m = 0.0;  // each wheel's travel, |d| summed
   std::size_t track = 0;                             // the robot (of a log) it is of
+  double t_end_s = 0.0;                              // of the interval's last odometry reading
+  sdk::Pose true_start = sdk::Pose::Zero(), true_end = sdk::Pose::Zero();  // world frame
 };
 
 struct Residual {
@@ -184,6 +186,7 @@ struct Residual {
   bool inlier = true;
   double t_s = 0.0;       // of its reading
   std::size_t track = 0;  // which robot of which log: one target's detections form a sequence
+  double true_heading_rad = 0.0;  // the robot's, in the world
 };
 
 /// A reading of a camera with a field of view: what it should have seen and where its
@@ -354,6 +357,9 @@ void collect_motion(const RobotLog& robot,
     };
     MotionSample s;
     s.dt_s = tb - ta;
+    s.t_end_s = tb;
+    s.true_start = *true_a;
+    s.true_end = *true_b;
     const sdk::Pose odom_a = pose_of(odometry[*ia].second), odom_b = pose_of(odometry[*ib].second);
     s.measured = sdk::decompose(odom_a, odom_b);
     s.local_error = sdk::between(odom_a, odom_b) - sdk::between(*true_a, *true_b);
@@ -502,7 +508,7 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
           sdk::range_bearing(*pose, Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
       camera.residuals.push_back({predicted(0), predicted(1), d.range_m - predicted(0),
                                   sdk::wrap(d.bearing_rad - predicted(1)), *landmark, true,
-                                  seen.t_s, track});
+                                  seen.t_s, track, (*pose)(2)});
     }
     visibility.count = camera.residuals.size() - visibility.first;
     if (visibility.count > 0) camera.steps.emplace_back(visibility.first, visibility.count);
@@ -710,6 +716,106 @@ LocalizerNoise localizer_noise(const DetectionCalibration& c) {
   return noise;
 }
 
+/// The motion noise the localizers are given (the parameter file's k_left, k_right,
+/// motion_floor_*, gain_wander_*): beyond the command response where the odometry reports the
+/// command and calibrate measured the response, else the odometry's own wheel model.
+struct LocalizerMotion {
+  double k_left = 0.0, k_right = 0.0;                      // [m^1/2]
+  double floor_position_m = 0.0, floor_heading_rad = 0.0;  // per perception step
+  const CommandResponseFit* command = nullptr;             // followed through its response
+  // The gains' wander, when calibrate found any (sigma [-], tau [s]).
+  std::optional<std::pair<CommandResponseFit::GainWander, CommandResponseFit::GainWander>> wander;
+};
+std::optional<LocalizerMotion> localizer_motion(const std::optional<MotionCalibration>& motion) {
+  if (!motion) return std::nullopt;
+  const auto& command = motion->command;
+  if (command && command->leads && command->k_left && command->localizer) {
+    const WheelModelFit& w = *command->localizer;
+    LocalizerMotion m{w.k_left, w.k_right, w.floor_position_m, w.floor_heading_rad, &*command, {}};
+    const auto& v = command->gain_wander_v;
+    const auto& omega = command->gain_wander_omega;
+    if (v && omega && (v->sigma > 0.0 || omega->sigma > 0.0)) m.wander = std::pair(*v, *omega);
+    return m;
+  }
+  return LocalizerMotion{motion->k_left,
+                         motion->k_right,
+                         motion->k_floor_position_m,
+                         motion->k_floor_heading_rad,
+                         nullptr,
+                         {}};
+}
+
+Eigen::Matrix3d floor_covariance(double position_m, double heading_rad);
+
+/// How far a localizer that tracks a robot is from it, as a covariance along the robot's true
+/// path over (x, y, theta, the gains' wander g_v, g_omega): grown by the localizers' motion noise
+/// over each interval between perception steps (the wheel model, its floor, the gains' wander
+/// moving the true displacement and turn), shrunk by each step's detections with the localizers'
+/// noise, as the EKF with the calibrated parameters does; a particle filter's cloud spreads alike.
+/// A localizer weighs a step's detections over that spread, not at the truth: after seconds of
+/// coasting its cloud explains them worse than the truth does, though it tracks.
+class BeliefAlongTruth {
+ public:
+  using Matrix = Eigen::Matrix<double, 5, 5>;
+  explicit BeliefAlongTruth(const LocalizerMotion& motion) : motion_(motion) { start(); }
+
+  /// A new robot: the truth, its gains' wander at its stationary spread.
+  void start() {
+    p_.setZero();
+    if (motion_.wander) {
+      p_(3, 3) = std::pow(motion_.wander->first.sigma, 2);
+      p_(4, 4) = std::pow(motion_.wander->second.sigma, 2);
+    }
+  }
+  /// One interval of the robot's motion (its samples' wheel covariances per unit k^2).
+  void move(const MotionSample& s) {
+    const Eigen::Vector3d d(s.true_end(0) - s.true_start(0), s.true_end(1) - s.true_start(1),
+                            sdk::wrap(s.true_end(2) - s.true_start(2)));
+    Matrix f = Matrix::Identity();
+    f(0, 2) = -d(1);
+    f(1, 2) = d(0);
+    f(0, 3) = d(0);  // a gain error scales the displacement and the turn
+    f(1, 3) = d(1);
+    f(2, 4) = d(2);
+    Matrix q = Matrix::Zero();
+    q.topLeftCorner<3, 3>() = motion_.k_left * motion_.k_left * s.wheel_p_left +
+                              motion_.k_right * motion_.k_right * s.wheel_p_right +
+                              floor_covariance(motion_.floor_position_m, motion_.floor_heading_rad);
+    if (motion_.wander) {
+      const auto& [v, omega] = *motion_.wander;
+      const double phi = v.correlation_s > 0.0 ? std::exp(-s.dt_s / v.correlation_s) : 0.0;
+      f(3, 3) = f(4, 4) = phi;
+      q(3, 3) = v.sigma * v.sigma * (1.0 - phi * phi);
+      q(4, 4) = omega.sigma * omega.sigma * (1.0 - phi * phi);
+    }
+    p_ = f * p_ * f.transpose() + q;
+  }
+  /// The log of a step's likelihood averaged over the belief (detections `errors` with their
+  /// Jacobians `h` and noise `r`, stacked), Gaussian in the errors; then the step's update.
+  double weigh_and_update(const Eigen::VectorXd& errors, const Eigen::MatrixXd& h,
+                          const Eigen::VectorXd& r) {
+    const Eigen::MatrixXd s = h * p_ * h.transpose() + Eigen::MatrixXd(r.asDiagonal());
+    const Eigen::LLT<Eigen::MatrixXd> llt(s);
+    if (llt.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+    const Eigen::VectorXd whitened = llt.matrixL().solve(errors);
+    double log_det_s = 0.0;
+    for (Eigen::Index i = 0; i < s.rows(); ++i) log_det_s += 2.0 * std::log(llt.matrixL()(i, i));
+    // Scaled as the filters scale a match: 1 at a perfect one with the belief at the truth.
+    const double log_likelihood =
+        -0.5 * whitened.squaredNorm() + 0.5 * (r.array().log().sum() - log_det_s);
+    const Eigen::MatrixXd ph = p_ * h.transpose();
+    const Eigen::MatrixXd gain = llt.solve(ph.transpose()).transpose();
+    const Matrix joseph = Matrix::Identity() - gain * h;
+    p_ = joseph * p_ * joseph.transpose() + gain * r.asDiagonal() * gain.transpose();
+    return log_likelihood;
+  }
+  const Matrix& covariance() const { return p_; }
+
+ private:
+  LocalizerMotion motion_;
+  Matrix p_;
+};
+
 /// The landmark particle filters' outlier_likelihood: a detection is false with probability eps
 /// (the false ones among all), and a false one falls anywhere in the measured span of ranges and
 /// bearings. Its mixture with the match (scaled to 1 at a perfect match, a Gaussian of peak
@@ -887,23 +993,46 @@ void noise_correlation(const CameraData& data, DetectionCalibration& c) {
   }
 }
 
-/// The likelihood a landmark particle filter gives the true pose at each step (its own match,
-/// sdk::landmark_log_match, with what it is given: each detection corrected by the camera's
-/// bias, the spread about it, inflated for a landmark seen again while its errors persist), and
-/// from its low quantile the resetting levels: a reset is meant for a step that the truth would
-/// explain worse than it almost ever does. With calibrated noise a single detection's match is
-/// about uniform on (0, 1] at the truth, so a fixed level of 0.1 resets on one step in ten.
-void reset_levels(const CameraData& data, DetectionCalibration& c) {
+/// The likelihood a landmark particle filter that tracks the robot gives each step (its own
+/// match, sdk::landmark_log_match, with what it is given: each detection corrected by the
+/// camera's bias, the spread about it, inflated for a landmark seen again while its errors
+/// persist), averaged over its belief's spread about the true pose (BeliefAlongTruth, from the
+/// localizers' motion noise `motion`; none: at the truth), and from its low quantile the
+/// resetting levels: a reset is meant for a step that a tracking filter would explain worse than
+/// it almost ever does. With calibrated noise a single detection's match is about uniform on
+/// (0, 1] at the truth, so a fixed level of 0.1 resets on one step in ten; and a filter that has
+/// coasted through seconds without detections explains the next ones worse than the truth would,
+/// so levels measured at the truth reset it while it tracks (MRCLAM Dataset 6, robot 5: the
+/// augmented MCL's own w_fast / w_slow has its 1 % quantile at 0.83, the truth's at 0.92).
+void reset_levels(const CameraData& data, const std::vector<MotionSample>& motion,
+                  const std::optional<LocalizerMotion>& localizer_motion, DetectionCalibration& c) {
   constexpr double kQuantile = 0.01;
   const LocalizerNoise noise = localizer_noise(c);
+  const double outlier = c.outlier_likelihood.value_or(0.0);
   std::vector<double> step_likelihood, per_detection;
   std::vector<std::size_t> step_track;
   std::optional<sdk::CorrelatedRangeBearing> seen;  // of the current track
+  BeliefAlongTruth belief(localizer_motion.value_or(LocalizerMotion{}));
+  std::size_t next_motion = 0;  // motion is in track order, each track's in time order
+  struct Detection {
+    double range_error_m, bearing_error_rad, sigma_range_m, sigma_bearing_rad;
+    const Residual* residual;
+  };
+  std::vector<Detection> step;
   for (const auto& [first, count] : data.steps) {
     const std::size_t track = data.residuals[first].track;
-    if (step_track.empty() || step_track.back() != track) seen.emplace(noise.correlated());
+    const double t_s = data.residuals[first].t_s;
+    if (step_track.empty() || step_track.back() != track) {
+      seen.emplace(noise.correlated());
+      belief.start();
+    }
     step_track.push_back(track);
-    double log_p = 0.0;
+    for (; next_motion < motion.size(); ++next_motion) {
+      const MotionSample& m = motion[next_motion];
+      if (m.track > track || (m.track == track && m.t_end_s > t_s)) break;
+      if (m.track == track && localizer_motion) belief.move(m);
+    }
+    step.clear();
     for (std::size_t i = first; i < first + count; ++i) {
       const Residual& r = data.residuals[i];
       locsim_detection target{};
@@ -911,16 +1040,61 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
       const auto inflation = seen->inflation(0, target, r.t_s);
       const auto z =
           noise.bias.corrected(r.range_m + r.range_error_m, r.bearing_rad + r.bearing_error_rad);
-      const double sigma_range = std::sqrt(inflation.range) * z.range_scale *
-                                 std::max(noise.range_spread_m.at(z.model_x_m), 1e-9);
-      const double sigma_bearing =
-          std::sqrt(inflation.bearing) * std::max(noise.bearing_spread_rad, 1e-9);
-      const double range_error_m = z.range_m - r.range_m;
-      const double bearing_error_rad = sdk::wrap(z.bearing_rad - r.bearing_rad);
-      const double match = -0.5 * range_error_m * range_error_m / (sigma_range * sigma_range) -
-                           (1.0 - std::cos(bearing_error_rad)) / (sigma_bearing * sigma_bearing);
-      // As the filters weigh it, false detections allowed (their outlier_likelihood).
-      log_p += std::log(std::exp(match) + c.outlier_likelihood.value_or(0.0));
+      step.push_back({z.range_m - r.range_m, sdk::wrap(z.bearing_rad - r.bearing_rad),
+                      std::sqrt(inflation.range) * z.range_scale *
+                          std::max(noise.range_spread_m.at(z.model_x_m), 1e-9),
+                      std::sqrt(inflation.bearing) * std::max(noise.bearing_spread_rad, 1e-9), &r});
+    }
+    // Each detection's Jacobian in the pose (the world frame) and its noise; the bearing's error
+    // as 2 sin(e / 2), whose square over 2 sigma^2 is the filters' (1 - cos e) / sigma^2.
+    const auto jacobian = [](const Residual& r) {
+      const double a = r.true_heading_rad + r.bearing_rad;
+      const Eigen::Vector2d d = r.range_m * Eigen::Vector2d(std::cos(a), std::sin(a));
+      Eigen::Matrix<double, 2, 5> h = Eigen::Matrix<double, 2, 5>::Zero();
+      h.row(0).head<2>() = -d / r.range_m;
+      h.row(1).head<2>() = Eigen::Vector2d(d.y(), -d.x()) / (r.range_m * r.range_m);
+      h(1, 2) = -1.0;
+      return h;
+    };
+    const auto errors = [](const Detection& d) {
+      return Eigen::Vector2d(d.range_error_m, 2.0 * std::sin(0.5 * d.bearing_error_rad));
+    };
+    const auto variances = [](const Detection& d) {
+      return Eigen::Vector2d(d.sigma_range_m * d.sigma_range_m,
+                             d.sigma_bearing_rad * d.sigma_bearing_rad);
+    };
+    // As the filters weigh a detection, false ones allowed (their outlier_likelihood): the
+    // product over the detections of (match + outlier), taken as the belief's joint match of
+    // those it explains better than a false one, times (1 + outlier / match) each, and (match +
+    // outlier) for the others.
+    double log_p = 0.0;
+    std::vector<const Detection*> explained;
+    for (const Detection& d : step) {
+      const auto h = jacobian(*d.residual);
+      const Eigen::Vector2d r = variances(d);
+      const Eigen::Matrix2d s =
+          h * belief.covariance() * h.transpose() + Eigen::Matrix2d(r.asDiagonal());
+      const Eigen::Vector2d e = errors(d);
+      const double match = -0.5 * e.dot(s.ldlt().solve(e)) +
+                           0.5 * (std::log(r(0) * r(1)) - std::log(s.determinant()));
+      if (std::exp(match) >= outlier) {
+        explained.push_back(&d);
+        log_p += std::log1p(outlier * std::exp(-match));
+      } else {
+        log_p += std::log(std::exp(match) + outlier);
+      }
+    }
+    if (!explained.empty()) {
+      const auto n = static_cast<Eigen::Index>(2 * explained.size());
+      Eigen::VectorXd e(n), r(n);
+      Eigen::MatrixXd h(n, 5);
+      for (std::size_t k = 0; k < explained.size(); ++k) {
+        const auto at = static_cast<Eigen::Index>(2 * k);
+        e.segment<2>(at) = errors(*explained[k]);
+        r.segment<2>(at) = variances(*explained[k]);
+        h.middleRows<2>(at) = jacobian(*explained[k]->residual);
+      }
+      log_p += belief.weigh_and_update(e, h, r);
     }
     step_likelihood.push_back(std::exp(log_p));
     per_detection.push_back(std::exp(log_p / static_cast<double>(count)));
@@ -937,15 +1111,27 @@ void reset_levels(const CameraData& data, DetectionCalibration& c) {
   c.srl_threshold = std::clamp(quantile(step_likelihood, kQuantile), 1e-300, 1.0);
   c.asrl_p_t = std::clamp(std::sqrt(quantile(per_detection, kQuantile)), 1e-12, 1.0);
   // augmented_mcl injects 1 - w_fast / (level w_slow) of its particles: Thrun's averages of the
-  // per-detection likelihood, run here on the truth's, robot by robot. Real detections explain
-  // the truth better for a while and worse for a while (their errors persist), so w_fast dips
-  // below w_slow without any kidnapping; the level is the ratio's low quantile, under which the
-  // truth's own ratio almost never falls.
+  // per-detection likelihood, run here on the tracking filter's, robot by robot. Real detections
+  // explain the truth better for a while and worse for a while (their errors persist), so w_fast
+  // dips below w_slow without any kidnapping; the level is the ratio's low quantile, under which a
+  // tracking filter's own ratio almost never falls. Both averages start from the robot's mean
+  // likelihood, where a tracking filter's w_slow settles: started from the first step's, the
+  // quantile would depend on how well that one step happened to fit (w_slow takes a thousand
+  // steps to forget it).
   std::vector<double> ratios;
+  std::map<std::size_t, std::pair<double, std::size_t>> track_sum;
+  for (std::size_t k = 0; k < per_detection.size(); ++k) {
+    auto& [sum, n] = track_sum[step_track[k]];
+    sum += per_detection[k];
+    ++n;
+  }
   double w_slow = 0.0, w_fast = 0.0;
   for (std::size_t k = 0; k < per_detection.size(); ++k) {
     const double w = per_detection[k];
-    if (k == 0 || step_track[k] != step_track[k - 1]) w_slow = w_fast = w;
+    if (k == 0 || step_track[k] != step_track[k - 1]) {
+      const auto& [sum, n] = track_sum.at(step_track[k]);
+      w_slow = w_fast = sum / static_cast<double>(n);
+    }
     w_slow += kAugmentedAlphaSlow * (w - w_slow);
     w_fast += kAugmentedAlphaFast * (w - w_fast);
     ratios.push_back(w_fast / std::max(w_slow, 1e-300));
@@ -1240,7 +1426,9 @@ std::optional<CameraSilences> fit_camera_silences(const std::vector<CameraCells>
 DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
                                 const CalibrationOptions& options,
                                 const std::vector<std::string>& track_names,
-                                const std::vector<CameraCells>& camera_cells) {
+                                const std::vector<CameraCells>& camera_cells,
+                                const std::vector<MotionSample>& motion,
+                                const std::optional<LocalizerMotion>& localizer_motion) {
   DetectionCalibration c;
   c.camera = sensor_name(kind);
   c.readings = data.readings;
@@ -1344,7 +1532,7 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
   }
   outlier_likelihood(data, c);
   noise_correlation(data, c);
-  reset_levels(data, c);
+  reset_levels(data, motion, localizer_motion, c);
   if (!data.visibility.empty()) {
     std::size_t visible = 0, missed = 0;
     for (const Visibility& v : data.visibility) {
@@ -2581,8 +2769,8 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   }
   for (auto& [kind, data] : pooled.cameras) {
     if (data.residuals.size() >= 10)
-      out.cameras.push_back(
-          fit_camera(kind, data, options, pooled.track_names, pooled.camera_cells));
+      out.cameras.push_back(fit_camera(kind, data, options, pooled.track_names, pooled.camera_cells,
+                                       pooled.motion, localizer_motion(out.motion)));
   }
   if (pooled.ranging.samples.size() >= 10) out.ranging = fit_ranging(pooled.ranging, options);
   // The laser's model needs beams that hit something mapped (the hits' noise, what is short of
@@ -2722,7 +2910,7 @@ json Calibration::to_json() const {
       cj["miss_probability"] = *c.miss_probability;
     }
     if (c.srl_threshold) {
-      cj["true_pose_step_likelihood"] = {
+      cj["tracking_step_likelihood"] = {
           {"median", *c.step_likelihood_median},
           {"quantile", *c.reset_quantile},
           {"srl_threshold", *c.srl_threshold},
@@ -2926,11 +3114,11 @@ std::string Calibration::to_yaml() const {
       motion && motion->command && motion->command->leads && motion->command->k_left
           ? &*motion->command
           : nullptr;
+  const std::optional<LocalizerMotion> belief = localizer_motion(motion);
   y += "localizer_params:  # each localizer takes the keys it declares\n";
-  if (command != nullptr && command->localizer) {
+  if (belief && belief->command != nullptr) {
     // The localizers that follow the response predict with the motion it gives; their wheel
     // noise is what is left beyond it.
-    const WheelModelFit& w = *command->localizer;
     y += "  # motion: the odometry reports the command; the localizers run it through the "
          "robot's response (command_*), then the wheel model at every odometry reading "
          "(ekf_landmarks, odometry, omni_kf; the particle filters with motion_model wheels)\n";
@@ -2939,30 +3127,27 @@ std::string Calibration::to_yaml() const {
          "\n  command_time_constant_omega_s: " + four_digits(command->time_constant_omega_s) +
          "\n  command_gain_v: " + four_digits(command->gain_v) +
          "\n  command_gain_omega: " + four_digits(command->gain_omega) +
-         "\n  motion_model: wheels\n  k_left: " + four_digits(w.k_left) +
-         "\n  k_right: " + four_digits(w.k_right) +
-         "\n  motion_floor_m: " + four_digits(w.floor_position_m) +
-         "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
-         four_digits(rad_to_deg(w.floor_heading_rad)) + "\n";
-    const auto& v = command->gain_wander_v;
-    const auto& omega = command->gain_wander_omega;
-    if (v && omega && (v->sigma > 0.0 || omega->sigma > 0.0)) {
-      y += "  # the base's gains wander about the response's for seconds (ekf_landmarks, the "
-           "landmark particle filters)\n  gain_wander_v: " +
-           four_digits(v->sigma) + "\n  gain_wander_omega: " + four_digits(omega->sigma) +
-           "\n  gain_wander_correlation_s: " + four_digits(v->correlation_s) + "\n";
-    }
-  } else if (motion) {
+         "\n  motion_model: wheels\n";
+  } else if (belief) {
     // The wheel model's noise adds up the same whatever the step length; the per-step alphas'
     // does not (they hold for steps as long as the intervals measured here), so the particle
     // filters get the wheel model (docs/real_data.md measures both on MRCLAM).
     y += "  # motion: the wheel model at every odometry reading (ekf_landmarks; the particle "
-         "filters with motion_model wheels)\n";
-    y += "  motion_model: wheels\n  k_left: " + four_digits(motion->k_left) +
-         "\n  k_right: " + four_digits(motion->k_right) +
-         "\n  motion_floor_m: " + four_digits(motion->k_floor_position_m) +
+         "filters with motion_model wheels)\n  motion_model: wheels\n";
+  }
+  if (belief) {
+    y += "  k_left: " + four_digits(belief->k_left) +
+         "\n  k_right: " + four_digits(belief->k_right) +
+         "\n  motion_floor_m: " + four_digits(belief->floor_position_m) +
          "  # noise of every perception step whatever the motion\n  motion_floor_deg: " +
-         four_digits(rad_to_deg(motion->k_floor_heading_rad)) + "\n";
+         four_digits(rad_to_deg(belief->floor_heading_rad)) + "\n";
+    if (belief->wander) {
+      const auto& [v, omega] = *belief->wander;
+      y += "  # the base's gains wander about the response's for seconds (ekf_landmarks, the "
+           "landmark particle filters)\n  gain_wander_v: " +
+           four_digits(v.sigma) + "\n  gain_wander_omega: " + four_digits(omega.sigma) +
+           "\n  gain_wander_correlation_s: " + four_digits(v.correlation_s) + "\n";
+    }
   }
   if (motion) {
     const OdometryModelFit& f =
@@ -3014,7 +3199,8 @@ std::string Calibration::to_yaml() const {
     }
   }
   if (camera != nullptr && camera->srl_threshold) {
-    y += "  # resetting levels: the true pose's likelihood falls below them in " +
+    y += "  # resetting levels: the likelihood of a filter that tracks the robot (its belief "
+         "spread about the truth) falls below them in " +
          four_digits(100.0 * *camera->reset_quantile) + " % of the steps\n";
     // One detection puts a reset pose anywhere on a ring around its landmark, which later
     // detections of that landmark cannot tell from the truth (docs/real_data.md).
@@ -3022,7 +3208,7 @@ std::string Calibration::to_yaml() const {
     y += "  srl: {threshold: " + four_digits(*camera->srl_threshold) +
          ", reset_min_detections: 2}\n";
     y += "  asrl: {p_t: " + four_digits(*camera->asrl_p_t) + ", reset_min_detections: 2}\n";
-    y += "  # w_fast / w_slow of the truth falls below injection_level in as few steps\n";
+    y += "  # a tracking filter's w_fast / w_slow falls below injection_level in as few steps\n";
     y += "  augmented_mcl: {injection_level: " + four_digits(*camera->augmented_injection_level) +
          ", alpha_slow: " + four_digits(kAugmentedAlphaSlow) +
          ", alpha_fast: " + four_digits(kAugmentedAlphaFast) + "}\n";

@@ -156,11 +156,12 @@ struct DetectionCalibration {
   // A range_bearing sensor's field of view decides what it should have seen.
   std::optional<std::size_t> visible, missed;
   std::optional<double> miss_probability;
-  // The likelihood (a landmark particle filter's, with the noise written for it) of the true pose
-  // at each step: its median, and the resetting levels at its `reset_quantile` (srl's
-  // `threshold`, asrl's `p_t` with mu 1, augmented_mcl's `injection_level`: the ratio
-  // w_fast / w_slow of the truth's per-detection likelihood with kAugmentedAlpha*). Unset with
-  // fewer than 10 steps.
+  // The likelihood a landmark particle filter (with the noise written for it) that tracks the
+  // robot gives each step, its belief spread about the true pose as the localizers' motion noise
+  // and the detections make it: its median, and the resetting levels at its `reset_quantile`
+  // (srl's `threshold`, asrl's `p_t` with mu 1, augmented_mcl's `injection_level`: the ratio
+  // w_fast / w_slow of its per-detection likelihood with kAugmentedAlpha*, both averages started
+  // at the robot's mean). Unset with fewer than 10 steps.
   std::optional<double> reset_quantile, step_likelihood_median, srl_threshold, asrl_p_t,
       augmented_injection_level;
   // The landmark particle filters' outlier_likelihood (false detections over the measured span);
