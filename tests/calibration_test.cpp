@@ -12,6 +12,7 @@
 #include <locsim/models.hpp>
 #include <locsim/particles.hpp>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -354,12 +355,108 @@ TEST(Calibrate, TellsACameraBlindForSpellsFromOneThatMissesAtRandom) {
   EXPECT_FALSE(YAML::Load(seeing.to_yaml())["sensors"]["range_bearing"]["outage_fraction"]);
 }
 
+/// A robot circling among sixteen landmarks whose camera (120 deg, 0.3-8 m, 10 Hz) detects each
+/// landmark in view with the chance (1 - 0.2) e^(-r / 3), exactly where it is; as MRCLAM's logs,
+/// only the frames with a detection are kept.
+ImportedDataset detections_only_dataset(double seconds) {
+  ImportedDataset d;
+  d.name = "detections_only";
+  d.source = {{"format", "test"}};
+  for (int i = 0; i < 16; ++i) {
+    const double a = std::numbers::pi / 8.0 * static_cast<double>(i);
+    const double r = i % 2 == 0 ? 4.5 : 1.2;
+    d.landmarks.push_back({i + 1, {5.0 + r * std::cos(a), 4.0 + r * std::sin(a)}});
+  }
+  ImportedRobot robot;
+  robot.name = "robot";
+  robot.fov_rad = deg_to_rad(120.0);
+  robot.min_range_m = 0.3;
+  robot.max_range_m = 8.0;
+  RandomStream rng = make_stream(5, "test/detections_only");
+  for (std::size_t k = 0; 0.1 * static_cast<double>(k) <= seconds; ++k) {
+    const double t_s = 0.1 * static_cast<double>(k);
+    // Around the middle at 0.3 m/s, the radius wandering between 1.5 and 3.5 m.
+    const double angle = 0.3 * t_s / 2.5, radius = 2.5 + std::sin(0.05 * t_s);
+    const Pose2 pose{5.0 + radius * std::cos(angle), 4.0 + radius * std::sin(angle),
+                     wrap_angle(angle + 1.7)};
+    robot.truth.push_back({t_s, pose});
+    ImportedRobot::Odometry o;
+    o.t_s = t_s;
+    o.reading.fields = kOdometryPose;
+    o.reading.odometry = {pose.x, pose.y, pose.theta};
+    robot.odometry.push_back(o);
+    ImportedRobot::Detections seen;
+    seen.t_s = t_s;
+    for (const ImportedLandmark& l : d.landmarks) {
+      const Eigen::Vector2d z =
+          sdk::range_bearing(sdk::Pose(pose.x, pose.y, pose.theta),
+                             Eigen::Vector2d(l.position_m.x(), l.position_m.y()));
+      if (z(0) < 0.3 || z(0) > 8.0 || std::abs(z(1)) > deg_to_rad(60.0)) continue;
+      if (rng.uniform() >= 0.8 * std::exp(-z(0) / 3.0)) continue;
+      Detection detection;
+      detection.id = l.id;
+      detection.range_m = z(0);
+      detection.bearing_rad = z(1);
+      seen.detections.push_back(detection);
+    }
+    if (!seen.detections.empty()) robot.detections.push_back(seen);
+  }
+  d.robots.push_back(std::move(robot));
+  return d;
+}
+
+TEST(Calibrate, FindsHowTheChanceOfADetectionFallsWithRange) {
+  // A simulated camera missing 0.2 at zero range, its chance falling by e every 3 m, blind 0.3 of
+  // the time besides (which, blinding it at every range, must not look like a decay), with 0.05
+  // false detections a reading (the noisy world's 0.3, uniform in range, would outnumber the few
+  // true ones at 6-7 m, where the range's robust spread, and with it the inlier gate, breaks).
+  const fs::path dir = testing::temp_dir("calibrate_detection_decay");
+  const std::string key = "noise_correlation_s: " + std::to_string(0.0);
+  std::string world = testing::noisy_world(0.0);
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {key, key + "\n        detection_decay_m: 3\n        outage_fraction: 0.3"
+                       "\n        outage_mean_s: 3"},
+           {"false_detections: 0.3", "false_detections: 0.05"},
+           {"duration_s: 300", "duration_s: 1800"},
+           {"      encoders: {rate_hz: 50, k_left: 0.01, k_right: 0.02}\n", ""}})
+    world = replaced(world, from, to);
+  // Both cameras miss 0.2 at zero range, their chance falling by e every 3 m.
+  const auto expect_decay = [](const Calibration& c, bool conditioned, const std::string& what) {
+    SCOPED_TRACE(what);
+    ASSERT_EQ(c.cameras.size(), 1u);
+    const auto& decay = c.cameras[0].detection_decay;
+    ASSERT_TRUE(decay) << describe(c);
+    EXPECT_EQ(decay->conditioned, conditioned);
+    expect_within(decay->decay_m, 3.0, "detection_decay_m");
+    expect_within(decay->miss_probability_at_zero, 0.2, "miss_probability at zero range");
+  };
+  fs::create_directories(dir / "simulated");
+  const Calibration simulated = calibrate({record(dir / "simulated", world, 3)}, {});
+  expect_decay(simulated, false, "every reading logged");
+  ASSERT_TRUE(simulated.cameras[0].detection_decay);
+  const auto& decay = simulated.cameras[0].detection_decay;
+  testing::expect_contains(describe(simulated), "detections fall with range");
+  const YAML::Node sensor = YAML::Load(simulated.to_yaml())["sensors"]["range_bearing"];
+  EXPECT_NEAR(sensor["detection_decay_m"].as<double>(), decay->decay_m, 1e-3 * decay->decay_m);
+  EXPECT_NEAR(sensor["miss_probability"].as<double>(), decay->miss_probability_at_zero, 1e-4);
+
+  // Misses at random whatever the range: no decay (the noisy world misses 0.2).
+  const Calibration flat = calibrate({record_noisy_run(dir, 3)}, {});
+  ASSERT_EQ(flat.cameras.size(), 1u);
+  EXPECT_FALSE(flat.cameras[0].detection_decay) << describe(flat);
+
+  // A log of the frames with a detection only: each is weighed given that one was, else the
+  // chance would come out high where one landmark is in view.
+  write_import(detections_only_dataset(1800.0), {}, dir / "detections_only.locsimlog");
+  expect_decay(calibrate({dir / "detections_only.locsimlog"}, {}), true, "detections only");
+}
+
 TEST(Calibrate, AugmentedMclsInjectionLevelStopsInjectionWhileItTracks) {
   // The noisy world's detections (errors correlated over 0.5 s, 0.3 false ones per reading) make
   // the truth's own w_fast / w_slow dip below 1 all the time when a filter counts each detection
   // as independent: with Thrun's rule (level 1) augmented_mcl then injects uniform guesses
   // (Thrun's; not the default) while it tracks, and they cost it the pose. The level `calibrate`
-  // writes is where the truth's ratio almost never goes; the correlation it measures
+  // writes is where a tracking filter's ratio almost never goes; the correlation it measures
   // (noise_correlation_s) steadies the ratio too.
   const fs::path dir = testing::temp_dir("calibrate_injection");
   const fs::path log = record_noisy_run(dir, 3);

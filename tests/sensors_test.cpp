@@ -648,6 +648,24 @@ TEST(RangeBearing, MissAndFalseDetectionRatesHold) {
   }
 }
 
+TEST(RangeBearing, TheChanceOfADetectionFallsWithRangeAsAsked) {
+  // (1 - 0.2) e^(-r / 3): 0.57 at 1 m, 0.15 at 5 m, each drawn per landmark and reading. 2001
+  // readings: standard errors 0.011 and 0.008.
+  const auto readings = range_bearing_readings(
+      range_bearing_world("  - {id: 1, position: [1, 0]}\n  - {id: 2, position: [5, 0.5]}\n",
+                          "{rate_hz: 10, miss_probability: 0.2, detection_decay_m: 3, "
+                          "max_range_m: 7}"),
+      200.0);
+  ASSERT_EQ(readings.size(), 2001u);
+  double near = 0.0, far = 0.0;
+  for (const auto& r : readings) {
+    for (const Detection& d : r.data.detections) (d.truth_id == 1 ? near : far) += 1.0;
+  }
+  const double n = static_cast<double>(readings.size());
+  EXPECT_NEAR(near / n, 0.8 * std::exp(-1.0 / 3.0), 0.04);
+  EXPECT_NEAR(far / n, 0.8 * std::exp(-std::hypot(5.0, 0.5) / 3.0), 0.03);
+}
+
 TEST(RangeBearing, SeesOtherRobotsOnlyWhenAskedAndByTheirIndex) {
   const std::string others =
       "  - {name: b, start: {x: 2, y: 0.5}}\n"

@@ -295,6 +295,60 @@ void expect_response(const CommandResponseFit& fit, const char* what) {
   EXPECT_NEAR(*fit.k_right, 0.02, 0.25 * 0.02);
 }
 
+// A camera whose far landmarks are seen less often than its near ones: the twin's camera has the
+// calibrated decay, and matches the log's count with each landmark in view weighed by its chance,
+// so that the twin's detections lie as far away as the log's.
+TEST(Twin, ACameraWhoseDetectionsFallWithRangeIsTwinnedWithTheDecay) {
+  const fs::path dir = testing::temp_dir("twin_detection_decay");
+  std::string world = testing::noisy_world(0.0);
+  replace_once(world, "false_detections: 0.3", "false_detections: 0.05");
+  replace_once(world, "noise_correlation_s: 0.000000",
+               "noise_correlation_s: 0\n        detection_decay_m: 3");
+  std::ofstream(dir / "world.yaml") << world;
+  record(dir / "world.yaml", 5, dir / "run", dir / "recorded.locsimlog");
+  const Calibration original = calibrate({dir / "recorded.locsimlog"}, {});
+  ASSERT_EQ(original.cameras.size(), 1u);
+  ASSERT_TRUE(original.cameras[0].detection_decay) << describe(original);
+  write_file(dir / "calibration.yaml", original.to_yaml());
+  TwinOptions twin_options;
+  twin_options.log = dir / "recorded.locsimlog";
+  twin_options.calibration = dir / "calibration.yaml";
+  const Twin twin = write_twin(twin_options, dir / "twin" / "twin.yaml", false);
+  ASSERT_TRUE(twin.camera);
+  EXPECT_TRUE(twin.camera->note.empty()) << twin.camera->note;
+  // As the calibration file has it (four digits).
+  EXPECT_NEAR(twin.camera->detection_decay_m, original.cameras[0].detection_decay->decay_m,
+              1e-3 * original.cameras[0].detection_decay->decay_m);
+  EXPECT_LT(twin.camera->in_view_weighted_mean, 0.6 * twin.camera->in_view_mean);
+  // The camera read every frame: its rate and its misses at zero range are found again.
+  EXPECT_DOUBLE_EQ(twin.camera->rate_hz, 10.0);
+  EXPECT_NEAR(twin.camera->miss_probability, 0.2, 0.05);
+  const YAML::Node sensor = YAML::LoadFile(
+      (dir / "twin" / "twin.yaml").string())["robots"][0]["sensors"]["range_bearing"];
+  EXPECT_NEAR(sensor["detection_decay_m"].as<double>(), twin.camera->detection_decay_m, 1e-3);
+
+  record(dir / "twin" / "twin.yaml", 9, dir / "twin_run", dir / "twin.locsimlog");
+  const auto detections = [](const fs::path& log) {
+    LogSource source(log);
+    Record record;
+    double count = 0.0, range_sum_m = 0.0;
+    while (source.next(record)) {
+      if (record.type != Record::Type::kReading || record.reading.kind != SensorKind::kRangeBearing)
+        continue;
+      for (const Detection& d : std::get<RangeBearingReading>(record.reading.data).detections) {
+        if (d.target != DetectionTarget::kLandmark || d.truth_id < 0) continue;
+        count += 1.0;
+        range_sum_m += d.range_m;
+      }
+    }
+    return std::pair{count, range_sum_m / count};
+  };
+  const auto [recorded, recorded_range_m] = detections(dir / "recorded.locsimlog");
+  const auto [twinned, twinned_range_m] = detections(dir / "twin.locsimlog");
+  EXPECT_NEAR(twinned, recorded, 0.1 * recorded);
+  EXPECT_NEAR(twinned_range_m, recorded_range_m, 0.05 * recorded_range_m);
+}
+
 TEST(Twin, ABaseThatReportsItsCommandIsCalibratedWithItsLagAndTwinnedWithIt) {
   const fs::path dir = testing::temp_dir("twin_command");
   std::ofstream(dir / "world.yaml") << commanded_world();

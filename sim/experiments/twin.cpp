@@ -281,8 +281,9 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   // The paths, and what a range-bearing camera on them would have in view.
   const PhysicsWorld physics(world);
   const StaticRaycaster walls = StaticRaycaster::from_world(physics);
-  double robot_seconds = 0.0, in_view_sum = 0.0;
+  double robot_seconds = 0.0, in_view_sum = 0.0, in_view_weighted_sum = 0.0;
   std::size_t in_view_samples = 0;
+  double detection_decay_m = 0.0;
   std::optional<RangeBearingDef> camera_def;
   for (std::size_t i = 0; i < world.robots.size(); ++i) {
     if (!chosen[i]) continue;
@@ -303,9 +304,15 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     if (robot.sensors.range_bearing) {
       camera_def = robot.sensors.range_bearing;
       robot_seconds += out.to_s - out.from_s;
+      detection_decay_m = setting(calibrated, "range_bearing", "detection_decay_m",
+                                  robot.sensors.range_bearing->detection_decay_m);
       for (const StampedPose& p : out.path) {
-        in_view_sum += static_cast<double>(
-            landmarks_in_view(world, walls, *robot.sensors.range_bearing, p.pose).size());
+        for (const LandmarkInView& l :
+             landmarks_in_view(world, walls, *robot.sensors.range_bearing, p.pose)) {
+          in_view_sum += 1.0;
+          in_view_weighted_sum +=
+              detection_decay_m > 0.0 ? std::exp(-l.range_m / detection_decay_m) : 1.0;
+        }
         ++in_view_samples;
       }
     }
@@ -324,6 +331,9 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     c.data_readings = data_readings;
     c.data_detections = data_detections;
     c.in_view_mean = in_view_samples ? in_view_sum / static_cast<double>(in_view_samples) : 0.0;
+    c.detection_decay_m = detection_decay_m;
+    c.in_view_weighted_mean =
+        in_view_samples ? in_view_weighted_sum / static_cast<double>(in_view_samples) : 0.0;
     c.calibrated_miss_probability =
         setting(calibrated, "range_bearing", "miss_probability", camera_def->miss_probability);
     c.calibrated_false_per_reading =
@@ -341,16 +351,18 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       const double false_per_s =
           c.calibrated_false_per_reading * static_cast<double>(data_readings) / seeing_s;
       const double true_per_s = static_cast<double>(data_detections) / seeing_s - false_per_s;
-      if (!(c.in_view_mean > 0.0)) {
+      if (!(c.in_view_weighted_mean > 0.0)) {
         c.note = "no landmark is ever in view along the paths: the camera's settings are kept";
       } else if (!(true_per_s > 0.0)) {
         c.note = "the log has no detections of landmarks: the camera's settings are kept";
       } else {
         // The rate that keeps the calibrated miss probability, rounded to one the physics allows
         // (but never one so low that even seeing everything would not give the log's count).
+        // With a decay, a landmark in view counts its share of a near one's chance.
         const double wanted_hz =
-            true_per_s / ((1.0 - std::min(c.calibrated_miss_probability, 0.999)) * c.in_view_mean);
-        const double least_hz = true_per_s / c.in_view_mean;
+            true_per_s /
+            ((1.0 - std::min(c.calibrated_miss_probability, 0.999)) * c.in_view_weighted_mean);
+        const double least_hz = true_per_s / c.in_view_weighted_mean;
         const std::vector<double> rates = sensor_rates(world.physics.step_hz);
         double best = rates.front();
         bool found = false;
@@ -364,7 +376,8 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
           c.note = "the log sees more than a camera at the physics rate could: rate " +
                    seven_digits(best) + " Hz, nothing missed";
         c.rate_hz = best;
-        c.miss_probability = std::clamp(1.0 - true_per_s / (best * c.in_view_mean), 0.0, 1.0);
+        c.miss_probability =
+            std::clamp(1.0 - true_per_s / (best * c.in_view_weighted_mean), 0.0, 1.0);
         c.false_per_reading = false_per_s / best;
       }
     }
@@ -518,6 +531,9 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     const TwinCamera& c = *twin.camera;
     text += "# range_bearing: rate " + seven_digits(c.rate_hz) + " Hz, miss_probability " +
             rounded_number(c.miss_probability, 3) +
+            (c.detection_decay_m > 0.0 ? " at zero range (detection_decay_m " +
+                                             rounded_number(c.detection_decay_m, 3) + ")"
+                                       : std::string()) +
             " (calibrated: " + rounded_number(c.calibrated_miss_probability, 3) +
             "), so that the twin sees the " + rounded_number(c.data_detections_per_s, 3) +
             " landmark detections per second the log has,\n#   with " +

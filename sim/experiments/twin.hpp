@@ -43,7 +43,11 @@ struct TwinCamera {
   std::size_t data_readings = 0;    // readings of the camera in the log
   double data_detections_per_s = 0.0;
   double in_view_mean = 0.0;  // landmarks in range and field of view along the true paths
-  double calibrated_miss_probability = 0.0;
+  // The calibration's detection_decay_m (0: none), and the landmarks in view each counted as
+  // e^(-range / it), the share of a near one's chance it has. [m], [-]
+  double detection_decay_m = 0.0;
+  double in_view_weighted_mean = 0.0;
+  double calibrated_miss_probability = 0.0;  // at zero range with a decay
   double calibrated_false_per_reading = 0.0;
   double outage_fraction = 0.0;  // the calibration's: the share of the time it sees nothing [-]
   double rate_hz = 0.0;          // the twin's

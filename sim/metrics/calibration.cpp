@@ -192,8 +192,10 @@ struct Residual {
 /// A reading of a camera with a field of view: what it should have seen and where its
 /// detections' residuals are.
 struct Visibility {
-  std::size_t first = 0, count = 0;  // into CameraData::residuals
-  std::vector<std::size_t> visible;  // landmark indices
+  std::size_t first = 0, count = 0;     // into CameraData::residuals
+  std::vector<LandmarkInView> visible;  // what it should have seen
+  std::size_t track = 0;
+  bool empty = false;  // the reading reported nothing at all
 };
 
 struct CameraData {
@@ -242,6 +244,19 @@ struct LaserData {
 struct CameraCells {
   double cell_s = 0.0;
   std::vector<std::pair<double, bool>> cells;
+  std::vector<std::vector<double>> in_view_ranges_m;  // each cell's landmarks in view [m]
+
+  /// The same cells with each landmark in view counted as its share e^(-r / decay_m) of a near
+  /// one's chance of being detected.
+  CameraCells weighted(double decay_m) const {
+    CameraCells out = *this;
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      double in_view = 0.0;
+      for (const double r : in_view_ranges_m[k]) in_view += std::exp(-r / decay_m);
+      out.cells[k].first = in_view;
+    }
+    return out;
+  }
 };
 
 struct Pooled {
@@ -412,9 +427,9 @@ void collect_motion(const RobotLog& robot,
 
 }  // namespace
 
-std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
-                                           const RangeBearingDef& sensor, const Pose2& pose) {
-  std::vector<std::size_t> visible;
+std::vector<LandmarkInView> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
+                                              const RangeBearingDef& sensor, const Pose2& pose) {
+  std::vector<LandmarkInView> visible;
   const Vec2 origin = pose.transform(sensor.common.mount.position());
   const double heading = pose.theta + sensor.common.mount.theta;
   for (std::size_t i = 0; i < world.landmarks.size(); ++i) {
@@ -426,7 +441,7 @@ std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRa
     if (std::abs(bearing) > 0.5 * sensor.fov_rad) continue;
     if (walls.cast(origin, offset / range, range - l.radius_m) < range - l.radius_m - 1e-6)
       continue;
-    visible.push_back(i);
+    visible.push_back({i, range});
   }
   return visible;
 }
@@ -458,10 +473,10 @@ void collect_camera_cells(const RobotLog& robot, const WorldDef& world,
   const double cell_s = CameraSilences::kFramesPerCell * median(intervals);
   if (!(cell_s > 0.0)) return;
   const auto [from_s, to_s] = robot.truth.span();
-  CameraCells stretch{cell_s, {}};
+  CameraCells stretch{cell_s, {}, {}};
   const auto close = [&] {
     if (!stretch.cells.empty()) out.push_back(std::move(stretch));
-    stretch = CameraCells{cell_s, {}};
+    stretch = CameraCells{cell_s, {}, {}};
   };
   const auto cells = static_cast<std::size_t>(std::floor((to_s - from_s) / cell_s));
   for (std::size_t k = 0; k < cells; ++k) {
@@ -471,10 +486,14 @@ void collect_camera_cells(const RobotLog& robot, const WorldDef& world,
       close();
       continue;
     }
-    const double in_view = static_cast<double>(
-        landmarks_in_view(world, walls, sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)}).size());
+    std::vector<double> ranges_m;
+    for (const LandmarkInView& l :
+         landmarks_in_view(world, walls, sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)}))
+      ranges_m.push_back(l.range_m);
     const auto first = std::lower_bound(detection_times.begin(), detection_times.end(), t);
-    stretch.cells.emplace_back(in_view, first != detection_times.end() && *first < t + cell_s);
+    stretch.cells.emplace_back(static_cast<double>(ranges_m.size()),
+                               first != detection_times.end() && *first < t + cell_s);
+    stretch.in_view_ranges_m.push_back(std::move(ranges_m));
   }
   close();
 }
@@ -513,6 +532,8 @@ void collect_detections(const RobotLog& robot, const WorldDef& world, const Stat
     visibility.count = camera.residuals.size() - visibility.first;
     if (visibility.count > 0) camera.steps.emplace_back(visibility.first, visibility.count);
     if (seen.kind == SensorKind::kRangeBearing && fov_sensor) {
+      visibility.track = track;
+      visibility.empty = seen.detections.empty();
       visibility.visible =
           landmarks_in_view(world, walls, *fov_sensor, Pose2{(*pose)(0), (*pose)(1), (*pose)(2)});
       camera.visibility.push_back(std::move(visibility));
@@ -1423,6 +1444,81 @@ std::optional<CameraSilences> fit_camera_silences(const std::vector<CameraCells>
   return out;
 }
 
+/// How the chance of detecting a landmark in view falls with its range: p(r) = e^(a - lambda r),
+/// by maximum likelihood over every reading and landmark in view (Nelder-Mead over a and
+/// lambda). A camera's blind spells blind it at every range, so they scale p and leave the decay
+/// alone. A robot whose log holds only readings with a detection (none empty: MRCLAM logs a frame
+/// only when it has one) has its readings with a detected landmark weighed given that at least
+/// one was: counted as if the others were, its chance comes out high where few are in view.
+/// Kept when it beats a constant chance by more than BIC asks for one parameter, and the chance
+/// falls with range.
+std::optional<DetectionCalibration::DetectionDecay> fit_detection_decay(const CameraData& data) {
+  struct Reading {
+    std::size_t first = 0, count = 0;  // into range_m and detected
+    bool conditioned = false;
+  };
+  std::set<std::size_t> reports_empty;  // tracks with a reading that reported nothing
+  for (const Visibility& v : data.visibility)
+    if (v.empty) reports_empty.insert(v.track);
+  std::vector<double> range_m;
+  std::vector<char> detected;
+  std::vector<Reading> readings;
+  bool conditioned = false;
+  for (const Visibility& v : data.visibility) {
+    if (v.visible.empty()) continue;
+    std::set<std::size_t> seen;
+    for (std::size_t i = v.first; i < v.first + v.count; ++i)
+      if (data.residuals[i].inlier) seen.insert(data.residuals[i].landmark);
+    Reading reading{range_m.size(), v.visible.size(), false};
+    bool any = false;
+    for (const LandmarkInView& l : v.visible) {
+      range_m.push_back(l.range_m);
+      detected.push_back(seen.count(l.index) > 0 ? 1 : 0);
+      any = any || detected.back() != 0;
+    }
+    // Logged for a detection of something else (a false one): no condition on what is in view.
+    reading.conditioned = any && reports_empty.count(v.track) == 0;
+    conditioned = conditioned || reading.conditioned;
+    readings.push_back(reading);
+  }
+  if (range_m.size() < 100) return std::nullopt;
+  constexpr double kLarge = 1e300;
+  const auto nll = [&](double a, double lambda) {
+    double total = 0.0;
+    for (const Reading& g : readings) {
+      double log_none = 0.0;  // log P(none of them detected)
+      for (std::size_t k = g.first; k < g.first + g.count; ++k) {
+        const double log_p = a - lambda * range_m[k];
+        if (!(log_p < 0.0)) return kLarge;  // a chance stays below 1
+        const double log_q = std::log1p(-std::exp(log_p));
+        total -= detected[k] != 0 ? log_p : log_q;
+        log_none += log_q;
+      }
+      if (g.conditioned) {
+        const double any = -std::expm1(log_none);
+        if (!(any > 0.0)) return kLarge;
+        total += std::log(any);
+      }
+    }
+    return total;
+  };
+  std::size_t hits = 0;
+  for (const char d : detected) hits += d != 0 ? 1 : 0;
+  if (hits == 0 || hits == detected.size()) return std::nullopt;
+  const double a0 = std::log(static_cast<double>(hits) / static_cast<double>(detected.size()));
+  const MinimizeResult constant = minimize_restarted(
+      [&](const std::vector<double>& x) { return nll(x[0], 0.0); }, {a0}, 0.2, 500);
+  const MinimizeResult decay =
+      minimize_restarted([&](const std::vector<double>& x) { return nll(x[0], x[1]); },
+                         {constant.x[0], 0.0}, 0.2, 2000);
+  const double gain_nats = constant.value - decay.value;
+  const double lambda = decay.x[1];
+  if (!(lambda > 0.0) || !(gain_nats > 0.5 * std::log(static_cast<double>(range_m.size()))))
+    return std::nullopt;
+  return DetectionCalibration::DetectionDecay{1.0 - std::exp(decay.x[0]), 1.0 / lambda, gain_nats,
+                                              conditioned};
+}
+
 DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
                                 const CalibrationOptions& options,
                                 const std::vector<std::string>& track_names,
@@ -1528,7 +1624,17 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
   if (kind == SensorKind::kRangeBearing) {
     c.camera_offsets = fit_camera_offsets(r, track_names);
     c.from_camera_places = bearings_from_camera_places(c.camera_offsets, track_names, r, kept);
-    c.silences = fit_camera_silences(camera_cells);
+    // The seeing camera's detections fall with range as the decay says, where it has one: a
+    // cell with only far landmarks in view and nothing detected is then less of a blind cell.
+    c.detection_decay = fit_detection_decay(data);
+    if (c.detection_decay) {
+      std::vector<CameraCells> weighted;
+      for (const CameraCells& stretch : camera_cells)
+        weighted.push_back(stretch.weighted(c.detection_decay->decay_m));
+      c.silences = fit_camera_silences(weighted);
+    } else {
+      c.silences = fit_camera_silences(camera_cells);
+    }
   }
   outlier_likelihood(data, c);
   noise_correlation(data, c);
@@ -1540,7 +1646,7 @@ DetectionCalibration fit_camera(SensorKind kind, CameraData& data,
       for (std::size_t i = v.first; i < v.first + v.count; ++i)
         if (r[i].inlier) seen.insert(r[i].landmark);
       visible += v.visible.size();
-      for (const std::size_t l : v.visible) missed += seen.count(l) == 0 ? 1 : 0;
+      for (const LandmarkInView& l : v.visible) missed += seen.count(l.index) == 0 ? 1 : 0;
     }
     c.visible = visible;
     c.missed = missed;
@@ -2909,6 +3015,12 @@ json Calibration::to_json() const {
       cj["missed"] = *c.missed;
       cj["miss_probability"] = *c.miss_probability;
     }
+    if (const auto& decay = c.detection_decay) {
+      cj["detection_decay"] = {{"miss_probability_at_zero", decay->miss_probability_at_zero},
+                               {"decay_m", decay->decay_m},
+                               {"gain_nats", decay->gain_nats},
+                               {"conditioned_on_a_detection", decay->conditioned}};
+    }
     if (c.srl_threshold) {
       cj["tracking_step_likelihood"] = {
           {"median", *c.step_likelihood_median},
@@ -3320,7 +3432,14 @@ std::string Calibration::to_yaml() const {
          "\n    range_bias_per_m: " + four_digits(bias.per_unit) +
          "\n    sigma_bearing_deg: " + four_digits(rad_to_deg(bearing.bearing_spread_rad)) +
          "\n    bearing_bias_deg: " + four_digits(rad_to_deg(bearing.bearing_bias_rad)) + "\n";
-    if (c.miss_probability) y += "    miss_probability: " + four_digits(*c.miss_probability) + "\n";
+    if (const auto& decay = c.detection_decay) {
+      y += "    miss_probability: " + four_digits(decay->miss_probability_at_zero) +
+           "  # at zero range: the chance of a detection falls with range\n"
+           "    detection_decay_m: " +
+           four_digits(decay->decay_m) + "\n";
+    } else if (c.miss_probability) {
+      y += "    miss_probability: " + four_digits(*c.miss_probability) + "\n";
+    }
     if (const auto& silent = c.silences; silent && silent->significant) {
       y += "    outage_fraction: " + four_digits(silent->fraction) +
            "\n    outage_mean_s: " + four_digits(silent->mean_s) + "\n";
@@ -3542,6 +3661,14 @@ std::string describe(const Calibration& c) {
                         four_digits(silent->mean_s) + " s"
                   : four_digits(silent->mean_s) + " s on average";
       text += " (the twin's outage_*)\n";
+    }
+    if (const auto& decay = d.detection_decay) {
+      text += "    detections fall with range (" + four_digits(decay->gain_nats) +
+              " nats better than a constant chance" +
+              (decay->conditioned ? ", given a detection in each logged reading" : "") +
+              "): missed " + four_digits(decay->miss_probability_at_zero) +
+              " at zero range, the chance of a detection falling by e every " +
+              four_digits(decay->decay_m) + " m\n";
     }
     if (const auto& placed = d.from_camera_places) {
       text += "    from the cameras' places: bearing bias " +

@@ -43,11 +43,17 @@ struct RangeBearingDef;
 struct Pose2;
 class StaticRaycaster;
 
-/// The landmarks (indices into world.landmarks) a range-bearing sensor on a robot at `pose` would
-/// report if it missed none: in its range and field of view, not behind a wall. Other robots and
-/// moving obstacles, which also hide landmarks, are not in a log's world and are ignored.
-std::vector<std::size_t> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
-                                           const RangeBearingDef& sensor, const Pose2& pose);
+/// A landmark a range-bearing sensor has in view.
+struct LandmarkInView {
+  std::size_t index = 0;  // into world.landmarks
+  double range_m = 0.0;   // from the sensor
+};
+
+/// The landmarks a range-bearing sensor on a robot at `pose` would report if it missed none: in
+/// its range and field of view, not behind a wall. Other robots and moving obstacles, which also
+/// hide landmarks, are not in a log's world and are ignored.
+std::vector<LandmarkInView> landmarks_in_view(const WorldDef& world, const StaticRaycaster& walls,
+                                              const RangeBearingDef& sensor, const Pose2& pose);
 
 struct CalibrationOptions {
   std::vector<std::string> robots;  // names of the robots to use; empty: all
@@ -156,6 +162,18 @@ struct DetectionCalibration {
   // A range_bearing sensor's field of view decides what it should have seen.
   std::optional<std::size_t> visible, missed;
   std::optional<double> miss_probability;
+  // How the chance of detecting a landmark in view falls with its range r, p(r) = (1 -
+  // miss_probability_at_zero) e^(-r / decay_m), when that explains the detections better than a
+  // constant chance by more than the Bayesian information criterion asks for (the sensor's
+  // detection_decay_m). Fitted over every reading and landmark in view; for a log whose camera
+  // reports only readings with a detection (MRCLAM's), conditioned on at least one.
+  struct DetectionDecay {
+    double miss_probability_at_zero = 0.0;
+    double decay_m = 0.0;
+    double gain_nats = 0.0;  // over a constant chance
+    bool conditioned = false;
+  };
+  std::optional<DetectionDecay> detection_decay;
   // The likelihood a landmark particle filter (with the noise written for it) that tracks the
   // robot gives each step, its belief spread about the true pose as the localizers' motion noise
   // and the detections make it: its median, and the resetting levels at its `reset_quantile`

@@ -528,7 +528,8 @@ std::optional<Detection> RangeBearingSensor::observe(const SensorContext& contex
     return std::nullopt;
   }
   // Drawn only when misses are asked for: the other draws of a world without them stay put.
-  if (def_.miss_probability > 0.0 && rng().uniform() < def_.miss_probability) return std::nullopt;
+  if (const double miss = def_.miss_probability_at(range); miss > 0.0 && rng().uniform() < miss)
+    return std::nullopt;
   // One draw per statement (see OmniCameraSensor::measure): range first, then bearing.
   // With noise_correlation_s, the same draws become the innovations of each target's process.
   const double range_draw = rng().normal(0.0, 1.0);

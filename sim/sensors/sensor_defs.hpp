@@ -4,6 +4,7 @@
 // Angles in the robot frame are counter-clockwise positive (x forward, y left).
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -215,6 +216,17 @@ struct RangeBearingDef {
   static constexpr Range kSigmaBearingRange{0.0, 3.2, "rad"};
   static constexpr Range kBearingBiasRange{-3.2, 3.2, "rad"};
   double miss_probability = 0.0;  // a visible target is not reported [-]
+  // The chance of reporting a visible target falls with its distance r as (1 - miss_probability)
+  // e^(-r / detection_decay_m): a marker's image shrinks with range (MRCLAM's cameras: about 4 m,
+  // docs/reports/sim_to_real/README.md); 0: misses independent of range. [m]
+  double detection_decay_m = 0.0;
+  static constexpr Range kDetectionDecayRange{0.0, 1e6, "m"};
+  /// The chance that a visible target `range_m` away is not reported.
+  double miss_probability_at(double range_m) const {
+    return detection_decay_m > 0.0
+               ? 1.0 - (1.0 - miss_probability) * std::exp(-range_m / detection_decay_m)
+               : miss_probability;
+  }
   // False detections per reading (Poisson mean), uniform over the field of view and range, with
   // an id drawn from the map's (or -1 without ids). [-]
   double false_detections = 0.0;

@@ -314,6 +314,7 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
          "bearing_bias",
          "bearing_bias_deg",
          "miss_probability",
+         "detection_decay_m",
          "false_detections",
          "noise_correlation_s",
          "noise_correlation_slow_s",
@@ -350,6 +351,8 @@ SensorsDef parse_sensors(const YamlNode& node, double step_hz) {
               n->get_angle("bearing_bias", d.bearing_bias_rad, D::kBearingBiasRange);
           d.miss_probability =
               n->get_double("miss_probability", d.miss_probability, kProbabilityRange);
+          d.detection_decay_m =
+              n->get_double("detection_decay_m", d.detection_decay_m, D::kDetectionDecayRange);
           d.false_detections =
               n->get_double("false_detections", d.false_detections, D::kFalseDetectionsRange);
           d.noise_correlation_s =

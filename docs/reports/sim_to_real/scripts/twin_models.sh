@@ -22,8 +22,8 @@ source "$HERE/mrclam_logs.sh" /tmp/s2r
 # response the encoders get the raw odometry's k; without the depth model the camera gets the
 # distance model's lines (both from calibration.json); without "all" the robot's gains do not
 # wander, the camera's errors have one time constant for range and bearing (the single one
-# calibration.json fits), the wheels' errors are independent, and the cameras are never blind
-# and are where their detections are given from.
+# calibration.json fits), the wheels' errors are independent, the cameras are never blind, miss
+# as often at every range and are where their detections are given from.
 "${PYTHON:-python3}" - <<'PY'
 import json, math, re
 text = open("cal6/calibration.yaml").read()
@@ -49,6 +49,9 @@ def variant(response, depth, rest):
         # The cameras never blind, at their believed places, with the bearings' noise measured
         # from there.
         t = re.sub(r"    outage_fraction: .*\n    outage_mean_s: .*\n", "", t)
+        # Misses independent of range, at the rate over all the readings.
+        t = re.sub(r"    miss_probability: .*\n    detection_decay_m: .*\n",
+                   f"    miss_probability: {fits['cameras'][0]['miss_probability']:.4g}\n", t)
         t = re.sub(r"camera_offsets:.*\n(  .*\n)*", "", t)
         camera = fits["cameras"][0]
         t = re.sub(r"    sigma_bearing_deg: .*\n",
