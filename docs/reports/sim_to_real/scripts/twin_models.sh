@@ -109,13 +109,27 @@ for v in none depth response both all own; do
     "$v" "$logs" "$localizers" > twin_$v.yaml
   "$LOCSIM" sweep twin_$v.yaml --jobs 2 --out runs/twin_$v > /dev/null
 done
+# "together": the five robots twinned in one world from the whole log (all models), where each
+# robot's body hides landmarks from the others' cameras as the real robots' do.
+mkdir -p twin_together
+"$LOCSIM" twin ds6.locsimlog --calibration cal_all.yaml --out twin_together/ds6.yaml --overwrite > /dev/null
+logs=""
+for s in 1 2 3; do
+  "$LOCSIM" run twin_together/ds6.yaml --seed $s --log twin_together/ds6_s$s.locsimlog \
+    --out twin_together/run_s$s --no-readings -q --overwrite
+  logs="$logs${logs:+, }{file: twin_together/ds6_s$s.locsimlog, robots: [robot1, robot2, robot3, robot4, robot5]}"
+done
+printf 'name: mrclam_ds6_twin_together\nlogs: [%s]\nparams_file: cal6/calibration.yaml\n%s\n' \
+  "$logs" "$localizers" > twin_together.yaml
+"$LOCSIM" sweep twin_together.yaml --jobs 2 --out runs/twin_together > /dev/null
 "$LOCSIM" compare runs/real runs/twin_all --out runs/real_vs_twin --labels real,twin > /dev/null
 
 "${PYTHON:-python3}" - <<'PY'
 import pandas as pd
 sets = [("real", "runs/real"), ("twin, none", "runs/twin_none"), ("twin, depth", "runs/twin_depth"),
         ("twin, response", "runs/twin_response"), ("twin, both", "runs/twin_both"),
-        ("twin, all", "runs/twin_all"), ("twin, own robot", "runs/twin_own")]
+        ("twin, all", "runs/twin_all"), ("twin, own robot", "runs/twin_own"),
+        ("twin, all, together", "runs/twin_together")]
 filters = ["ekf_landmarks", "mcl", "srl", "asrl", "augmented_mcl"]
 real = pd.read_csv("runs/real/summary.csv").set_index("config")
 print("| set | config | position RMS [m] | x real | heading RMS [deg] | truth in 95 % ellipse | median NEES |")
