@@ -310,6 +310,12 @@ TEST(Twin, ACameraWhoseDetectionsFallWithRangeIsTwinnedWithTheDecay) {
   ASSERT_EQ(original.cameras.size(), 1u);
   ASSERT_TRUE(original.cameras[0].detection_decay) << describe(original);
   write_file(dir / "calibration.yaml", original.to_yaml());
+  fs::create_directories(dir / "cal");
+  write_file(dir / "cal" / "calibration.json", original.to_json().dump());
+  const auto report = testing::locsim("report " + (dir / "cal").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  testing::expect_contains(testing::read_file(dir / "cal" / "report.md"),
+                           "The chance of a detection falls with range: missed");
   TwinOptions twin_options;
   twin_options.log = dir / "recorded.locsimlog";
   twin_options.calibration = dir / "calibration.yaml";

@@ -677,6 +677,13 @@ def calibration_lines(cal, out_dir):
                   "", f"Range bias {rb['m']:.4g} m + {rb['per_m']:.4g} r, spread {rs['m']:.4g} m + {rs['per_m']:.4g} r "
                   f"(about zero: {rr['m']:.4g} m + {rr['per_m']:.4g} r); bearing bias "
                   f"{math.degrees(camera['bearing_bias_rad']):.3f} deg, spread {math.degrees(camera['bearing_spread_rad']):.3f} deg."]
+        if "detection_decay" in camera:
+            decay = camera["detection_decay"]
+            lines += ["", f"The chance of a detection falls with range: missed {decay['miss_probability_at_zero']:.3f} "
+                      f"at zero range, the chance falling by e every {decay['decay_m']:.3g} m "
+                      f"({decay['gain_nats']:.0f} nats better than a constant chance"
+                      + ("; each logged frame weighed given a detection in it" if decay["conditioned_on_a_detection"] else "")
+                      + ")."]
         if "range_models" in camera:
             models = camera["range_models"]
             depth = models["depth"]
