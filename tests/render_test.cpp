@@ -566,9 +566,8 @@ TEST(Render, TheMainJobsVideoShowsThePtzCamerasViewBesideThreeFilters) {
   const auto with = testing::locsim(common + " --out " + (dir / "a").string() + " --frames " +
                                     (dir / "with").string());
   ASSERT_EQ(with.exit_code, 0) << with.output;
-  const auto without = testing::locsim(common + " --no-camera-view --out " +
-                                       (dir / "b").string() + " --frames " +
-                                       (dir / "without").string());
+  const auto without = testing::locsim(common + " --no-camera-view --out " + (dir / "b").string() +
+                                       " --frames " + (dir / "without").string());
   ASSERT_EQ(without.exit_code, 0) << without.output;
   const auto last_png = [](const fs::path& folder) {
     std::vector<fs::path> files;

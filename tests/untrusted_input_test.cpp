@@ -374,7 +374,10 @@ TEST(ReplayReadsOnlyItsLog, RecordsOutOfAWorldFilesRangesOrOutOfOrderAreRefused)
   const auto event = [](std::string kind, std::string details) {
     Record r;
     r.type = Record::Type::kEvent;
-    r.event = {.step = 1, .t_s = 0.5, .kind = std::move(kind), .robot = "r",
+    r.event = {.step = 1,
+               .t_s = 0.5,
+               .kind = std::move(kind),
+               .robot = "r",
                .details = std::move(details)};
     return r;
   };

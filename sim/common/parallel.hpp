@@ -67,7 +67,8 @@ class ParallelLoop {
 /// refill). A probe costs most when the other way is much slower (a shared loop waiting
 /// milliseconds for a core): a probe loop slower than kAbortRatio times the other way ends the
 /// probe at once and puts the next a quarter of kProbeEveryMax blocks away; each probe that
-/// confirms the choice doubles the blocks until the next, from kProbeEvery up to kProbeEveryMax. The results never depend on it, only the speed.
+/// confirms the choice doubles the blocks until the next, from kProbeEvery up to kProbeEveryMax.
+/// The results never depend on it, only the speed.
 class LoopWayChooser {
  public:
   static constexpr int kBlock = 20;

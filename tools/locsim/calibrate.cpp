@@ -23,8 +23,8 @@ struct State {
   std::vector<std::string> logs;
   std::string out, robots = "all";
   CalibrationOptions options;
-  std::string check = "auto";  // --check: localizers that replay; "none"; "auto"
-  std::uint64_t check_seeds = 0;        // --check-seeds: 0, each log's own seed
+  std::string check = "auto";     // --check: localizers that replay; "none"; "auto"
+  std::uint64_t check_seeds = 0;  // --check-seeds: 0, each log's own seed
   int jobs = 1;
   double flag_above = 0.25;
   bool overwrite = false, quiet = false;

@@ -26,7 +26,8 @@
 
 namespace locsim::sdk {
 
-/// Parameters of the lattice search; the defaults are the scorer's (docs/experiments.md, "recoverable").
+/// Parameters of the lattice search; the defaults are the scorer's (docs/experiments.md,
+/// "recoverable").
 struct PlaceSearchDef {
   double step_m = 0.25;                 // lattice spacing of candidate positions [m]
   int headings = 48;                    // candidate headings per position (7.5 deg apart) [-]
