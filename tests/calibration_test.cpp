@@ -1094,5 +1094,94 @@ TEST(Calibrate, MeasuresTheRangesSpellsOfSilenceAndTheTwinHasThem) {
   }
 }
 
+// A base whose body slides off its heading (docs/worlds.md, side_slip) drives S-shaped loops on
+// a plaza for an hour: calibrate finds the crab, the cornering compliance and the wander from the
+// truth alone, within 15 %; a base that does not slide gets none worth the name; the twin gives its
+// robot the slide, and the twin's log calibrates back to it.
+TEST(Calibrate, FindsHowTheBodySlidesOffItsHeadingAndTheTwinSlidesSo) {
+  const fs::path dir = testing::temp_dir("calibrate_side_slip");
+  std::string commands;
+  for (int i = 0; i < 450; ++i) {
+    commands += (i > 0 ? ", " : "") + std::string("{t_s: ") + std::to_string(8 * i) +
+                ", v_mps: 0.8, w_radps: 0.5}, {t_s: " + std::to_string(8 * i + 4) +
+                ", v_mps: 0.8, w_radps: -0.25}";
+  }
+  const auto world = [&](const std::string& slip) {
+    std::string w = testing::range_only_world("{rate_hz: 10, k_left: 0.01, k_right: 0.01}", 3600.0);
+    w = replaced(w, "start: {x: 5, y: 4, theta_deg: 0}",
+                 slip + "start: {x: 10, y: 3, theta_deg: 0}");
+    return replaced(w,
+                    "drive: {mode: waypoints, path: [[15, 4], [15, 11], [5, 11], [5, 4]], loop: "
+                    "true, speed_mps: 0.8}",
+                    "drive: {mode: velocity, commands: [" + commands + "]}");
+  };
+  fs::create_directories(dir / "slides");
+  fs::create_directories(dir / "holds");
+  const fs::path slides =
+      record(dir / "slides",
+             world("side_slip: {crab_angle_deg: 2, cornering_compliance_s: 0.15, wander_k: 0.05, "
+                   "wander_correlation_s: 0.8}\n    "),
+             3);
+  const Calibration c = calibrate({slides}, {});
+  ASSERT_TRUE(c.motion && c.motion->side_slip) << describe(c);
+  const SideSlipFit& fit = *c.motion->side_slip;
+  expect_within(rad_to_deg(fit.crab_angle_rad), 2.0, "crab angle");
+  expect_within(fit.cornering_compliance_s, 0.15, "cornering compliance");
+  expect_within(fit.wander_k, 0.05, "wander k");
+  expect_within(fit.wander_correlation_s, 0.8, "wander time constant");
+  testing::expect_contains(describe(c), "the body off its heading");
+  const YAML::Node slip = YAML::Load(c.to_yaml())["robot"]["side_slip"];
+  EXPECT_NEAR(slip["crab_angle_deg"].as<double>(), rad_to_deg(fit.crab_angle_rad), 1e-3);
+  EXPECT_NEAR(slip["cornering_compliance_s"].as<double>(), fit.cornering_compliance_s, 1e-3);
+  EXPECT_NEAR(slip["wander_k"].as<double>(), fit.wander_k, 1e-4);
+  EXPECT_NEAR(slip["wander_correlation_s"].as<double>(), fit.wander_correlation_s, 1e-3);
+  // The beacon filters are told the drift, which their wheels cannot see.
+  for (const std::string_view plugin : kBeaconFilters) {
+    EXPECT_NEAR(YAML::Load(c.to_yaml())["localizer_params"][std::string(plugin)]["side_slip_k"]
+                    .as<double>(),
+                fit.wander_k, 1e-4)
+        << plugin;
+  }
+  EXPECT_EQ(parameter_group("side_slip_k", "beacon_mcl"), "side slip");
+
+  // The command line writes it, and `locsim report` of the calibration says it.
+  const auto cli =
+      testing::locsim("calibrate " + slides.string() + " --out " + (dir / "cal").string());
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  testing::expect_contains(cli.output, "the body off its heading");
+  const auto report = testing::locsim("report " + (dir / "cal").string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  testing::expect_contains(testing::read_file(dir / "cal" / "report.md"),
+                           "the twin's robots get this side slip");
+
+  const Calibration holds = calibrate({record(dir / "holds", world(""), 3, 600.0)}, {});
+  ASSERT_TRUE(holds.motion && holds.motion->side_slip) << describe(holds);
+  EXPECT_LT(std::abs(rad_to_deg(holds.motion->side_slip->crab_angle_rad)), 0.05) << describe(holds);
+  EXPECT_LT(std::abs(holds.motion->side_slip->cornering_compliance_s), 0.01) << describe(holds);
+  EXPECT_LT(holds.motion->side_slip->wander_k, 0.005) << describe(holds);
+
+  // The twin: the calibration's slide on its robot, kept on the recorded path by its drive; its
+  // own log calibrates back to the slide (a twin that cannot slide would show none: its heading
+  // would follow the path).
+  write_file(dir / "calibration.yaml", c.to_yaml());
+  const auto twin = testing::locsim("twin " + slides.string() + " --out " +
+                                    (dir / "twin" / "twin.yaml").string() + " --calibration " +
+                                    (dir / "calibration.yaml").string());
+  ASSERT_EQ(twin.exit_code, 0) << twin.output;
+  const YAML::Node robot = YAML::LoadFile((dir / "twin" / "twin.yaml").string())["robots"][0];
+  EXPECT_NEAR(robot["side_slip"]["wander_k"].as<double>(), fit.wander_k, 1e-4);
+  const auto run = testing::locsim("run " + (dir / "twin" / "twin.yaml").string() +
+                                   " -q --no-variation --seed 5 --no-readings --out " +
+                                   (dir / "twin" / "run").string() + " --log " +
+                                   (dir / "twin" / "twin.locsimlog").string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const Calibration again = calibrate({dir / "twin" / "twin.locsimlog"}, {});
+  ASSERT_TRUE(again.motion && again.motion->side_slip) << describe(again);
+  const SideSlipFit& twinned = *again.motion->side_slip;
+  expect_within(rad_to_deg(twinned.crab_angle_rad), 2.0, "the twin's crab angle");
+  expect_within(twinned.cornering_compliance_s, 0.15, "the twin's cornering compliance");
+  expect_within(twinned.wander_k, 0.05, "the twin's wander k");
+}
+
 }  // namespace
 }  // namespace locsim

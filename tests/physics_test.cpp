@@ -147,6 +147,77 @@ robots:
   EXPECT_DOUBLE_EQ(sim.robot(0).given_omega_radps(), 0.5);
 }
 
+// side_slip (docs/worlds.md): the body travels at the crab angle to its heading, slides outward
+// by c v omega in a turn, and wanders sideways by k^2 per metre; the wheels count none of it.
+TEST(DiffDrive, ASideSlipSlidesTheBodyOffItsHeadingAsAsked) {
+  const auto world = [](const std::string& slip) {
+    return "floor: {friction: 1.0}\nrobots:\n  - name: r\n    max_wheel_accel_radps2: 1000\n"
+           "    side_slip: " +
+           slip + "\n    start: {x: 0, y: 0, theta: 0}\n";
+  };
+  const auto lateral_mps = [](const DiffDriveRobot& robot) {
+    const double heading = robot.pose().theta;
+    return -std::sin(heading) * robot.velocity_mps().x() +
+           std::cos(heading) * robot.velocity_mps().y();
+  };
+  {
+    Simulation sim = make_sim(world("{crab_angle_deg: 5}"));
+    drive_for(sim, 1.0, 0.8, 0.0);
+    const Pose2 from = sim.robot(0).pose();
+    const double rolled_from = rim_travel(sim.robot(0));
+    drive_for(sim, 10.0, 0.8, 0.0);
+    const Pose2 to = sim.robot(0).pose();
+    EXPECT_NEAR(to.theta, 0.0, 1e-4);  // no torque: the heading holds
+    EXPECT_NEAR(std::atan2(to.y - from.y, to.x - from.x), deg_to_rad(5.0), deg_to_rad(0.05));
+    // The wheels roll what the heading's share of the travel is.
+    EXPECT_NEAR(rim_travel(sim.robot(0)) - rolled_from, to.x - from.x, 1e-3 * (to.x - from.x));
+  }
+  {
+    // Outward, at the body's own forward speed and turn rate. Read after the step, the body has
+    // turned by omega dt since its contacts set its velocity: another dt of compliance, as any
+    // turning robot shows.
+    Simulation sim = make_sim(world("{cornering_compliance_s: 0.2}"));
+    const auto forward_mps = [](const DiffDriveRobot& robot) {
+      const double heading = robot.pose().theta;
+      return std::cos(heading) * robot.velocity_mps().x() +
+             std::sin(heading) * robot.velocity_mps().y();
+    };
+    drive_for(sim, 5.0, 0.6, 0.5);
+    EXPECT_NEAR(forward_mps(sim.robot(0)), 0.6, 1e-3);
+    EXPECT_NEAR(lateral_mps(sim.robot(0)),
+                -(0.2 + sim.dt_s()) * forward_mps(sim.robot(0)) * sim.robot(0).yaw_rate_radps(),
+                2e-4);
+    EXPECT_LT(lateral_mps(sim.robot(0)), -0.055);
+    drive_for(sim, 2.0, 0.6, -0.5);
+    EXPECT_NEAR(lateral_mps(sim.robot(0)),
+                -(0.2 + sim.dt_s()) * forward_mps(sim.robot(0)) * sim.robot(0).yaw_rate_radps(),
+                2e-4);
+    EXPECT_GT(lateral_mps(sim.robot(0)), 0.055);
+    drive_for(sim, 2.0, 0.0, 0.0);
+    EXPECT_LT(sim.robot(0).velocity_mps().norm(), 1e-3);  // nothing at rest
+  }
+  {
+    // The wander: the sideways drift over 1 s windows (ten time constants) has variance
+    // k^2 M g(10), g(x) = (x - 1 + e^-x) / x, M = 1 m; 1000 windows.
+    const double k = 0.05, tau_s = 0.1;
+    Simulation sim = make_sim(world("{wander_k: 0.05, wander_correlation_s: 0.1}"), 7);
+    drive_for(sim, 2.0, 1.0, 0.0);
+    double sum_sq = 0.0, travelled = 0.0;
+    for (int window = 0; window < 1000; ++window) {
+      const Pose2 a = sim.robot(0).pose();
+      drive_for(sim, 1.0, 1.0, 0.0);
+      const Pose2 b = sim.robot(0).pose();
+      const double mid = a.theta + 0.5 * wrap_angle(b.theta - a.theta);
+      const double across = -std::sin(mid) * (b.x - a.x) + std::cos(mid) * (b.y - a.y);
+      sum_sq += across * across;
+      travelled += std::hypot(b.x - a.x, b.y - a.y);
+    }
+    const double x = 1.0 / tau_s, g = (x - 1.0 + std::exp(-x)) / x;
+    EXPECT_NEAR(travelled / 1000.0, 1.0, 0.01);
+    EXPECT_NEAR(sum_sq / travelled, k * k * g, 0.15 * k * k * g);
+  }
+}
+
 TEST(DiffDrive, UnequalWheelRadiiCurveAStraightCommand) {
   Simulation sim = make_sim(R"(
 floor: {friction: 1.0}

@@ -666,6 +666,17 @@ def calibration_lines(cal, out_dir):
                       f"It leaves {share['v']:.3g} (v) and {share['omega']:.3g} (ω) of the error variance about the "
                       f"reported velocity, a gain alone {gain_only['v']:.3g} and {gain_only['omega']:.3g}; {verdict}"
                       + (f"; beyond it the motion adds k {c['k_left']:.4g}, {c['k_right']:.4g} m^1/2." if "k_left" in c else ".")]
+        if "side_slip" in motion:
+            d = motion["side_slip"]
+            kept = d["crab_angle_deg"] != 0 or d["cornering_compliance_s"] != 0 or d["wander_k"] > 0
+            lines += ["", f"The body off its heading ({d['windows']} windows of 1-8 s, {d['distance_m']:.0f} m, from the "
+                      f"truth alone): crab {d['crab_angle_deg']:.3g} deg ({d['crab_log_likelihood_gain']:.0f} nats), "
+                      f"cornering compliance {d['cornering_compliance_s']:.3g} s "
+                      f"({d['cornering_log_likelihood_gain']:.0f} nats), wander k {d['wander_k']:.3g} m^1/2 over "
+                      f"{d['wander_correlation_s']:.3g} s ({d['wander_log_likelihood_gain']:.0f} nats); the truth's own "
+                      f"noise {d['truth_noise_m']:.2g} m"
+                      + (f", {d['dropped_windows']} windows dropped as its jumps" if d["dropped_windows"] else "")
+                      + ("; the twin's robots get this side slip." if kept else "; no part kept: nothing written.")]
     for camera in cal.get("cameras", []):
         name = escaped(camera["camera"])
         rb, rs, rr = camera["range_bias"], camera["range_spread"], camera["range_rms"]

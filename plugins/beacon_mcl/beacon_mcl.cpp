@@ -5,7 +5,8 @@
 //   move    every odometry reading, each particle by its own draw of the wheels' travel (paper
 //           002's wheel model, k_left, k_right; turned by the gyro where the robot has one; or,
 //           for an odometry that turns by a gyro (odometry_heading gyro), the distance by the
-//           wheels and the turn less each particle's own hypothesis of the gyro's bias), and
+//           wheels and the turn less each particle's own hypothesis of the gyro's bias), across
+//           its heading by a draw of the body's side slip (side_slip_k, sdk::add_side_slip), and
 //           at every round of ranges by the noise a step has whatever its motion (motion_floor_*)
 //           and a roughening that keeps a finite set from collapsing;
 //   weigh   each range, its systematic error taken out (range_bias_*), against the slant range
@@ -35,6 +36,7 @@ namespace sdk = locsim::sdk;
 constexpr locsim_param_decl kParams[] = {
     {"particles", LOCSIM_PARAM_INT, 1000, 1, 1000000, nullptr, "number of particles [-]"},
     LOCSIM_WHEEL_NOISE_PARAMS,
+    LOCSIM_SIDE_SLIP_PARAM,
     LOCSIM_GYRO_PARAMS,
     {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,
      "position noise of every round of ranges whatever the motion, per axis (locsim calibrate) "
@@ -135,6 +137,8 @@ class BeaconMcl final : public sdk::Localizer {
                                k_left_, k_right_, pf_.random(),
                                0.5 * wheel_base_m_ * std::abs(step.slip_rad));
     }
+    sdk::add_side_slip(pf_.particles(), 0.5 * (step.d_left_m + step.d_right_m), side_slip_k_,
+                       pf_.random());
   }
 
   /// An odometry that turns by a gyro: each particle moves by the wheels' distance with its own
@@ -180,6 +184,7 @@ class BeaconMcl final : public sdk::Localizer {
         wheels_(wheel_base_m_),
         k_left_(params.number("k_left")),
         k_right_(params.number("k_right")),
+        side_slip_k_(params.number("side_slip_k")),
         sigma_range_m_(params.number("sigma_range_m")),
         range_bias_m_(params.number("range_bias_m")),
         range_bias_per_m_(params.number("range_bias_per_m")),
@@ -206,7 +211,8 @@ class BeaconMcl final : public sdk::Localizer {
   sdk::ParticleFilter pf_;
   double wheel_base_m_;
   sdk::OdometryTracker wheels_;
-  double k_left_, k_right_, sigma_range_m_, range_bias_m_, range_bias_per_m_, outlier_likelihood_;
+  double k_left_, k_right_, side_slip_k_, sigma_range_m_, range_bias_m_, range_bias_per_m_,
+      outlier_likelihood_;
   sdk::GyroHeading gyro_;
   std::vector<double> bias_radps_;  // each particle's gyro bias (odometry_heading gyro)
   sdk::OdometryNoise floor_;        // only its floor_* are used

@@ -43,6 +43,7 @@ UltrasonicEkfDef ultrasonic_def(const sdk::Params& params) {
     throw std::invalid_argument("motion must be auto, imu or wheels, not '" + motion + "'");
   def.k_left = params.number("k_left");
   def.k_right = params.number("k_right");
+  def.side_slip_k = params.number("side_slip_k");
   def.motion_floor_m = params.number("motion_floor_m");
   def.motion_floor_rad = params.number("motion_floor_deg") * std::numbers::pi / 180.0;
   def.gyro = sdk::GyroHeading::from(params);
@@ -128,6 +129,10 @@ void UltrasonicEkf::predict_by_wheels(const sdk::OdometryStep& step) {
     covariance_ = f * covariance_ * f.transpose() + l * noise.asDiagonal() * l.transpose();
   }
   covariance_(4, 4) += sq(def_.gyro.noise_density) * std::max(step.dt_s, 0.0);
+  if (def_.side_slip_k > 0.0) {
+    covariance_.topLeftCorner<2, 2>() += sdk::side_slip_covariance(
+        state_(4), 0.5 * (step.d_left_m + step.d_right_m), def_.side_slip_k);
+  }
   walk_bias(step.dt_s);
 }
 

@@ -39,6 +39,8 @@ struct UltrasonicEkfDef {
   enum class Motion { kAuto, kImu, kWheels };
   Motion motion = Motion::kAuto;
   double k_left = 0.0013, k_right = 0.0012;  // wheel noise, motion by the wheels [m^1/2]
+  // Motion by the wheels: the body's drift across its heading (sdk::side_slip_covariance).
+  double side_slip_k = 0.0;  // [m^1/2]
   // Motion by the wheels: noise of every round whatever the motion (locsim calibrate's floor).
   double motion_floor_m = 0.0, motion_floor_rad = 0.0;
   // The gyro the heading turns by (the odometry's, motion by the wheels; its bias also the IMU's
@@ -97,6 +99,7 @@ inline constexpr locsim_param_decl kUltrasonicParams[] = {
      "or auto: the wheels until the first IMU reading, the IMU from then on (a robot without an "
      "IMU moves by its wheels)"},
     LOCSIM_WHEEL_NOISE_PARAMS,
+    LOCSIM_SIDE_SLIP_PARAM,
     {"motion_floor_m", LOCSIM_PARAM_DOUBLE, 0.0, 0, 10, nullptr,
      "motion by the wheels: position noise added at every round of ranges whatever the motion, "
      "per axis (locsim calibrate) [m]"},

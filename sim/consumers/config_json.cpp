@@ -301,6 +301,12 @@ json to_json(const WorldDef& w) {
             c.gain_wander_correlation_s;
       }
     }
+    if (const SideSlipDef& d = r.side_slip; d.any()) {
+      robots.back()["side_slip"] = {{"crab_angle_deg", rad_to_deg(d.crab_angle_rad)},
+                                    {"cornering_compliance_s", d.cornering_compliance_s},
+                                    {"wander_k", d.wander_k},
+                                    {"wander_correlation_s", d.wander_correlation_s}};
+    }
   }
   out["robots"] = robots;
   // Only when on: a world with `variation: none` writes what it wrote before variation existed.

@@ -116,16 +116,22 @@ double setting(const SensorSettings& settings, const std::string& sensor, const 
   return fallback;
 }
 
-/// The `robot:` section of the calibration file `file` (how the motion follows the command),
-/// checked as a robot's keys are; none when the file has none.
-std::optional<CommandResponseDef> read_calibration_robot(const fs::path& file) {
+/// The `robot:` section of the calibration file `file` (how the motion follows the command, how
+/// the body slides), checked as a robot's keys are; each none when the file has none.
+struct CalibratedRobot {
+  std::optional<CommandResponseDef> response;
+  std::optional<SideSlipDef> side_slip;
+};
+CalibratedRobot read_calibration_robot(const fs::path& file) {
   const YamlNode root = YamlNode::load_file(file);
   const auto robot = root.find("robot");
-  if (!robot || robot->is_null()) return std::nullopt;
-  robot->allow_keys({"command_response"});
-  const auto response = robot->find("command_response");
-  if (!response) return std::nullopt;
-  return parse_command_response(*response);
+  if (!robot || robot->is_null()) return {};
+  robot->allow_keys({"command_response", "side_slip"});
+  CalibratedRobot out;
+  if (const auto response = robot->find("command_response"))
+    out.response = parse_command_response(*response);
+  if (const auto slip = robot->find("side_slip")) out.side_slip = parse_side_slip(*slip);
+  return out;
 }
 
 /// The `camera_offsets:` of the calibration file `file` (robot name -> where its range-bearing
@@ -269,14 +275,16 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
                                                    ? read_camera_offsets(*options.calibration)
                                                    : std::map<std::string, Vec2>{};
   // On the heap: GCC 12 takes a std::optional's members for maybe uninitialised below.
-  const std::unique_ptr<const CommandResponseDef> response = [&] {
-    std::unique_ptr<const CommandResponseDef> read;
-    if (options.calibration) {
-      if (const auto found = read_calibration_robot(*options.calibration))
-        read = std::make_unique<const CommandResponseDef>(*found);
-    }
-    return read;
-  }();
+  const CalibratedRobot calibrated_robot =
+      options.calibration ? read_calibration_robot(*options.calibration) : CalibratedRobot{};
+  const std::unique_ptr<const CommandResponseDef> response =
+      calibrated_robot.response
+          ? std::make_unique<const CommandResponseDef>(*calibrated_robot.response)
+          : nullptr;
+  const std::unique_ptr<const SideSlipDef> side_slip =
+      calibrated_robot.side_slip && calibrated_robot.side_slip->any()
+          ? std::make_unique<const SideSlipDef>(*calibrated_robot.side_slip)
+          : nullptr;
 
   // The paths, and what a range-bearing camera on them would have in view.
   const PhysicsWorld physics(world);
@@ -440,6 +448,15 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
       }
       robot["command_response"] = r;
     }
+    if (side_slip) {
+      YAML::Node r(YAML::NodeType::Map);
+      r.SetStyle(YAML::EmitterStyle::Flow);
+      r["crab_angle_deg"] = seven_digits(rad_to_deg(side_slip->crab_angle_rad));
+      r["cornering_compliance_s"] = seven_digits(side_slip->cornering_compliance_s);
+      r["wander_k"] = seven_digits(side_slip->wander_k);
+      r["wander_correlation_s"] = seven_digits(side_slip->wander_correlation_s);
+      robot["side_slip"] = r;
+    }
     YAML::Node sensors = robot["sensors"];
     for (const auto& [sensor, settings] : calibrated) {
       if (!sensors[sensor]) continue;
@@ -527,6 +544,10 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
     text +=
         "# Each robot follows its command through the calibration's `command_response`; "
         "the drive tells it the path's velocity ahead by its lag.\n";
+  if (side_slip)
+    text +=
+        "# Each robot's body slides off its heading as the calibration's `side_slip` says; "
+        "the drive keeps it on its path.\n";
   if (twin.camera && twin.camera->note.empty()) {
     const TwinCamera& c = *twin.camera;
     text += "# range_bearing: rate " + seven_digits(c.rate_hz) + " Hz, miss_probability " +

@@ -65,6 +65,11 @@ class TruthTrack {
     }
   }
   bool empty() const { return t_.empty(); }
+  std::size_t size() const { return t_.size(); }
+  double time(std::size_t i) const { return t_[i]; }
+  const Pose2& pose(std::size_t i) const { return pose_[i]; }
+  /// True when samples i - 1 and i lie in one unbroken piece (after finish(); i >= 1).
+  bool joined(std::size_t i) const { return breaks_[i] == breaks_[i - 1]; }
   /// The first and last sample's times (after finish(); not empty).
   std::pair<double, double> span() const { return {t_.front(), t_.back()}; }
   double median_period_s() const { return median_period_s_; }  // 0 before finish()
@@ -2426,6 +2431,148 @@ void fit_gain_wander(const std::vector<RobotLog>& robots, CommandResponseFit& fi
   }
 }
 
+/// The side slip (SideSlipFit) over every robot's truth.
+std::optional<SideSlipFit> fit_side_slip(const std::vector<RobotLog>& robots) {
+  constexpr double kWindowsS[] = {1.0, 2.0, 4.0, 8.0};
+  struct Window {
+    double w_s;                            // its length [s]
+    double across, along, turn, distance;  // D, S, C [m], M [m]
+  };
+  std::vector<Window> windows;
+  SideSlipFit fit;
+  for (const RobotLog& robot : robots) {
+    const TruthTrack& truth = robot.truth;
+    for (const double w_s : kWindowsS) {
+      Window x{w_s, 0.0, 0.0, 0.0, 0.0};
+      double start_s = truth.size() > 0 ? truth.time(0) : 0.0;
+      for (std::size_t i = 1; i < truth.size(); ++i) {
+        if (!truth.joined(i)) {
+          x = Window{w_s, 0.0, 0.0, 0.0, 0.0};
+          start_s = truth.time(i);
+          continue;
+        }
+        const Pose2& a = truth.pose(i - 1);
+        const Pose2& b = truth.pose(i);
+        const double dt_s = truth.time(i) - truth.time(i - 1);
+        const double turn_rad = wrap_angle(b.theta - a.theta);
+        const double mid_rad = a.theta + 0.5 * turn_rad;
+        const double dx = b.x - a.x, dy = b.y - a.y;
+        const double ds = std::cos(mid_rad) * dx + std::sin(mid_rad) * dy;
+        x.across += -std::sin(mid_rad) * dx + std::cos(mid_rad) * dy;
+        x.along += ds;
+        x.distance += std::abs(ds);
+        if (dt_s > 0.0) x.turn += ds * turn_rad / dt_s;
+        if (truth.time(i) - start_s >= w_s - 1e-9) {
+          windows.push_back(x);
+          if (w_s == kWindowsS[0]) fit.distance_m += x.distance;
+          x = Window{w_s, 0.0, 0.0, 0.0, 0.0};
+          start_s = truth.time(i);
+        }
+      }
+    }
+  }
+  if (windows.size() < 20 || fit.distance_m <= 0.0) return std::nullopt;
+  std::vector<char> used(windows.size(), 1);
+  // Which parts a fit has: the crab, the cornering, the wander.
+  struct Parts {
+    bool crab, cornering, wander;
+  };
+  struct Result {
+    double nll = std::numeric_limits<double>::infinity();
+    double tan_crab = 0.0, c = 0.0, k2 = 0.0, tau_s = 1.0, p2 = 0.0;
+  };
+  const auto g = [](double x) { return x < 1e-6 ? 0.5 * x : (x - 1.0 + std::exp(-x)) / x; };
+  // The variances given (k^2, tau, sigma_p^2), the mean by weighted least squares over the parts'
+  // regressors, and the negative log-likelihood.
+  const auto evaluate = [&](Parts parts, double k2, double tau_s, double p2) {
+    Result r{0.0, 0.0, 0.0, k2, tau_s, p2};
+    Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+    std::vector<double> variance(windows.size());
+    for (std::size_t i = 0; i < windows.size(); ++i) {
+      if (!used[i]) continue;
+      const Window& x = windows[i];
+      variance[i] = std::max(k2 * x.distance * g(x.w_s / tau_s) + 2.0 * p2, 1e-300);
+      const Eigen::Vector2d h(parts.crab ? x.along : 0.0, parts.cornering ? -x.turn : 0.0);
+      normal += h * h.transpose() / variance[i];
+      rhs += h * x.across / variance[i];
+    }
+    for (int j = 0; j < 2; ++j)
+      if (normal(j, j) == 0.0) normal(j, j) = 1.0;  // a part left out: its coefficient stays 0
+    const Eigen::Vector2d beta = normal.ldlt().solve(rhs);
+    r.tan_crab = beta(0);
+    r.c = beta(1);
+    for (std::size_t i = 0; i < windows.size(); ++i) {
+      if (!used[i]) continue;
+      const Window& x = windows[i];
+      const double e = x.across - r.tan_crab * x.along + r.c * x.turn;
+      r.nll += 0.5 * (std::log(variance[i]) + e * e / variance[i]);
+    }
+    return r;
+  };
+  // The noise's scale from the windows themselves: sigma_p^2 starts at a tenth of the shortest
+  // windows' mean square, k^2 at the longest's per metre.
+  double short_square = 0.0, long_per_m = 0.0;
+  std::size_t n_short = 0, n_long = 0;
+  for (const Window& x : windows) {
+    if (x.w_s == kWindowsS[0]) short_square += x.across * x.across, ++n_short;
+    if (x.w_s == kWindowsS[3] && x.distance > 0.0)
+      long_per_m += x.across * x.across / x.distance, ++n_long;
+  }
+  short_square =
+      std::max(short_square / static_cast<double>(std::max<std::size_t>(n_short, 1)), 1e-12);
+  long_per_m = std::max(long_per_m / static_cast<double>(std::max<std::size_t>(n_long, 1)), 1e-12);
+  const auto fit_parts = [&](Parts parts) {
+    if (!parts.wander) {
+      const MinimizeResult m = minimize_restarted(
+          [&](const std::vector<double>& p) {
+            return evaluate(parts, 0.0, 1.0, std::exp(p[0])).nll;
+          },
+          {std::log(0.5 * short_square)}, 1.0);
+      return evaluate(parts, 0.0, 1.0, std::exp(m.x[0]));
+    }
+    const auto at = [&](const std::vector<double>& p) {
+      return evaluate(parts, std::exp(p[0]), std::exp(p[1]), std::exp(p[2]));
+    };
+    // tau from 0.1 to 100 s: started at 1 s, the simplex steps by e.
+    const MinimizeResult m = minimize_restarted(
+        [&](const std::vector<double>& p) {
+          return std::abs(p[1]) > std::log(1000.0) ? 1e300 : at(p).nll;
+        },
+        {std::log(long_per_m), 0.0, std::log(0.1 * short_square)}, 1.0);
+    return at(m.x);
+  };
+  const Parts all{true, true, true};
+  Result full = fit_parts(all);
+  // Once: windows beyond 5 sigma of the full fit are the truth's jumps, not the robot's motion.
+  for (std::size_t i = 0; i < windows.size(); ++i) {
+    const Window& x = windows[i];
+    const double variance = full.k2 * x.distance * g(x.w_s / full.tau_s) + 2.0 * full.p2;
+    const double e = x.across - full.tan_crab * x.along + full.c * x.turn;
+    if (e * e > 25.0 * variance) used[i] = 0, ++fit.dropped;
+  }
+  if (fit.dropped > 0) full = fit_parts(all);
+  fit.windows = windows.size() - fit.dropped;
+  const double penalty = 0.5 * std::log(static_cast<double>(fit.windows));
+  const Result no_crab = fit_parts({false, true, true});
+  const Result no_cornering = fit_parts({true, false, true});
+  const Result no_wander = fit_parts({true, true, false});
+  fit.crab_gain = no_crab.nll - full.nll;
+  fit.cornering_gain = no_cornering.nll - full.nll;
+  fit.wander_gain = no_wander.nll - full.nll;
+  // The parts kept, refitted without those that are not.
+  const Parts kept{fit.crab_gain > penalty, fit.cornering_gain > penalty,
+                   fit.wander_gain > 2.0 * penalty};
+  const Result best = fit_parts(kept);
+  fit.crab_angle_rad = kept.crab ? std::atan(best.tan_crab) : 0.0;
+  fit.cornering_compliance_s = kept.cornering ? best.c : 0.0;
+  fit.wander_k = kept.wander ? std::sqrt(best.k2) : 0.0;
+  fit.wander_correlation_s = kept.wander ? best.tau_s : 1.0;
+  // Below a micrometre (a simulated truth): none.
+  fit.truth_noise_m = best.p2 > 1e-12 ? std::sqrt(best.p2) : 0.0;
+  return fit;
+}
+
 /// The robot's odometry as a base that follows `response` would move (sdk::CommandFollower, as
 /// a localizer with command_* runs it): velocity readings at the same times, the pose integrated
 /// through the response.
@@ -2869,6 +3016,7 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
   if (pooled.motion.size() >= 10) {
     out.motion = fit_motion(pooled.motion);
     fit_command(used_robots, *out.motion);
+    out.motion->side_slip = fit_side_slip(used_robots);
     // Not for a base that reports its command: the heading's errors are the response's.
     if (!out.motion->command || !out.motion->command->leads)
       out.motion->heading = fit_heading(pooled.motion);
@@ -2933,6 +3081,19 @@ json Calibration::to_json() const {
                                 {"gyro_floor_rad", h->floor_rad},
                                 {"distance_k", h->distance_k},
                                 {"distance_floor_m", h->distance_floor_m}};
+    }
+    if (const auto& d = m.side_slip) {
+      j["motion"]["side_slip"] = {{"crab_angle_deg", rad_to_deg(d->crab_angle_rad)},
+                                  {"cornering_compliance_s", d->cornering_compliance_s},
+                                  {"wander_k", d->wander_k},
+                                  {"wander_correlation_s", d->wander_correlation_s},
+                                  {"truth_noise_m", d->truth_noise_m},
+                                  {"windows", d->windows},
+                                  {"dropped_windows", d->dropped},
+                                  {"distance_m", d->distance_m},
+                                  {"crab_log_likelihood_gain", d->crab_gain},
+                                  {"cornering_log_likelihood_gain", d->cornering_gain},
+                                  {"wander_log_likelihood_gain", d->wander_gain}};
     }
     if (m.velocity) {
       j["motion"]["velocity_model"] = model_json(*m.velocity);
@@ -3155,7 +3316,7 @@ std::string_view parameter_group(std::string_view key, std::string_view plugin) 
     if (key == "range_bias_m" || key == "range_bias_per_m") return "ranging bias";
     if (key == "sigma_range_m") return "ranging spread";
   }
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 46> kGroupOf{{
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 47> kGroupOf{{
       {"command_dead_time_s", "command response"},
       {"command_time_constant_v_s", "command response"},
       {"command_time_constant_omega_s", "command response"},
@@ -3166,6 +3327,7 @@ std::string_view parameter_group(std::string_view key, std::string_view plugin) 
       {"k_right", "wheel noise"},
       {"motion_floor_m", "wheel noise"},
       {"motion_floor_deg", "wheel noise"},
+      {"side_slip_k", "side slip"},
       {"odometry_heading", "gyro heading"},
       {"heading_noise_density", "gyro heading"},
       {"heading_rate_bias_radps", "gyro heading"},
@@ -3342,23 +3504,6 @@ std::string Calibration::to_yaml() const {
     y += "  # the landmark particle filters regularise their sets (half the optimal kernel width)\n"
          "  regularization: 0.5\n";
   }
-  if (command != nullptr) {
-    y += "robot:  # the robots' motion lags and falls short of the velocity their odometry "
-         "reports (docs/worlds.md)\n";
-    y += "  command_response: {dead_time_s: " + four_digits(command->dead_time_s) +
-         ", time_constant_v_s: " + four_digits(command->time_constant_v_s) +
-         ", time_constant_omega_s: " + four_digits(command->time_constant_omega_s) +
-         ", gain_v: " + four_digits(command->gain_v) +
-         ", gain_omega: " + four_digits(command->gain_omega);
-    const auto& v = command->gain_wander_v;
-    const auto& omega = command->gain_wander_omega;
-    if (v && omega && (v->sigma > 0.0 || omega->sigma > 0.0)) {
-      y += ", gain_wander_v: " + four_digits(v->sigma) +
-           ", gain_wander_omega: " + four_digits(omega->sigma) +
-           ", gain_wander_correlation_s: " + four_digits(v->correlation_s);
-    }
-    y += "}\n";
-  }
   if (ranging) {
     // In the beacon filters' own sections: the landmark filters' keys of the same names are the
     // camera's.
@@ -3388,8 +3533,38 @@ std::string Calibration::to_yaml() const {
              four_digits(std::hypot(gyro->bias_sigma, gyro->bias_radps)) +
              ", heading_rate_bias_walk: " + four_digits(gyro->bias_walk);
       }
+      // The body's drift across its heading, which neither the wheels nor a gyro see.
+      if (motion && motion->side_slip && motion->side_slip->wander_k > 0.0)
+        y += ", side_slip_k: " + four_digits(motion->side_slip->wander_k);
       y += "}\n";
     }
+  }
+  const SideSlipFit* slip =
+      motion && motion->side_slip && motion->side_slip->any() ? &*motion->side_slip : nullptr;
+  if (command != nullptr || slip != nullptr)
+    y += "robot:  # how the robots move (docs/worlds.md)\n";
+  if (slip != nullptr) {
+    y += "  # the body slides off its heading: at an angle, outward in turns, from side to side\n";
+    y += "  side_slip: {crab_angle_deg: " + four_digits(rad_to_deg(slip->crab_angle_rad)) +
+         ", cornering_compliance_s: " + four_digits(slip->cornering_compliance_s) +
+         ", wander_k: " + four_digits(slip->wander_k) +
+         ", wander_correlation_s: " + four_digits(slip->wander_correlation_s) + "}\n";
+  }
+  if (command != nullptr) {
+    y += "  # the motion lags and falls short of the velocity the odometry reports\n";
+    y += "  command_response: {dead_time_s: " + four_digits(command->dead_time_s) +
+         ", time_constant_v_s: " + four_digits(command->time_constant_v_s) +
+         ", time_constant_omega_s: " + four_digits(command->time_constant_omega_s) +
+         ", gain_v: " + four_digits(command->gain_v) +
+         ", gain_omega: " + four_digits(command->gain_omega);
+    const auto& v = command->gain_wander_v;
+    const auto& omega = command->gain_wander_omega;
+    if (v && omega && (v->sigma > 0.0 || omega->sigma > 0.0)) {
+      y += ", gain_wander_v: " + four_digits(v->sigma) +
+           ", gain_wander_omega: " + four_digits(omega->sigma) +
+           ", gain_wander_correlation_s: " + four_digits(v->correlation_s);
+    }
+    y += "}\n";
   }
   y += "sensors:  # a robot's sensor settings for a world with this noise (docs/sensors.md)\n";
   if (command != nullptr) {
@@ -3539,6 +3714,19 @@ std::string describe(const Calibration& c) {
               four_digits(h->scale_error) + ", noise " + four_digits(h->noise_density) +
               " rad/s/sqrt(Hz); the wheels' k from the distance " + four_digits(h->distance_k) +
               " m^1/2\n";
+    }
+    if (const auto& d = m.side_slip) {
+      text += "  the body off its heading (" + std::to_string(d->windows) + " windows, " +
+              four_digits(d->distance_m) + " m): crab " +
+              four_digits(rad_to_deg(d->crab_angle_rad)) + " deg (" + four_digits(d->crab_gain) +
+              " nats), cornering compliance " + four_digits(d->cornering_compliance_s) + " s (" +
+              four_digits(d->cornering_gain) + " nats), wander k " + four_digits(d->wander_k) +
+              " m^1/2 over " + four_digits(d->wander_correlation_s) + " s (" +
+              four_digits(d->wander_gain) + " nats); the truth's own noise " +
+              four_digits(d->truth_noise_m) + " m" +
+              (d->dropped > 0 ? ", " + std::to_string(d->dropped) + " windows dropped as jumps"
+                              : std::string()) +
+              (d->any() ? std::string() : "; none kept") + "\n";
     }
     if (const auto& r = m.command) {
       text +=

@@ -352,6 +352,29 @@ struct CommandResponseFit {
   std::optional<GainWander> gain_wander_v, gain_wander_omega;
 };
 
+/// How the body slid off its heading (the robot's SideSlipDef), from the truth alone: over
+/// windows of 1, 2, 4 and 8 s of each unbroken truth track, the displacement across the heading
+/// D (each truth step's, across its mid heading) against the travel along it S, and the turn's
+/// sum of v omega dt C. D has mean tan(crab) S - c C and variance k^2 M g(W / tau) + 2 sigma_p^2,
+/// M the distance travelled, g(x) = (x - 1 + e^-x) / x (the wander's drift, 1 for W >> tau),
+/// sigma_p the truth's own position noise. Maximum likelihood (the mean by weighted least squares
+/// inside Nelder-Mead over k^2, tau, sigma_p^2), windows beyond 5 sigma (a GPS fix re-acquired)
+/// dropped once; each part kept when it gains more than BIC's half log(windows) per parameter.
+struct SideSlipFit {
+  double crab_angle_rad = 0.0;          // 0 when not kept
+  double cornering_compliance_s = 0.0;  // 0 when not kept
+  double wander_k = 0.0;                // [m^1/2]; 0 when not kept
+  double wander_correlation_s = 1.0;    // [s]
+  double truth_noise_m = 0.0;           // sigma_p [m]
+  std::size_t windows = 0, dropped = 0;
+  double distance_m = 0.0;  // travelled over the 1 s windows
+  // What each part gains over the fit without it [nats].
+  double crab_gain = 0.0, cornering_gain = 0.0, wander_gain = 0.0;
+  bool any() const {
+    return crab_angle_rad != 0.0 || cornering_compliance_s != 0.0 || wander_k > 0.0;
+  }
+};
+
 struct MotionCalibration {
   std::size_t intervals = 0;           // perception-step intervals used
   double mean_interval_s = 0.0;        // their mean length
@@ -391,6 +414,7 @@ struct MotionCalibration {
   };
   std::optional<HeadingFit> heading;  // unset with fewer than 10 intervals or under a command
   std::optional<CommandResponseFit> command;  // only from velocity readings
+  std::optional<SideSlipFit> side_slip;       // unset with fewer than 20 windows
 };
 
 struct Calibration {

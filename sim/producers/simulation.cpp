@@ -38,6 +38,8 @@ Simulation::Simulation(WorldDef world, ScenarioDef scenario, std::uint64_t seed,
     slot.kidnap_rng = make_stream(seed, "kidnap/" + def.name);
     if (def.command_response.wanders())
       slot.robot->seed_response(make_stream(seed, "response/" + def.name));
+    if (def.side_slip.wander_k > 0.0)
+      slot.robot->seed_side_slip(make_stream(seed, "slip/" + def.name));
     slot.last_position = def.start.position();
     // A robot the scenario does not drive keeps whatever command its owner last gave it.
     for (const DriveDef& d : scenario_.drives) {

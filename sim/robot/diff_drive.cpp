@@ -63,6 +63,31 @@ void DiffDriveRobot::seed_response(RandomStream stream) {
   wander_omega_ = r.gain_wander_omega * wander_rng_->normal();
 }
 
+void DiffDriveRobot::seed_side_slip(RandomStream stream) {
+  slip_rng_.emplace(stream);
+  slip_wander_ = slip_rng_->normal();  // from its stationary distribution
+}
+
+double DiffDriveRobot::side_slip_mps(double dt_s, double forward_mps, double w_radps) {
+  const SideSlipDef& d = def_.side_slip;
+  // The step's constants, computed once (the physics steps at a fixed rate).
+  if (dt_s != slip_dt_s_) {
+    slip_dt_s_ = dt_s;
+    slip_tan_crab_ = std::tan(d.crab_angle_rad);
+    slip_phi_ = std::exp(-dt_s / d.wander_correlation_s);
+    slip_renewal_ = std::sqrt(1.0 - slip_phi_ * slip_phi_);
+  }
+  double slip_mps = forward_mps * (slip_tan_crab_ - d.cornering_compliance_s * w_radps);
+  if (d.wander_k > 0.0) {
+    if (!slip_rng_) throw std::logic_error("a wandering side slip needs seed_side_slip");
+    slip_wander_ = slip_phi_ * slip_wander_ + slip_renewal_ * slip_rng_->normal();
+    // sigma^2 = k^2 |v| / (2 tau): the drift's variance, 2 sigma^2 tau per second, is k^2 a metre.
+    slip_mps += d.wander_k * std::sqrt(std::abs(forward_mps) / (2.0 * d.wander_correlation_s)) *
+                slip_wander_;
+  }
+  return slip_mps;
+}
+
 void DiffDriveRobot::advance_response(double dt_s) {
   const CommandResponseDef& r = def_.command_response;
   if (r.wanders()) {
@@ -147,16 +172,20 @@ void DiffDriveRobot::apply_drive(double dt_s, const FloorFriction& floor) {
   }
 
   // Sequential impulses (as Box2D's own solver): each wheel's contact asks for the impulse that
-  // makes its contact point roll without slip (rim speed forward, nothing sideways), accumulated
-  // and clamped to the friction circle. A few passes settle the coupling through the rotation.
+  // makes its contact point roll without slip (rim speed forward, the side slip sideways),
+  // accumulated and clamped to the friction circle. A few passes settle the coupling through the
+  // rotation.
   Vec2 v = from_b2(body_->GetLinearVelocity());  // of the centre of mass
   double w = body_->GetAngularVelocity();
+  // What the floor lets the body slide sideways: the contacts' lateral target (0: none, the
+  // bits of a robot without side slip unchanged).
+  const double slip_mps = def_.side_slip.any() ? side_slip_mps(dt_s, v.dot(forward), w) : 0.0;
   for (int pass = 0; pass < 8; ++pass) {
     double largest_change = 0.0;
     for (Contact& c : contacts) {
       const Vec2 point_velocity = v + w * Vec2{-c.arm.y(), c.arm.x()};
       const double d_forward = -(point_velocity.dot(forward) - c.surface_mps) * c.mass_forward;
-      const double d_lateral = -point_velocity.dot(lateral) * c.mass_lateral;
+      const double d_lateral = -(point_velocity.dot(lateral) - slip_mps) * c.mass_lateral;
       Vec2 accumulated = c.impulse + d_forward * forward + d_lateral * lateral;
       const double magnitude_sq = accumulated.squaredNorm();
       if (magnitude_sq > c.max_impulse * c.max_impulse) {

@@ -45,6 +45,9 @@ class DiffDriveRobot {
   /// The stream the command response's gain wander draws from (Simulation gives each robot
   /// its own, derived from the run's seed); needed only when the response wanders.
   void seed_response(RandomStream stream);
+  /// The stream the side slip's wander draws from (Simulation: "slip/" + name); needed only
+  /// when the robot's side_slip wanders.
+  void seed_side_slip(RandomStream stream);
   /// The latest command as given (what a base that logs its command reports). [m/s], [rad/s]
   double given_v_mps() const { return given_v_mps_; }
   double given_omega_radps() const { return given_w_radps_; }
@@ -80,6 +83,9 @@ class DiffDriveRobot {
   void set_wheel_targets(double v_mps, double w_radps);
   /// One step of the command response: the command given dead_time_s ago, through the lag.
   void advance_response(double dt_s);
+  /// The lateral velocity the wheels' contact gives the body this step (SideSlipDef), at the
+  /// body's forward speed and turn rate. [m/s]
+  double side_slip_mps(double dt_s, double forward_mps, double w_radps);
 
   double commanded_radps_[2] = {0.0, 0.0};
   double given_v_mps_ = 0.0, given_w_radps_ = 0.0;
@@ -89,6 +95,9 @@ class DiffDriveRobot {
   double acting_v_mps_ = 0.0, acting_w_radps_ = 0.0;
   std::optional<RandomStream> wander_rng_;
   double wander_v_ = 0.0, wander_omega_ = 0.0;  // the gains' errors g
+  std::optional<RandomStream> slip_rng_;
+  double slip_wander_ = 0.0;  // the side slip's wander, unit standard deviation [-]
+  double slip_dt_s_ = 0.0, slip_tan_crab_ = 0.0, slip_phi_ = 0.0, slip_renewal_ = 0.0;
   bool carried_ = false;
 };
 

@@ -77,6 +77,35 @@ struct CommandResponseDef {
   }
 };
 
+/// How the body slides sideways on its wheels. A diff-drive's kinematics holds the body to its
+/// heading; on grass, gravel or soft tyres it is not: the body travels at a small angle to its
+/// heading, slides outward in a turn as the tyres give under the lateral acceleration v ω, and
+/// drifts from side to side for a second at a time. Measured on CMU Plaza's lawnmower (RTK-GPS
+/// against its own heading, docs/reports/sim_to_real): 0.06 m^1/2 of wander over about a second
+/// at 1 and 3.5 m/s alike; MRCLAM's indoor robots under Vicon: 0.006, nothing worth modelling.
+/// The wheels' contact takes the slide as the lateral velocity it gives the body (still within
+/// the friction circle); the encoders do not count it. The defaults hold the body to its heading.
+struct SideSlipDef {
+  // The body travels at this angle to its heading, to the left positive: v tan(crab) sideways.
+  double crab_angle_rad = 0.0;  // [rad]
+  static constexpr Range kCrabAngleRange{deg_to_rad(-30.0), deg_to_rad(30.0), "rad"};
+  // The slide in a turn: -c v omega sideways (outward for c > 0), the tyres' cornering
+  // compliance over their grip. [s]
+  double cornering_compliance_s = 0.0;
+  static constexpr Range kCorneringComplianceRange{-10.0, 10.0, "s"};
+  // The wander: a first-order Gauss-Markov lateral velocity of standard deviation
+  // k sqrt(|v| / (2 tau)), so that the sideways drift's variance grows by k^2 per metre travelled
+  // (the wheel noise's k, across the heading) and nothing happens at rest; drawn from the robot's
+  // own stream ("slip/" + name). [m^1/2], [s]
+  double wander_k = 0.0;
+  static constexpr Range kWanderKRange{0.0, 10.0, "m^1/2"};
+  double wander_correlation_s = 1.0;
+  static constexpr Range kWanderCorrelationRange{1e-3, 1e6, "s"};
+  bool any() const {
+    return crab_angle_rad != 0.0 || cornering_compliance_s != 0.0 || wander_k > 0.0;
+  }
+};
+
 struct RobotDef {
   std::string name = "robot";
   FootprintDef footprint;
@@ -101,6 +130,7 @@ struct RobotDef {
   double height_m = 0.4;  // top of the body; blocks ultrasound below it [m]
   static constexpr Range kHeightRange = kBodyHeightRange;
   CommandResponseDef command_response;  // how the motion follows the command
+  SideSlipDef side_slip;                // how the body slides off its heading
   Pose2 start;           // initial true pose in the world: kWorldCoordinateRange, any heading
   SensorsDef sensors;    // absent sensors are off
   SourceLocation where;  // of the robot's entry, for messages

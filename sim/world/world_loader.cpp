@@ -230,6 +230,20 @@ CommandResponseDef parse_command_response(const YamlNode& node) {
   return d;
 }
 
+SideSlipDef parse_side_slip(const YamlNode& node) {
+  using D = SideSlipDef;
+  node.allow_keys({"crab_angle", "crab_angle_deg", "cornering_compliance_s", "wander_k",
+                   "wander_correlation_s"});
+  D d;
+  d.crab_angle_rad = node.get_angle("crab_angle", d.crab_angle_rad, D::kCrabAngleRange);
+  d.cornering_compliance_s = node.get_double("cornering_compliance_s", d.cornering_compliance_s,
+                                             D::kCorneringComplianceRange);
+  d.wander_k = node.get_double("wander_k", d.wander_k, D::kWanderKRange);
+  d.wander_correlation_s =
+      node.get_double("wander_correlation_s", d.wander_correlation_s, D::kWanderCorrelationRange);
+  return d;
+}
+
 namespace {
 
 /// Occupied pixels merged greedily into rectangles: runs along a row, grown down while the rows
@@ -471,7 +485,8 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     item.allow_keys({"name", "footprint", "mass_kg", "wheel_base_m", "wheel_radius_m",
                      "wheel_radius_left_m", "wheel_radius_right_m", "wheel_inertia_kgm2",
                      "max_wheel_speed_radps", "max_wheel_accel_radps2", "max_wheel_torque_nm",
-                     "drive_load_fraction", "height_m", "command_response", "start", "sensors"});
+                     "drive_load_fraction", "height_m", "command_response", "side_slip", "start",
+                     "sensors"});
     RobotDef robot;
     robot.where = item.where();
     robot.key_path = item.path();
@@ -504,6 +519,7 @@ WorldDef parse_world(const YamlNode& root, const std::filesystem::path& base_dir
     robot.height_m = item.get_double("height_m", robot.height_m, RobotDef::kHeightRange);
     if (const auto response = item.find("command_response"))
       robot.command_response = parse_command_response(*response);
+    if (const auto slip = item.find("side_slip")) robot.side_slip = parse_side_slip(*slip);
     robot.start = item["start"].as_pose(kWorldCoordinateRange);
     if (const auto sensors = item.find("sensors")) {
       robot.sensors = parse_sensors(*sensors, world.physics.step_hz);

@@ -25,5 +25,7 @@ OccupancyMapDef load_occupancy_map(const std::filesystem::path& map_yaml);
 FootprintDef parse_footprint(const YamlNode& node);
 /// A robot's `command_response:` (also the `robot:` section `locsim calibrate` writes).
 CommandResponseDef parse_command_response(const YamlNode& node);
+/// A robot's `side_slip:` (also a calibration file's, read by twin).
+SideSlipDef parse_side_slip(const YamlNode& node);
 
 }  // namespace locsim

@@ -120,6 +120,25 @@ BENCHMARK_CAPTURE(BM_Scene, demo_all_sensors, "worlds/demo/demo.yaml", true);
 BENCHMARK_CAPTURE(BM_Scene, office_map, "worlds/maps/office_world.yaml", true);
 BENCHMARK_CAPTURE(BM_Scene, four_robots, "worlds/demo/four_robots.yaml", true);
 
+/// The demo's physics with its robot sliding off its heading (docs/worlds.md, side_slip: the
+/// Plaza lawnmower's calibration): what the slide's target and its wander cost the wheel contact,
+/// beside demo_physics_only.
+void BM_DemoSideSlip(benchmark::State& state) {
+  WorldDef world = load_world(fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml");
+  for (RobotDef& robot : world.robots) {
+    robot.sensors = SensorsDef{};
+    robot.side_slip = SideSlipDef{deg_to_rad(-0.9), 0.079, 0.047, 0.57};
+  }
+  ScenarioDef scenario = world.scenario.value_or(ScenarioDef{});
+  scenario.duration_s = 1e9;
+  scenario.events.clear();
+  scenario.pan_policies.clear();
+  bind_scenario(scenario, world);
+  Simulation sim(world, scenario, 1);
+  step_scene(state, sim);
+}
+BENCHMARK(BM_DemoSideSlip);
+
 /// A fleet: `robots` robots wandering a room sized to hold them (one per 3 m x 3 m cell, a wall
 /// grid's worth of landmarks and beacons), two people walking across; every robot with the demo's
 /// sensors, or none. Issue 21's targets: 100 robots with every sensor >= 100x real time, 10

@@ -3,8 +3,9 @@
 # (README.md, "Real against twin"). Calibrates all five robots' 900 s, writes five calibration
 # files that differ only in what the twin is given (none; the depth range model; the command
 # response; both; all: both with the gains' wander, the detections' slow part, range and
-# bearing errors each their own, the wheels' errors correlated, the camera's blind spells, and each
-# robot's camera where its bearings say it is) and one per robot (own: all,
+# bearing errors each their own, the wheels' errors correlated, the camera's blind spells, its
+# misses growing with range, each robot's camera where its bearings say it is, and the body's
+# side slip) and one per robot (own: all,
 # from that robot's log alone), makes 5 robots x 3 seeds of twin recordings for each, and sweeps
 # the five landmark filters and dead reckoning over the real logs (3 filter seeds) and each set of
 # twins, with the calibration's localizer parameters. Prints the table of the README.
@@ -53,6 +54,8 @@ def variant(response, depth, rest):
         t = re.sub(r"    miss_probability: .*\n    detection_decay_m: .*\n",
                    f"    miss_probability: {fits['cameras'][0]['miss_probability']:.4g}\n", t)
         t = re.sub(r"camera_offsets:.*\n(  .*\n)*", "", t)
+        # The body held to its heading.
+        t = re.sub(r"  # the body slides.*\n  side_slip: .*\n", "", t)
         camera = fits["cameras"][0]
         t = re.sub(r"    sigma_bearing_deg: .*\n",
                    f"    sigma_bearing_deg: {math.degrees(camera['bearing_spread_rad']):.4g}\n", t)
@@ -64,11 +67,11 @@ def variant(response, depth, rest):
                        f"  encoders: {{measures: command, k_left: {response_k['k_left']:.4g}, "
                        f"k_right: {response_k['k_right']:.4g}}}", t)
     if not response:
-        t = re.sub(r"robot: .*\n  command_response: .*\n", "", t)
+        t = re.sub(r"  # the motion lags.*\n  command_response: .*\n", "", t)
         t = re.sub(r"  encoders: \{.*\}", raw_encoders, t)
     if not depth:
         t = t.replace(depth_lines, distance_lines)
-    return t
+    return re.sub(r"robot: .*\n(?!  )", "", t)  # a robot: section left empty
 for name, response, depth, rest in (("none", False, False, False), ("depth", False, True, False),
                                     ("response", True, False, False), ("both", True, True, False),
                                     ("all", True, True, True)):

@@ -81,6 +81,23 @@ inline void predict_by_wheels(Pose& x, Eigen::Matrix3d& P, double d_left, double
   P = F * P * F.transpose() + G * Q * G.transpose();
 }
 
+/// The body's side slip as motion noise: a drift across the heading that wheels and a gyro do not
+/// see (a base on grass, CMU Plaza's lawnmower; the simulator's `side_slip` wander, what
+/// `locsim calibrate` writes as `side_slip_k`), its variance growing by k^2 per metre travelled.
+/// The world-frame position covariance of a step of `distance_m` along `heading_rad`:
+/// k^2 |d| n n^T, n = (-sin, cos) the heading's normal.
+inline Eigen::Matrix2d side_slip_covariance(double heading_rad, double distance_m, double k) {
+  const Eigen::Vector2d n(-std::sin(heading_rad), std::cos(heading_rad));
+  return k * k * std::abs(distance_m) * n * n.transpose();
+}
+
+/// side_slip_covariance's k as a plugin parameter, for every filter that predicts by the wheels.
+// clang-format off
+#define LOCSIM_SIDE_SLIP_PARAM                                                                     \
+  {"side_slip_k", LOCSIM_PARAM_DOUBLE, 0.0, 0.0, 1.0, nullptr,                                     \
+   "the body's drift across its heading, variance k^2 per metre travelled (0: held to its heading) [m^1/2]"}
+// clang-format on
+
 /// Paper 002's wheel noise (predict_by_wheels' k_left, k_right) as plugin parameters: one
 /// declaration for every filter that predicts by the wheels.
 // clang-format off

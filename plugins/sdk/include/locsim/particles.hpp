@@ -109,6 +109,18 @@ inline void add_motion_floor(ParticleSet& p, const OdometryNoise& n, Random& ran
   }
 }
 
+/// The body's side slip (side_slip_covariance) for a step of `distance_m`: each particle moved
+/// across its own heading by a draw of N(0, k^2 |d|). Draws nothing when k or the step is 0.
+inline void add_side_slip(ParticleSet& p, double distance_m, double k, Random& random) {
+  if (k <= 0.0 || distance_m == 0.0) return;
+  const double sigma = k * std::sqrt(std::abs(distance_m));
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double across = random.normal(sigma);
+    p.x[i] -= std::sin(p.theta[i]) * across;
+    p.y[i] += std::cos(p.theta[i]) * across;
+  }
+}
+
 /// Moves every particle by its own noisy sample of `d` (the spreads are the same for all).
 inline void sample_motion(ParticleSet& p, const OdometryDelta& d, const OdometryNoise& n,
                           Random& random) {
