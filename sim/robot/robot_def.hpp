@@ -81,8 +81,9 @@ struct CommandResponseDef {
 /// heading; on grass, gravel or soft tyres it is not: the body travels at a small angle to its
 /// heading, slides outward in a turn as the tyres give under the lateral acceleration v ω, and
 /// drifts from side to side for a second at a time. Measured on CMU Plaza's lawnmower (RTK-GPS
-/// against its own heading, docs/reports/sim_to_real): 0.06 m^1/2 of wander over about a second
-/// at 1 and 3.5 m/s alike; MRCLAM's indoor robots under Vicon: 0.006, nothing worth modelling.
+/// against its own heading, docs/reports/sim_to_real): a wander of 0.047 m^1/2 over 0.2-0.8 s at
+/// 1 and 3.5 m/s alike, 0.079 s of cornering compliance, a crab of -0.9 degrees; MRCLAM's indoor
+/// robots under Vicon: 0.012 m^1/2, too little to move a filter.
 /// The wheels' contact takes the slide as the lateral velocity it gives the body (still within
 /// the friction circle); the encoders do not count it. The defaults hold the body to its heading.
 struct SideSlipDef {
