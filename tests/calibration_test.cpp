@@ -1175,6 +1175,10 @@ TEST(Calibrate, FindsHowTheBodySlidesOffItsHeadingAndTheTwinSlidesSo) {
                                    (dir / "twin" / "run").string() + " --log " +
                                    (dir / "twin" / "twin.locsimlog").string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
+  // run.json says what the robot was given.
+  const auto config = nlohmann::json::parse(testing::read_file(dir / "twin" / "run" / "run.json"));
+  EXPECT_NEAR(config["config"]["world"]["robots"][0]["side_slip"]["wander_k"].get<double>(),
+              fit.wander_k, 1e-4);
   const Calibration again = calibrate({dir / "twin" / "twin.locsimlog"}, {});
   ASSERT_TRUE(again.motion && again.motion->side_slip) << describe(again);
   const SideSlipFit& twinned = *again.motion->side_slip;
