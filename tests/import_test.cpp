@@ -1102,9 +1102,9 @@ TEST(GenericImport, BadScansAndMapsAreRefusedNamingFileLineAndColumn) {
           "scans.csv:2:5: 'ranges': 70 beams from angle_min 0 to 6.9 rad span more than a full "
           "turn (");
   refused({{"occupancy.yaml", "image: ../outside.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"}},
-          "occupancy.yaml:1:8: 'image': the image must be a file in the dataset's folder");
+          "occupancy.yaml:1:8: 'image': the image must be a file in the map's folder");
   refused({{"occupancy.yaml", "image: /etc/passwd\nresolution: 0.1\norigin: [0, 0, 0]\n"}},
-          "occupancy.yaml:1:8: 'image': the image must be a file in the dataset's folder");
+          "occupancy.yaml:1:8: 'image': the image must be a file in the map's folder");
   {
     // A symbolic link in the folder that leads out of it.
     const fs::path bad = testing::temp_dir("laser_bad_link");
@@ -1113,8 +1113,7 @@ TEST(GenericImport, BadScansAndMapsAreRefusedNamingFileLineAndColumn) {
     fs::create_symlink(bad.parent_path() / "secret.pgm", bad / "map.pgm");
     std::ofstream(bad / "occupancy.yaml") << "image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n";
     const std::string message = refusal([&] { return read_generic(bad); });
-    EXPECT_NE(message.find("'image': the image leads out of the dataset's folder"),
-              std::string::npos)
+    EXPECT_NE(message.find("'image': the image leads out of the map's folder"), std::string::npos)
         << message;
   }
   refused({{"occupancy.yaml", "image: none.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"}},

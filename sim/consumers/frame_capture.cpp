@@ -73,6 +73,7 @@ void FrameCapture::consume(const Record& record) {
 void FrameCapture::consume_truth(const Record& record) {
   if (record.type == Record::Type::kGroundTruth) {
     if (record.robot < 0 || static_cast<std::size_t>(record.robot) >= latest_.size()) return;
+    if (!truth_known(record.pose)) return;  // a log without truth draws none
     const auto i = static_cast<std::size_t>(record.robot);
     Latest& latest = latest_[i];
     // No ground truth while a robot is carried: the first after a kidnap is where it landed.

@@ -453,6 +453,7 @@ void RunRecorder::consume(const Record& record) {
       break;
     case Record::Type::kGroundTruth:
       if (record.robot < 0 || static_cast<std::size_t>(record.robot) >= groundtruth_.size()) break;
+      if (!truth_known(record.pose)) break;  // a sampling instant of a log without truth
       line_.clear();
       append_tum(line_, record.t_s, record.pose.x, record.pose.y, record.pose.theta);
       groundtruth_[static_cast<std::size_t>(record.robot)]->write(line_);

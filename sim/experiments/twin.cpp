@@ -217,7 +217,7 @@ Twin make_twin(const TwinOptions& options, const fs::path& world_file) {
   while (source.next(record)) {
     switch (record.type) {
       case Record::Type::kGroundTruth:
-        if (chosen[static_cast<std::size_t>(record.robot)])
+        if (chosen[static_cast<std::size_t>(record.robot)] && truth_known(record.pose))
           truth[static_cast<std::size_t>(record.robot)].push_back({record.t_s, record.pose});
         break;
       case Record::Type::kReading:

@@ -2949,7 +2949,7 @@ Calibration calibrate(const std::vector<std::filesystem::path>& logs,
       RobotLog& robot = robots[static_cast<std::size_t>(index)];
       switch (record.type) {
         case Record::Type::kGroundTruth:
-          robot.truth.add(record.t_s, record.pose);
+          if (truth_known(record.pose)) robot.truth.add(record.t_s, record.pose);
           break;
         case Record::Type::kEvent:
           if (record.event.kind == "kidnap" || record.event.kind == "put_down")

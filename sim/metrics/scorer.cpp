@@ -34,18 +34,21 @@ constexpr double kLaserProbeEveryS = 1.0;
 constexpr std::size_t kLaserProbeBeams = 60;  // end points kept per probe, evenly spread
 
 json error_json(const ErrorSummary& e) {
+  // No samples, no errors: null, not a perfect 0 (a log without truth, a localizer that failed
+  // before its first estimate).
+  const auto value = [&](double v) { return e.samples > 0 ? json(v) : json(nullptr); };
   return {{"samples", e.samples},
           {"position_error_m",
-           {{"rms", e.position_rms_m},
-            {"mean", e.position_mean_m},
-            {"max", e.position_max_m},
-            {"rms_x", e.x_rms_m},
-            {"rms_y", e.y_rms_m}}},
+           {{"rms", value(e.position_rms_m)},
+            {"mean", value(e.position_mean_m)},
+            {"max", value(e.position_max_m)},
+            {"rms_x", value(e.x_rms_m)},
+            {"rms_y", value(e.y_rms_m)}}},
           {"heading_error_deg",
-           {{"rms", rad_to_deg(e.heading_rms_rad)},
-            {"mean", rad_to_deg(e.heading_mean_rad)},
-            {"max", rad_to_deg(e.heading_max_rad)}}},
-          {"time_lost_s", e.time_lost_s},
+           {{"rms", value(rad_to_deg(e.heading_rms_rad))},
+            {"mean", value(rad_to_deg(e.heading_mean_rad))},
+            {"max", value(rad_to_deg(e.heading_max_rad))}}},
+          {"time_lost_s", value(e.time_lost_s)},
           {"consistency", e.consistency_samples == 0
                               ? json(nullptr)
                               : json{{"samples", e.consistency_samples},
@@ -125,7 +128,7 @@ Scorer::Scorer(const WorldDef& world, std::vector<LocalizerInfo> localizers,
 }
 
 void Scorer::consume(const Record& record) {
-  if (record.type == Record::Type::kGroundTruth && judged_map_) {
+  if (record.type == Record::Type::kGroundTruth && judged_map_ && truth_known(record.pose)) {
     // A probe scan's true pose: the ground truth of the step it was taken in (readings come
     // before the step's ground truth in the stream).
     const auto r = static_cast<std::size_t>(record.robot);
@@ -272,6 +275,19 @@ json Scorer::segment_json(const Track& track) const {
 
 void Scorer::estimate(const EstimateSample& s) {
   Track& track = tracks_[s.localizer];
+  const auto add_diagnostics = [&] {
+    if (!s.diagnostics.empty()) track.last_diagnostics = s.diagnostics;
+    for (const auto& [name, value] : s.diagnostics) {
+      auto& [sum, samples] = track.diagnostic_sums[name];
+      sum += value;
+      ++samples;
+    }
+  };
+  if (!truth_known(s.truth)) {
+    ++track.unscored;  // a log without truth: the estimate is kept (its .tum), not scored
+    add_diagnostics();
+    return;
+  }
   // Segments between kidnaps: a sample at a kidnap's time opens the segment after it. The
   // kidnap's event came earlier in the stream than any estimate of that time.
   const std::vector<double>& kidnaps = kidnaps_[track.info.robot];
@@ -300,12 +316,7 @@ void Scorer::estimate(const EstimateSample& s) {
                           s.covariance};
   track.all.add(error);
   track.segment.add(error);
-  if (!s.diagnostics.empty()) track.last_diagnostics = s.diagnostics;
-  for (const auto& [name, value] : s.diagnostics) {
-    auto& [sum, samples] = track.diagnostic_sums[name];
-    sum += value;
-    ++samples;
-  }
+  add_diagnostics();
 }
 
 void Scorer::failure(const LocalizerFailure& failure) {
@@ -337,6 +348,9 @@ json Scorer::metrics_json(const Track& track, const LocalizerFinal& end) const {
   }
   const ErrorSummary e = track.all.summary();
   out.update(error_json(e));
+  // Estimates at instants the log has no truth for (an imported bag without it): kept in the
+  // localizer's .tum, scored against nothing.
+  if (track.unscored > 0) out["unscored_samples"] = track.unscored;
   const ConvergenceCriterion& c = criterion_;
   out["convergence"] = {
       {"position_m", c.position_m},

@@ -57,6 +57,7 @@ class Scorer final : public RecordConsumer, public EstimateConsumer {
     std::optional<LocalizerFailure> failure;
     std::vector<std::pair<std::string, double>> last_diagnostics;
     std::map<std::string, std::pair<double, long>> diagnostic_sums;  // sum, samples
+    long unscored = 0;  // samples at instants whose truth the log does not know
   };
   /// What a robot's sensors showed between a kidnap's put-down and the next kidnap (or the end):
   /// a kidnap is recoverable for a localizer when a kind of reading it uses showed enough.

@@ -60,33 +60,18 @@ struct LaserSpec {
   std::string where;  // "robot.yaml:L:C" of the section, for messages
 };
 
-/// The simulated laser that spreads `beams` beams as `spec` does: the beams of LaserDef are
-/// centred on the mount's x axis, so the scan's middle angle turns the mount. Exact (to 1e-8 rad)
-/// for any span short of a full turn; a scan whose last beam repeats its first (-pi..pi) is one.
+/// The simulated laser that spreads `beams` beams as `spec` does (laser_spread).
 LaserDef laser_of(const LaserSpec& spec, int beams, const TextTable& scans) {
-  LaserDef def;
-  def.beams = beams;
-  def.min_range_m = spec.min_range_m;
-  def.max_range_m = spec.max_range_m;
   const double last_rad = spec.angle_max_rad
                               ? *spec.angle_max_rad
                               : spec.angle_min_rad + *spec.angle_increment_rad * (beams - 1);
-  const double span_rad = last_rad - spec.angle_min_rad;
-  const double full_turn = 2.0 * std::numbers::pi;
-  if (span_rad > full_turn + 1e-9) {
+  try {
+    return laser_spread(spec.angle_min_rad, last_rad, beams, spec.min_range_m, spec.max_range_m,
+                        spec.mount);
+  } catch (const std::invalid_argument& e) {
     scans.fail(scans.rows().front(), scans.column("ranges"),
-               std::to_string(beams) + " beams from angle_min " + short_number(spec.angle_min_rad) +
-                   " to " + short_number(last_rad) + " rad span more than a full turn (" +
-                   spec.where + ": laser)");
+               std::string(e.what()) + " (" + spec.where + ": laser)");
   }
-  // LaserDef treats a field of view of a full turn as beams 2 pi / n apart; a span of 2 pi means
-  // n - 1 gaps, which a field of view just short of it gives.
-  def.fov_rad = beams == 1 ? LaserDef::kFovRange.min
-                           : std::clamp(span_rad, LaserDef::kFovRange.min, full_turn - 2e-9);
-  def.common.mount = spec.mount;
-  def.common.mount.theta = wrap_angle(
-      spec.mount.theta + (beams == 1 ? spec.angle_min_rad : 0.5 * (spec.angle_min_rad + last_rad)));
-  return def;
 }
 
 /// robot.yaml: the robot's geometry, its range-bearing sensor's field of view and ranges, its
@@ -406,45 +391,6 @@ ImportedRobot read_robot(const fs::path& dir, const std::string& name,
   return robot;
 }
 
-/// occupancy.yaml: a ROS map_server map whose image lies within the dataset's folder (a map from
-/// someone else must not make the import read /etc/passwd into the log), read once and checked
-/// as the world's loader will read it from the log.
-ImportedMap read_occupancy_map(const fs::path& dir, std::vector<fs::path>& files_read) {
-  ImportedMap map;
-  map.yaml_file = dir / "occupancy.yaml";
-  map.yaml_text = read_input_file(map.yaml_file, kMaxYamlFileBytes);
-  const YamlNode root = YamlNode::load_string(map.yaml_text, map.yaml_file.string());
-  const YamlNode image = root["image"];
-  const fs::path name = fs::path(image.as_string()).lexically_normal();
-  if (name.empty() || name.is_absolute() || name.has_root_name() || *name.begin() == "..")
-    image.fail("the image must be a file in the dataset's folder (a relative path within it)");
-  const fs::path image_file = dir / name;
-  // A symbolic link that leads out of the folder is refused as such a path is.
-  std::error_code error;
-  const fs::path real_dir = fs::weakly_canonical(dir, error);
-  const fs::path real_image = error ? fs::path() : fs::weakly_canonical(image_file, error);
-  const auto [outside, ignored] =
-      std::mismatch(real_dir.begin(), real_dir.end(), real_image.begin(), real_image.end());
-  if (error || outside != real_dir.end())
-    image.fail("the image leads out of the dataset's folder (a symbolic link to " +
-               quote_input(real_image.string()) + ")");
-  map.image_name = name.generic_string();
-  try {
-    map.image_bytes = read_input_file(image_file, kMaxPgmFileBytes);
-  } catch (const InputError& e) {
-    image.fail(e.what());
-  }
-  {
-    const InputSandbox sandbox({{InputSandbox::key(fs::absolute(map.yaml_file)), map.yaml_text},
-                                {InputSandbox::key(fs::absolute(image_file)), map.image_bytes}},
-                               "the dataset " + quote_input(dir.string()));
-    (void)load_occupancy_map(fs::absolute(map.yaml_file));
-  }
-  files_read.push_back(map.yaml_file);
-  files_read.push_back(image_file);
-  return map;
-}
-
 }  // namespace
 
 ImportedDataset read_generic(const fs::path& dir) {
@@ -494,7 +440,8 @@ ImportedDataset read_generic(const fs::path& dir) {
                                  z >= 0 ? beacons.number(row, z, kHeightRange) : 0.0});
     }
   }
-  if (has_file(dir / "occupancy.yaml")) dataset.map = read_occupancy_map(dir, dataset.files);
+  if (has_file(dir / "occupancy.yaml"))
+    dataset.map = read_map_server_map(dir / "occupancy.yaml", dataset.files);
   std::vector<std::pair<std::string, fs::path>> robots;
   if (has_file(dir / "odometry.csv")) {
     robots.emplace_back("robot", dir);

@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <set>
+#include <stdexcept>
 #include <tuple>
 
 #include "sim/common/base64.hpp"
@@ -16,6 +18,7 @@
 #include "sim/sensors/sensor_defs.hpp"
 #include "sim/stream/log_file.hpp"
 #include "sim/stream/record_checks.hpp"
+#include "sim/world/pgm.hpp"
 #include "sim/world/world_loader.hpp"
 
 namespace locsim {
@@ -155,6 +158,70 @@ struct Beyond {
 
 }  // namespace
 
+LaserDef laser_spread(double first_rad, double last_rad, int beams, double min_range_m,
+                      double max_range_m, const Pose2& mount) {
+  LaserDef def;
+  def.beams = beams;
+  def.min_range_m = min_range_m;
+  def.max_range_m = max_range_m;
+  const double span_rad = last_rad - first_rad;
+  const double full_turn = 2.0 * std::numbers::pi;
+  if (span_rad > full_turn + 1e-9) {
+    throw std::invalid_argument(std::to_string(beams) + " beams from angle_min " +
+                                short_number(first_rad) + " to " + short_number(last_rad) +
+                                " rad span more than a full turn");
+  }
+  // LaserDef treats a field of view of a full turn as beams 2 pi / n apart; a span of 2 pi means
+  // n - 1 gaps, which a field of view just short of it gives.
+  def.fov_rad = beams == 1 ? LaserDef::kFovRange.min
+                           : std::clamp(span_rad, LaserDef::kFovRange.min, full_turn - 2e-9);
+  def.common.mount = mount;
+  def.common.mount.theta =
+      wrap_angle(mount.theta + (beams == 1 ? first_rad : 0.5 * (first_rad + last_rad)));
+  return def;
+}
+
+ImportedMap read_map_server_map(const fs::path& yaml_file, std::vector<fs::path>& files_read) {
+  const fs::path dir = yaml_file.parent_path().empty() ? fs::path(".") : yaml_file.parent_path();
+  ImportedMap map;
+  map.yaml_file = yaml_file;
+  map.yaml_text = read_input_file(map.yaml_file, kMaxYamlFileBytes);
+  const YamlNode root = YamlNode::load_string(map.yaml_text, map.yaml_file.string());
+  const YamlNode image = root["image"];
+  const fs::path name = fs::path(image.as_string()).lexically_normal();
+  if (name.empty() || name.is_absolute() || name.has_root_name() || *name.begin() == "..")
+    image.fail("the image must be a file in the map's folder (a relative path within it)");
+  const fs::path image_file = dir / name;
+  // A symbolic link that leads out of the folder is refused as such a path is.
+  std::error_code error;
+  const fs::path real_dir = fs::weakly_canonical(dir, error);
+  const fs::path real_image = error ? fs::path() : fs::weakly_canonical(image_file, error);
+  const auto [outside, ignored] =
+      std::mismatch(real_dir.begin(), real_dir.end(), real_image.begin(), real_image.end());
+  if (error || outside != real_dir.end())
+    image.fail("the image leads out of the map's folder (a symbolic link to " +
+               quote_input(real_image.string()) + ")");
+  map.image_name = name.generic_string();
+  try {
+    map.image_bytes = read_input_file(image_file, kMaxPgmFileBytes);
+  } catch (const InputError& e) {
+    image.fail(e.what());
+  }
+  check_imported_map(map);
+  files_read.push_back(map.yaml_file);
+  files_read.push_back(image_file);
+  return map;
+}
+
+void check_imported_map(const ImportedMap& map) {
+  const fs::path yaml = fs::absolute(map.yaml_file);
+  const InputSandbox sandbox(
+      {{InputSandbox::key(yaml), map.yaml_text},
+       {InputSandbox::key(yaml.parent_path() / map.image_name), map.image_bytes}},
+      "the map " + quote_input(map.yaml_file.string()));
+  (void)load_occupancy_map(yaml);
+}
+
 std::string imported_world_name(std::string_view prefix, const fs::path& dir) {
   fs::path folder = fs::absolute(dir).lexically_normal();
   if (!folder.has_filename()) folder = folder.parent_path();  // "data/" and "." name their folder
@@ -222,6 +289,11 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                              "start pose (give one, or import another window)");
       }
       robot.start = robot.truth.front().pose;
+      if (!truth_known(*robot.start)) {
+        throw InputError(
+            where, "",
+            "robot " + quote_input(robot.name) + " has no ground truth, so it needs a start pose");
+      }
     }
     for (const auto& reading : robot.detections) {
       for (const Detection& d : reading.detections) {
@@ -419,7 +491,11 @@ ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
         record.t_s = e.t_s;
         record.robot = static_cast<int>(e.robot);
         record.pose = robot.truth[e.index].pose;
-        ++summary.ground_truth;
+        if (truth_known(record.pose)) {
+          ++summary.ground_truth;
+        } else {
+          ++summary.unscored_samples;
+        }
       } else {
         record.type = Record::Type::kReading;
         record.reading.t_s = e.t_s;
@@ -519,9 +595,12 @@ std::string describe(const ImportSummary& s) {
            ? std::to_string(s.detection_readings) + " detection readings with " +
                  std::to_string(s.detections) + " detections, "
            : std::string()) +
-      std::to_string(s.ground_truth) + " true poses) of " + std::to_string(s.robots.size()) +
-      " robots (" + robots + "), " + fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) +
-      " s";
+      std::to_string(s.ground_truth) + " true poses" +
+      (s.unscored_samples > 0
+           ? ", " + std::to_string(s.unscored_samples) + " sampling instants without truth"
+           : std::string()) +
+      ") of " + std::to_string(s.robots.size()) + " robots (" + robots + "), " +
+      fixed(s.duration_s, 3) + " s from t0 = " + fixed(s.t0_s, 3) + " s";
   std::size_t dropped = 0;
   std::string reasons;
   for (const auto& [reason, count] : s.dropped) {

@@ -85,6 +85,8 @@ struct ImportedRobot {
     SamplePlace at;
   };
   std::vector<Odometry> odometry;  // each in time order
+  /// True poses; a dataset without truth gives unknown_truth() poses at the instants its
+  /// localizers are to be sampled (their estimates kept, nothing scored), and a start.
   std::vector<Truth> truth;
   std::vector<Detections> detections;
   std::vector<Imu> imu;  // none: the robot has no IMU
@@ -126,6 +128,17 @@ struct ImportedMap {
   std::string image_bytes;
 };
 
+/// A ROS map_server map (its YAML and the image it names, which must lie in the YAML's folder: a
+/// map from someone else must not make an import read /etc/passwd into a log), read once and
+/// checked as the world's loader will read it from the log. Adds both files to `files_read`.
+/// Throws InputError at the YAML's line.
+ImportedMap read_map_server_map(const std::filesystem::path& yaml_file,
+                                std::vector<std::filesystem::path>& files_read);
+
+/// Checks `map` as the world's loader will read it from the log (its image by the YAML's `image`
+/// beside it). Throws InputError naming the map.
+void check_imported_map(const ImportedMap& map);
+
 struct ImportedDataset {
   std::string name;               // the world's name
   nlohmann::ordered_json source;  // the header's "source"; t0 is added under `t0_key`
@@ -160,7 +173,8 @@ struct ImportWindow {
 };
 
 struct ImportSummary {
-  std::size_t records = 0;  // written, the end record not counted
+  std::size_t records = 0;           // written, the end record not counted
+  std::size_t unscored_samples = 0;  // sampling instants without truth (unknown_truth)
   std::size_t odometry = 0, detection_readings = 0, detections = 0, ground_truth = 0, imu = 0,
               range_readings = 0, ranges = 0, laser_scans = 0, laser_no_returns = 0;
   std::vector<std::string> robots;
@@ -178,6 +192,14 @@ struct ImportSummary {
 /// pose, or a record would not pass a replay's checks (at its sample's line).
 ImportSummary write_import(ImportedDataset dataset, const ImportWindow& window,
                            const std::filesystem::path& out);
+
+/// The simulated laser whose `beams` beams spread as a ROS LaserScan's do from `first_rad` to
+/// `last_rad` (its angle_min and its last beam's angle) on `mount`: LaserDef's beams are centred
+/// on the mount's x axis, so the scan's middle angle turns the mount. Exact (to 1e-8 rad) for any
+/// span short of a full turn; a scan whose last beam repeats its first (-pi..pi) is one. Throws
+/// std::invalid_argument, saying the angles, when they span more than a full turn.
+LaserDef laser_spread(double first_rad, double last_rad, int beams, double min_range_m,
+                      double max_range_m, const Pose2& mount);
 
 /// "12345 records (...), robots ..., dropped ..." for the command line.
 std::string describe(const ImportSummary& summary);

@@ -89,6 +89,9 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
     std::size_t since_flush = 0;
     while (source.next(record)) {
       ++result.records;
+      if (record.type == Record::Type::kGroundTruth) {
+        ++(truth_known(record.pose) ? result.true_poses : result.unknown_truths);
+      }
       const double t_s = record.type == Record::Type::kReading ? record.reading.t_s
                          : record.type == Record::Type::kEvent ? record.event.t_s
                                                                : record.t_s;

@@ -33,7 +33,8 @@ struct ReplayResult {
   double replayed_s = 0.0;  // simulated time covered
   double wall_s = 0.0;
   std::size_t records = 0;
-  std::vector<std::string> failed_localizers;  // labels of localizers that failed (exit code 5)
+  std::size_t true_poses = 0, unknown_truths = 0;  // ground-truth records, known or not
+  std::vector<std::string> failed_localizers;      // labels of localizers that failed (exit code 5)
 };
 
 /// Throws InputError (bad log, bad parameters, a bad --out) or PluginError (plugins) before

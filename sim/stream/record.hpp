@@ -4,7 +4,9 @@
 // `locsim run` and `locsim replay` differ only in their producer; docs/architecture.md.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,18 @@ struct Record {
   Pose2 pose;        // kGroundTruth: the robot's true pose (never while it is carried)
   SimEvent event;    // kEvent
 };
+
+/// The pose of a ground-truth record when the truth is not known (a recording without it, e.g. a
+/// ROS bag): the record still marks an instant the localizers are sampled at, so their estimates
+/// are kept, and nothing is scored against it. docs/log_format.md.
+inline Pose2 unknown_truth() {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  return {nan, nan, nan};
+}
+/// Whether a true pose is known (unknown_truth() is not).
+inline bool truth_known(const Pose2& pose) {
+  return !std::isnan(pose.x);
+}
 
 /// Takes the records of a stream, in order.
 class RecordConsumer {

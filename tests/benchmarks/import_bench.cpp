@@ -4,19 +4,30 @@
 // log: reading it, pairing readings with the truth, and the likelihood fits (counter: log records
 // per second). And `locsim twin` of it, with that calibration: reading the log, thinning the true
 // path, the landmarks in view along it, writing and loading the world (counter: log records per
-// second). And `locsim import generic` of laser scans, and `locsim calibrate` of a laser.
+// second). And `locsim import generic` of laser scans, the same scans from a ROS 2 bag (`locsim
+// import rosbag2`), and `locsim calibrate` of a laser.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "sim/common/files.hpp"
 #include "sim/experiments/twin.hpp"
 #include "sim/metrics/calibration.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/mrclam_import.hpp"
+#include "sim/producers/rosbag_import.hpp"
+#include "sim/rosbag/mcap.hpp"
+#include "sim/rosbag/message_definition.hpp"
+#include "sim/rosbag/ros_types.hpp"
 #include "sim/run/runner.hpp"
 #include "tests/noisy_world.hpp"
 
@@ -114,6 +125,114 @@ void BM_ImportGenericScans(benchmark::State& state) {
       benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ImportGenericScans)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// `locsim import rosbag2` of the same scans as BM_ImportGenericScans (60 s of a 1081-beam
+/// scanner at 40 Hz, a tenth of the beams without a return, nav_msgs/Odometry and PoseStamped
+/// truth at 50 Hz) in an MCAP bag as `ros2 bag record` writes one: chunks of 768 KiB, compressed
+/// with zstd (argument 1), lz4 (2) or not (0). Read, decoded by the bag's definitions, and written
+/// as a log. Counter: beams read per second.
+void BM_ImportRosbag2Scans(benchmark::State& state) {
+  using nlohmann::json;
+  namespace rb = locsim::rosbag;
+  constexpr int kBeams = 1081, kScans = 2400;
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_import_bag";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    rb::McapWriterOptions options;
+    options.compression = state.range(0) == 1   ? rb::McapCompression::kZstd
+                          : state.range(0) == 2 ? rb::McapCompression::kLz4
+                                                : rb::McapCompression::kNone;
+    rb::McapWriter writer(dir / "bag.mcap", options);
+    std::map<std::string, std::pair<std::uint16_t, rb::MessageDefinition>> topics;
+    for (const auto& [topic, type] : {std::pair{"/scan", "sensor_msgs/msg/LaserScan"},
+                                      {"/odom", "nav_msgs/msg/Odometry"},
+                                      {"/ground_truth", "geometry_msgs/msg/PoseStamped"},
+                                      {"/tf_static", "tf2_msgs/msg/TFMessage"}}) {
+      const std::uint16_t schema = writer.add_schema(type, "ros2msg", rb::schema_text(type));
+      topics.emplace(topic, std::pair{writer.add_channel(schema, topic, "cdr"),
+                                      rb::MessageDefinition::known(type)});
+    }
+    const auto write = [&](const std::string& topic, std::int64_t ns, const json& message) {
+      const auto& [channel, definition] = topics.at(topic);
+      writer.write(channel, 0, static_cast<std::uint64_t>(ns), static_cast<std::uint64_t>(ns),
+                   definition.encode(message));
+    };
+    const auto header = [](std::int64_t ns, const char* frame) {
+      return json{{"stamp", {{"sec", ns / 1'000'000'000}, {"nanosec", ns % 1'000'000'000}}},
+                  {"frame_id", frame}};
+    };
+    const auto pose = [](double x, double y, double yaw) {
+      return json{{"position", {{"x", x}, {"y", y}, {"z", 0.0}}},
+                  {"orientation",
+                   {{"x", 0.0}, {"y", 0.0}, {"z", std::sin(yaw / 2)}, {"w", std::cos(yaw / 2)}}}};
+    };
+    const std::int64_t t0 = 1'700'000'000'000'000'000;
+    write("/tf_static", t0,
+          {{"transforms",
+            {{{"header", header(t0, "base_link")},
+              {"child_frame_id", "laser"},
+              {"transform",
+               {{"translation", {{"x", 0.2}, {"y", 0.0}, {"z", 0.3}}},
+                {"rotation", {{"x", 0.0}, {"y", 0.0}, {"z", 0.0}, {"w", 1.0}}}}}}}}});
+    const json covariance = std::vector<double>(36, 0.0);
+    int scan = 0;
+    for (int i = 0; i <= 3000; ++i) {
+      const std::int64_t ns = t0 + static_cast<std::int64_t>(i) * 20'000'000;
+      const double t = 0.02 * i;
+      write("/odom", ns,
+            {{"header", header(ns, "odom")},
+             {"child_frame_id", "base_link"},
+             {"pose", {{"pose", pose(0.5 * t, 0.0, 0.1 * t)}, {"covariance", covariance}}},
+             {"twist",
+              {{"twist",
+                {{"linear", {{"x", 0.5}, {"y", 0.0}, {"z", 0.0}}},
+                 {"angular", {{"x", 0.0}, {"y", 0.0}, {"z", 0.1}}}}},
+               {"covariance", covariance}}}});
+      write("/ground_truth", ns,
+            {{"header", header(ns, "map")},
+             {"pose", pose(std::cos(0.1 * t), std::sin(0.1 * t), 0.1 * t)}});
+      for (; scan < kScans && scan * 25'000'000 <= i * 20'000'000; ++scan) {
+        json ranges = json::array();
+        for (int b = 0; b < kBeams; ++b) {
+          ranges.push_back((b + scan) % 10 == 0
+                               ? json("Infinity")
+                               : json(2.0 + 5.0 * std::abs(std::sin(0.01 * (b + scan)))));
+        }
+        const std::int64_t scan_ns = t0 + static_cast<std::int64_t>(scan) * 25'000'000;
+        write("/scan", scan_ns,
+              {{"header", header(scan_ns, "laser")},
+               {"angle_min", -0.75 * std::numbers::pi},
+               {"angle_max", 0.75 * std::numbers::pi},
+               {"angle_increment", 1.5 * std::numbers::pi / (kBeams - 1)},
+               {"time_increment", 0.0},
+               {"scan_time", 0.025},
+               {"range_min", 0.1},
+               {"range_max", 30.0},
+               {"ranges", ranges},
+               {"intensities", json::array()}});
+      }
+    }
+    writer.finish();
+  }
+  for (auto _ : state) {
+    locsim::RosbagImportOptions options;
+    options.bag = dir / "bag.mcap";
+    benchmark::DoNotOptimize(
+        locsim::write_import(locsim::read_rosbag2(options).dataset, {}, dir / "out.locsimlog"));
+  }
+  state.counters["bag_mb"] = static_cast<double>(fs::file_size(dir / "bag.mcap")) / 1e6;
+  fs::remove_all(dir);
+  state.counters["beams_per_s"] = benchmark::Counter(
+      static_cast<double>(kBeams) * kScans * static_cast<double>(state.iterations()),
+      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ImportRosbag2Scans)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_CalibrateMrclam(benchmark::State& state) {
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate";

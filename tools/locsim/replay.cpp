@@ -34,6 +34,11 @@ int execute(State& s) {
   if (!s.quiet) {
     std::printf("%s: %s, replayed %.1f s (%zu records) in %.3f s -> %s\n", options.log_file.c_str(),
                 r.status.c_str(), r.replayed_s, r.records, r.wall_s, s.out.c_str());
+    if (r.true_poses == 0 && r.unknown_truths > 0) {
+      std::printf(
+          "the log has no ground truth: the estimates are in the .tum files, and "
+          "metrics.json scores nothing\n");
+    }
   }
   return exit_code(r.status, r.failed_localizers);
 }
