@@ -147,10 +147,11 @@ std::string choose(const std::map<std::string, TopicData>& topics, const std::st
     return named;
   }
   std::vector<std::string> candidates;
-  for (const auto& [name, topic] : topics) {
+  for (const auto& entry : topics) {
+    const std::string& type = entry.second.type;
     if (std::any_of(types.begin(), types.end(),
-                    [&](std::string_view type) { return is_type(topic.type, type); })) {
-      candidates.push_back(name);
+                    [&](std::string_view wanted) { return is_type(type, wanted); })) {
+      candidates.push_back(entry.first);
     }
   }
   if (candidates.size() == 1) return candidates.front();

@@ -11,7 +11,7 @@ namespace locsim::rosbag {
 namespace {
 
 // Fields only: the comments of ROS's files are theirs and carry nothing a decoder needs.
-constexpr std::array<std::pair<std::string_view, std::string_view>, 23> kDefinitions = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 24> kDefinitions = {{
     {"builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n"},
     {"builtin_interfaces/Duration", "int32 sec\nuint32 nanosec\n"},
     {"std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"},
@@ -43,6 +43,9 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 23> kDefinit
      "std_msgs/Header header\nfloat32 angle_min\nfloat32 angle_max\nfloat32 angle_increment\n"
      "float32 time_increment\nfloat32 scan_time\nfloat32 range_min\nfloat32 range_max\n"
      "float32[] ranges\nfloat32[] intensities\n"},
+    {"sensor_msgs/JointState",
+     "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
+     "float64[] effort\n"},
     {"sensor_msgs/Imu",
      "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n"
      "float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n"

@@ -5,7 +5,8 @@
 // per second). And `locsim twin` of it, with that calibration: reading the log, thinning the true
 // path, the landmarks in view along it, writing and loading the world (counter: log records per
 // second). And `locsim import generic` of laser scans, the same scans from a ROS 2 bag (`locsim
-// import rosbag2`), and `locsim calibrate` of a laser.
+// import rosbag2`), the demo's log written as a bag (`locsim export`), and `locsim calibrate` of a
+// laser.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -28,6 +29,7 @@
 #include "sim/rosbag/mcap.hpp"
 #include "sim/rosbag/message_definition.hpp"
 #include "sim/rosbag/ros_types.hpp"
+#include "sim/run/export_bag.hpp"
 #include "sim/run/runner.hpp"
 #include "tests/noisy_world.hpp"
 
@@ -233,6 +235,28 @@ BENCHMARK(BM_ImportRosbag2Scans)
     ->Arg(2)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+/// `locsim export LOG --rosbag2 OUT` of the demo world's 60 s log (encoders, IMU, laser and
+/// truth as ROS messages, the map, zstd chunks). Counter: messages written per second.
+void BM_ExportRosbag2Demo(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_export_bag";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  locsim::RunOptions run;
+  run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  run.out_dir = dir / "run";
+  run.log_file = dir / "demo.locsimlog";
+  run.readings = false;
+  locsim::run_simulation(run);
+  std::uint64_t messages = 0;
+  for (auto _ : state) {
+    messages = locsim::export_rosbag2(*run.log_file, dir / "bag", {}, true).messages;
+  }
+  fs::remove_all(dir);
+  state.counters["messages_per_s"] = benchmark::Counter(
+      static_cast<double>(messages * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ExportRosbag2Demo)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_CalibrateMrclam(benchmark::State& state) {
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate";

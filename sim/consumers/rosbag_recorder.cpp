@@ -1,0 +1,285 @@
+#include "sim/consumers/rosbag_recorder.hpp"
+
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <variant>
+
+#include "sim/common/files.hpp"
+#include "sim/rosbag/ros_types.hpp"
+#include "sim/sensors/models.hpp"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace locsim {
+namespace {
+
+// rosbag2's QoS profiles (rmw enums: history 1 keep last, reliability 1 reliable, durability 1
+// transient local / 2 volatile), as `ros2 bag play` reads them from metadata.yaml: a latched topic
+// (/map, /tf_static) is offered transient local, so a node that starts after the bag still gets it.
+std::string qos_profile(bool latched) {
+  return std::string("- history: 1\n  depth: ") + (latched ? "1" : "100") +
+         "\n  reliability: 1\n  durability: " + (latched ? "1" : "2") +
+         "\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n"
+         "  liveliness: 1\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n"
+         "  avoid_ros_namespace_conventions: false";
+}
+
+json stamp(std::int64_t ns) {
+  return {{"sec", static_cast<std::int32_t>(ns / 1'000'000'000)},
+          {"nanosec", static_cast<std::uint32_t>(ns % 1'000'000'000)}};
+}
+json header(std::int64_t ns, const std::string& frame) {
+  return {{"stamp", stamp(ns)}, {"frame_id", frame}};
+}
+json yaw_quaternion(double yaw) {
+  return {{"x", 0.0}, {"y", 0.0}, {"z", std::sin(0.5 * yaw)}, {"w", std::cos(0.5 * yaw)}};
+}
+json pose(const Pose2& p) {
+  return {{"position", {{"x", p.x}, {"y", p.y}, {"z", 0.0}}},
+          {"orientation", yaw_quaternion(p.theta)}};
+}
+json transform(std::int64_t ns, const std::string& parent, const std::string& child,
+               const Pose2& p) {
+  return {{"header", header(ns, parent)},
+          {"child_frame_id", child},
+          {"transform",
+           {{"translation", {{"x", p.x}, {"y", p.y}, {"z", 0.0}}},
+            {"rotation", yaw_quaternion(p.theta)}}}};
+}
+json vector3(double x, double y, double z) {
+  return {{"x", x}, {"y", y}, {"z", z}};
+}
+/// A number JSON cannot hold, as MessageDefinition::encode reads it.
+json number(double value) {
+  if (std::isnan(value)) return "NaN";
+  if (std::isinf(value)) return value > 0 ? "Infinity" : "-Infinity";
+  return value;
+}
+
+}  // namespace
+
+RosbagRecorder::RosbagRecorder(const fs::path& folder, const WorldDef& world,
+                               const OccupancyGrid& grid, RosbagRecorderOptions options)
+    : folder_(folder), world_(world), options_(options) {
+  fs::create_directories(folder_);
+  const std::string name =
+      options_.bag_name.empty() ? folder_.filename().string() : options_.bag_name;
+  file_ = folder_ / (name + "_0.mcap");
+  rosbag::McapWriterOptions mcap;
+  mcap.compression = options_.compression;
+  writer_ = std::make_unique<rosbag::McapWriter>(file_, mcap);
+  first_ns_ = last_ns_ = options_.epoch_ns;
+
+  // The sensors' mounts, once, latched.
+  json transforms = json::array();
+  for (std::size_t r = 0; r < world_.robots.size(); ++r) {
+    const SensorsDef& sensors = world_.robots[r].sensors;
+    const int robot = static_cast<int>(r);
+    if (sensors.laser)
+      transforms.push_back(transform(options_.epoch_ns, frame(robot, "base_link"),
+                                     frame(robot, "laser"), sensors.laser->common.mount));
+    if (sensors.imu)
+      transforms.push_back(transform(options_.epoch_ns, frame(robot, "base_link"),
+                                     frame(robot, "imu_link"), sensors.imu->common.mount));
+  }
+  if (!transforms.empty()) {
+    write(topic("/tf_static", "tf2_msgs/msg/TFMessage", true), options_.epoch_ns,
+          {{"transforms", transforms}});
+  }
+  if (grid.width > 0 && grid.height > 0) {
+    json cells = json::array();
+    for (const std::uint8_t cell : grid.cells) cells.push_back(cell);
+    write(topic("/map", "nav_msgs/msg/OccupancyGrid", true), options_.epoch_ns,
+          {{"header", header(options_.epoch_ns, "map")},
+           {"info",
+            {{"map_load_time", stamp(options_.epoch_ns)},
+             {"resolution", grid.resolution_m},
+             {"width", grid.width},
+             {"height", grid.height},
+             {"origin", pose({grid.origin_m.x(), grid.origin_m.y(), 0.0})}}},
+           {"data", cells}});
+  }
+}
+
+RosbagRecorder::~RosbagRecorder() = default;
+
+std::int64_t RosbagRecorder::stamp_ns(double t_s) const {
+  return options_.epoch_ns + std::llround(t_s * 1e9);
+}
+
+std::string RosbagRecorder::prefix(int robot) const {
+  return world_.robots.size() > 1 ? "/" + world_.robots[static_cast<std::size_t>(robot)].name : "";
+}
+
+std::string RosbagRecorder::frame(int robot, const std::string& name) const {
+  return world_.robots.size() > 1 ? world_.robots[static_cast<std::size_t>(robot)].name + "/" + name
+                                  : name;
+}
+
+std::size_t RosbagRecorder::topic(const std::string& name, const std::string& type, bool latched) {
+  if (const auto found = topic_index_.find(name); found != topic_index_.end()) return found->second;
+  Topic t;
+  t.name = name;
+  t.type = type;
+  t.qos = qos_profile(latched);
+  t.definition =
+      std::make_shared<const rosbag::MessageDefinition>(rosbag::MessageDefinition::known(type));
+  const std::uint16_t schema = writer_->add_schema(type, "ros2msg", rosbag::schema_text(type));
+  t.channel = writer_->add_channel(schema, name, "cdr", {{"offered_qos_profiles", t.qos}});
+  topics_.push_back(std::move(t));
+  topic_index_.emplace(name, topics_.size() - 1);
+  return topics_.size() - 1;
+}
+
+void RosbagRecorder::write(std::size_t index, std::int64_t ns, const json& message) {
+  Topic& t = topics_[index];
+  writer_->write(t.channel, static_cast<std::uint32_t>(t.count), static_cast<std::uint64_t>(ns),
+                 static_cast<std::uint64_t>(ns), t.definition->encode(message));
+  ++t.count;
+  first_ns_ = std::min(first_ns_, ns);
+  last_ns_ = std::max(last_ns_, ns);
+}
+
+void RosbagRecorder::consume(const Record& record) {
+  switch (record.type) {
+    case Record::Type::kReading: {
+      const Reading& reading = record.reading;
+      const std::int64_t ns = stamp_ns(reading.t_s);
+      const int r = reading.robot;
+      const RobotDef& robot = world_.robots[static_cast<std::size_t>(r)];
+      if (const auto* odometry = std::get_if<OdometryReading>(&reading.data)) {
+        if (odometry->has(kOdometryPose)) {
+          const json covariance = std::vector<double>(36, 0.0);
+          const bool velocity = odometry->has(kOdometryVelocity);
+          write(topic(prefix(r) + "/odom", "nav_msgs/msg/Odometry"), ns,
+                {{"header", header(ns, frame(r, "odom"))},
+                 {"child_frame_id", frame(r, "base_link")},
+                 {"pose", {{"pose", pose(odometry->odometry)}, {"covariance", covariance}}},
+                 {"twist",
+                  {{"twist",
+                    {{"linear", vector3(velocity ? odometry->v_mps : 0.0, 0.0, 0.0)},
+                     {"angular", vector3(0.0, 0.0, velocity ? odometry->omega_radps : 0.0)}}},
+                   {"covariance", covariance}}}});
+          write(topic("/tf", "tf2_msgs/msg/TFMessage"), ns,
+                {{"transforms",
+                  {transform(ns, frame(r, "odom"), frame(r, "base_link"), odometry->odometry)}}});
+        }
+        if (odometry->has(kOdometryTicks) && robot.sensors.encoders) {
+          // A wheel's angle: its count over the counts a revolution (exact back to the count).
+          const double per_tick = 2.0 * std::numbers::pi / robot.sensors.encoders->ticks_per_rev;
+          write(topic(prefix(r) + "/joint_states", "sensor_msgs/msg/JointState"), ns,
+                {{"header", header(ns, frame(r, "base_link"))},
+                 {"name", {"left_wheel_joint", "right_wheel_joint"}},
+                 {"position",
+                  {static_cast<double>(odometry->left_ticks) * per_tick,
+                   static_cast<double>(odometry->right_ticks) * per_tick}},
+                 {"velocity", json::array()},
+                 {"effort", json::array()}});
+        }
+      } else if (const auto* imu = std::get_if<ImuReading>(&reading.data)) {
+        // No orientation (covariance[0] = -1, as REP 145 says); gravity on z as an IMU reads it.
+        std::vector<double> unknown(9, 0.0);
+        unknown[0] = -1.0;
+        write(topic(prefix(r) + "/imu", "sensor_msgs/msg/Imu"), ns,
+              {{"header", header(ns, frame(r, "imu_link"))},
+               {"orientation", yaw_quaternion(0.0)},
+               {"orientation_covariance", unknown},
+               {"angular_velocity", vector3(0.0, 0.0, imu->yaw_rate_radps)},
+               {"angular_velocity_covariance", std::vector<double>(9, 0.0)},
+               {"linear_acceleration", vector3(imu->accel_mps2.x(), imu->accel_mps2.y(), 9.80665)},
+               {"linear_acceleration_covariance", std::vector<double>(9, 0.0)}});
+      } else if (const auto* scan = std::get_if<LaserScan>(&reading.data);
+                 scan != nullptr && robot.sensors.laser) {
+        const LaserDef& laser = *robot.sensors.laser;
+        const int beams = static_cast<int>(scan->ranges_m.size());
+        const double first = laser_beam_angle(0, beams, laser.fov_rad);
+        const double step = beams > 1 ? laser_beam_angle(1, beams, laser.fov_rad) - first : 0.0;
+        json ranges = json::array();
+        for (const float range : scan->ranges_m) {
+          // locsim's "nothing there" is max_range; ROS's is +inf (REP 117).
+          ranges.push_back(range >= static_cast<float>(laser.max_range_m)
+                               ? json("Infinity")
+                               : number(static_cast<double>(range)));
+        }
+        write(topic(prefix(r) + "/scan", "sensor_msgs/msg/LaserScan"), ns,
+              {{"header", header(ns, frame(r, "laser"))},
+               {"angle_min", first},
+               {"angle_max", first + step * (beams - 1)},
+               {"angle_increment", step},
+               {"time_increment", 0.0},
+               {"scan_time", 1.0 / laser.common.rate_hz},
+               {"range_min", laser.min_range_m},
+               {"range_max", laser.max_range_m},
+               {"ranges", ranges},
+               {"intensities", json::array()}});
+      }
+      break;
+    }
+    case Record::Type::kGroundTruth: {
+      const std::int64_t ns = stamp_ns(record.t_s);
+      if (record.t_s > last_clock_s_) {
+        write(topic("/clock", "rosgraph_msgs/msg/Clock"), ns, {{"clock", stamp(ns)}});
+        last_clock_s_ = record.t_s;
+      }
+      if (!truth_known(record.pose) || record.robot < 0) break;
+      const int r = record.robot;
+      write(topic(prefix(r) + "/ground_truth", "geometry_msgs/msg/PoseStamped"), ns,
+            {{"header", header(ns, "map")}, {"pose", pose(record.pose)}});
+      write(topic("/tf", "tf2_msgs/msg/TFMessage"), ns,
+            {{"transforms", {transform(ns, "map", frame(r, "base_link_truth"), record.pose)}}});
+      break;
+    }
+    case Record::Type::kEvent: {
+      const SimEvent& event = record.event;
+      write(topic("/locsim/events", "std_msgs/msg/String"), stamp_ns(event.t_s),
+            {{"data", event.kind + (event.robot.empty() ? "" : " robot=" + event.robot) +
+                          (event.details.empty() ? "" : " " + event.details)}});
+      break;
+    }
+    case Record::Type::kEnd:
+      break;
+  }
+}
+
+std::uint64_t RosbagRecorder::messages() const {
+  return writer_->message_count();
+}
+
+void RosbagRecorder::finish() {
+  if (finished_) return;
+  writer_->finish();
+  // metadata.yaml as rosbag2 writes it (version 5: what Humble reads, and Jazzy still does).
+  std::string yaml =
+      "rosbag2_bagfile_information:\n"
+      "  version: 5\n"
+      "  storage_identifier: mcap\n"
+      "  duration:\n    nanoseconds: " +
+      std::to_string(last_ns_ - first_ns_) +
+      "\n"
+      "  starting_time:\n    nanoseconds_since_epoch: " +
+      std::to_string(first_ns_) +
+      "\n"
+      "  message_count: " +
+      std::to_string(writer_->message_count()) +
+      "\n"
+      "  topics_with_message_count:\n";
+  for (const Topic& t : topics_) {
+    yaml +=
+        "    - topic_metadata:\n        name: " + t.name + "\n        type: " + t.type +
+        "\n        serialization_format: cdr\n        offered_qos_profiles: " + json(t.qos).dump() +
+        "\n      message_count: " + std::to_string(t.count) + "\n";
+  }
+  const std::string file = file_.filename().string();
+  yaml += "  compression_format: \"\"\n  compression_mode: \"\"\n  relative_file_paths:\n    - " +
+          file + "\n  files:\n    - path: " + file +
+          "\n      starting_time:\n        nanoseconds_since_epoch: " + std::to_string(first_ns_) +
+          "\n      duration:\n        nanoseconds: " + std::to_string(last_ns_ - first_ns_) +
+          "\n      message_count: " + std::to_string(writer_->message_count()) + "\n";
+  write_file(folder_ / "metadata.yaml", yaml);
+  finished_ = true;
+}
+
+}  // namespace locsim

@@ -1,0 +1,201 @@
+// `locsim export LOG --rosbag2 OUT`: a log as a ROS 2 bag. An independent reader (npm's
+// @mcap/core and @foxglove/rosmsg2-serialization, tests/checkers) decodes every topic of an
+// exported demo run, and each value is the log's: poses to 1e-9, scans bit for bit.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sim/common/errors.hpp"
+#include "sim/producers/log_source.hpp"
+#include "sim/producers/rosbag_import.hpp"
+#include "sim/run/export_bag.hpp"
+#include "sim/run/runner.hpp"
+#include "test_support.hpp"
+
+namespace locsim {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::expect_contains;
+
+/// A 23 s run of the demo world (encoders, IMU, laser, cameras, beacons; a kidnap at 20 s), logged.
+fs::path demo_log(const fs::path& dir) {
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.duration_s = 23.0;
+  options.out_dir = dir / "run";
+  options.log_file = dir / "demo.locsimlog";
+  options.readings = false;
+  run_simulation(options);
+  return *options.log_file;
+}
+
+std::int64_t stamp_ns(const json& header) {
+  return header["stamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
+         header["stamp"]["nanosec"].get<std::int64_t>();
+}
+double yaw(const json& q) {
+  const double x = q["x"], y = q["y"], z = q["z"], w = q["w"];
+  return std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
+}
+double number(const json& value) {
+  return value.is_string() ? std::strtod(value.get<std::string>().c_str(), nullptr)
+                           : value.get<double>();
+}
+
+TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
+  const fs::path dir = testing::temp_dir("export");
+  const fs::path log = demo_log(dir);
+  const auto exported =
+      testing::locsim("export " + log.string() + " --rosbag2 " + (dir / "bag").string());
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  const fs::path checkers = fs::path(LOCSIM_SOURCE_DIR) / "tests" / "checkers";
+  ASSERT_TRUE(fs::exists(checkers / "node_modules"))
+      << "run tools/setup (npm ci in tests/checkers)";
+  const auto dumped = testing::run_command("node " + (checkers / "mcap_dump.mjs").string() + " " +
+                                           (dir / "bag" / "bag_0.mcap").string());
+  ASSERT_EQ(dumped.exit_code, 0) << dumped.output;
+  std::map<std::string, std::vector<json>> topics;
+  std::istringstream lines(dumped.output);
+  json header;
+  for (std::string line; std::getline(lines, line);) {
+    const json j = json::parse(line);
+    if (j.contains("header")) {
+      header = j;
+    } else {
+      topics[j["topic"].get<std::string>()].push_back(j["message"]);
+    }
+  }
+  EXPECT_EQ(header["header"]["profile"], "ros2");
+  // /map and /tf_static are offered transient local (durability 1), so a late node gets them.
+  for (const json& channel : header["channels"]) {
+    const std::string qos = channel["metadata"]["offered_qos_profiles"];
+    const bool latched = channel["topic"] == "/map" || channel["topic"] == "/tf_static";
+    expect_contains(qos, latched ? "durability: 1" : "durability: 2");
+  }
+
+  // Every record of the log against the bag's messages, in order.
+  LogSource source(log);
+  const RobotDef& robot = source.world().robots[0];
+  const double per_tick = 2.0 * std::numbers::pi / robot.sensors.encoders->ticks_per_rev;
+  const auto ns = [](double t_s) { return 1'000'000'000 + std::llround(t_s * 1e9); };
+  std::map<std::string, std::size_t> at;
+  std::size_t true_poses = 0, scans = 0, events = 0;
+  Record record;
+  while (source.next(record)) {
+    if (record.type == Record::Type::kReading) {
+      const Reading& r = record.reading;
+      if (const auto* odometry = std::get_if<OdometryReading>(&r.data)) {
+        const json& m = topics["/odom"].at(at["/odom"]++);
+        EXPECT_EQ(stamp_ns(m["header"]), ns(r.t_s));
+        EXPECT_NEAR(m["pose"]["pose"]["position"]["x"].get<double>(), odometry->odometry.x, 1e-9);
+        EXPECT_NEAR(m["pose"]["pose"]["position"]["y"].get<double>(), odometry->odometry.y, 1e-9);
+        EXPECT_NEAR(yaw(m["pose"]["pose"]["orientation"]), odometry->odometry.theta, 1e-9);
+        const json& joints = topics["/joint_states"].at(at["/joint_states"]++);
+        EXPECT_EQ(std::llround(joints["position"][0].get<double>() / per_tick),
+                  odometry->left_ticks);
+        EXPECT_EQ(std::llround(joints["position"][1].get<double>() / per_tick),
+                  odometry->right_ticks);
+      } else if (const auto* imu = std::get_if<ImuReading>(&r.data)) {
+        const json& m = topics["/imu"].at(at["/imu"]++);
+        EXPECT_EQ(m["angular_velocity"]["z"].get<double>(), imu->yaw_rate_radps);
+        EXPECT_EQ(m["linear_acceleration"]["x"].get<double>(), imu->accel_mps2.x());
+      } else if (const auto* scan = std::get_if<LaserScan>(&r.data)) {
+        const json& m = topics["/scan"].at(at["/scan"]++);
+        ++scans;
+        EXPECT_EQ(stamp_ns(m["header"]), ns(r.t_s));
+        ASSERT_EQ(m["ranges"].size(), scan->ranges_m.size());
+        for (std::size_t i = 0; i < scan->ranges_m.size(); ++i) {
+          const float ours = scan->ranges_m[i];
+          const float theirs = static_cast<float>(number(m["ranges"][i]));
+          if (ours >= static_cast<float>(robot.sensors.laser->max_range_m)) {
+            EXPECT_TRUE(std::isinf(theirs)) << i;  // no return: +inf, REP 117
+          } else {
+            EXPECT_EQ(std::bit_cast<std::uint32_t>(theirs), std::bit_cast<std::uint32_t>(ours))
+                << i;
+          }
+        }
+        // The beams' angles as the laser spreads them.
+        EXPECT_NEAR(m["angle_min"].get<double>(), -0.5 * robot.sensors.laser->fov_rad, 1e-6);
+      }
+    } else if (record.type == Record::Type::kGroundTruth) {
+      const json& m = topics["/ground_truth"].at(at["/ground_truth"]++);
+      ++true_poses;
+      EXPECT_EQ(stamp_ns(m["header"]), ns(record.t_s));
+      EXPECT_NEAR(m["pose"]["position"]["x"].get<double>(), record.pose.x, 1e-9);
+      EXPECT_NEAR(m["pose"]["position"]["y"].get<double>(), record.pose.y, 1e-9);
+      EXPECT_NEAR(yaw(m["pose"]["orientation"]), record.pose.theta, 1e-9);
+    } else if (record.type == Record::Type::kEvent) {
+      const json& m = topics["/locsim/events"].at(at["/locsim/events"]++);
+      ++events;
+      expect_contains(m["data"].get<std::string>(), record.event.kind);
+    }
+  }
+  EXPECT_GT(true_poses, 100u);
+  EXPECT_GT(scans, 20u);
+  EXPECT_GE(events, 2u);  // the kidnap and its put-down
+  for (const auto& [topic, count] : at) EXPECT_EQ(count, topics[topic].size()) << topic;
+  // The static frames: the laser's mount as the world has it.
+  const json& mounts = topics["/tf_static"].at(0)["transforms"];
+  bool laser = false;
+  for (const json& t : mounts) {
+    if (t["child_frame_id"] != "laser") continue;
+    laser = true;
+    EXPECT_NEAR(t["transform"]["translation"]["x"].get<double>(),
+                robot.sensors.laser->common.mount.x, 1e-12);
+    EXPECT_NEAR(yaw(t["transform"]["rotation"]), robot.sensors.laser->common.mount.theta, 1e-12);
+  }
+  EXPECT_TRUE(laser);
+  ASSERT_EQ(topics["/map"].size(), 1u);
+  EXPECT_GT(topics["/map"][0]["info"]["width"].get<int>(), 10);
+
+  // And locsim reads its own bag back: the same scans, bit for bit, and the truth.
+  RosbagImportOptions options;
+  options.bag = dir / "bag";
+  const RosbagDataset read = read_rosbag2(options);
+  const ImportedRobot& imported = read.dataset.robots[0];
+  EXPECT_EQ(imported.scans.size(), scans);
+  EXPECT_EQ(imported.truth.size(), true_poses);
+}
+
+TEST(RosbagExport, RefusesToReplaceWhatIsNotABagOrHoldsItsLog) {
+  const fs::path dir = testing::temp_dir("refuse");
+  const fs::path log = demo_log(dir);
+  // A folder of other files is not replaced, even with --overwrite.
+  fs::create_directories(dir / "notes");
+  std::ofstream(dir / "notes" / "keep.txt") << "mine";
+  try {
+    export_rosbag2(log, dir / "notes", {}, true);
+    FAIL();
+  } catch (const InputError& e) {
+    expect_contains(e.what(), "is not a bag folder (metadata.yaml and .mcap files only)");
+  }
+  EXPECT_TRUE(fs::exists(dir / "notes" / "keep.txt"));
+  // A bag is replaced only with --overwrite, and never one holding the log it exports.
+  export_rosbag2(log, dir / "bag");
+  EXPECT_THROW(export_rosbag2(log, dir / "bag"), InputError);
+  const ExportSummary again = export_rosbag2(log, dir / "bag", {}, true);
+  EXPECT_GT(again.messages, 1000u);
+  EXPECT_FALSE(fs::exists(dir / "bag.partial"));
+  fs::copy_file(log, dir / "bag" / "inside.db3");  // a log named like a bag's file, in the bag
+  try {
+    export_rosbag2(dir / "bag" / "inside.db3", dir / "bag", {}, true);
+    FAIL();
+  } catch (const InputError& e) {
+    expect_contains(e.what(), "which the export reads: not replaced");
+  }
+  EXPECT_TRUE(fs::exists(dir / "bag" / "inside.db3"));
+}
+
+}  // namespace
+}  // namespace locsim
