@@ -5,8 +5,8 @@
 // per second). And `locsim twin` of it, with that calibration: reading the log, thinning the true
 // path, the landmarks in view along it, writing and loading the world (counter: log records per
 // second). And `locsim import generic` of laser scans, the same scans from a ROS 2 bag (`locsim
-// import rosbag2`), the demo's log written as a bag (`locsim export`), and `locsim calibrate` of a
-// laser.
+// import rosbag2`), the demo's log written as a bag (`locsim export`), an external estimate scored
+// on it (`locsim score`), and `locsim calibrate` of a laser.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -31,6 +31,7 @@
 #include "sim/rosbag/ros_types.hpp"
 #include "sim/run/export_bag.hpp"
 #include "sim/run/runner.hpp"
+#include "sim/run/score.hpp"
 #include "tests/noisy_world.hpp"
 
 namespace {
@@ -257,6 +258,33 @@ void BM_ExportRosbag2Demo(benchmark::State& state) {
       static_cast<double>(messages * state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ExportRosbag2Demo)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// `locsim score` of an external TUM estimate on the demo world's 60 s log (the run's own
+/// odometry.tum, given back as a file): the log through the scorer and the recorder, the estimate
+/// at every true pose. Counter: true poses scored per second.
+void BM_ScoreExternalTumDemo(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_score";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  locsim::RunOptions run;
+  run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  run.out_dir = dir / "run";
+  run.log_file = dir / "demo.locsimlog";
+  run.localizers = {"odometry"};
+  run.readings = false;
+  locsim::run_simulation(run);
+  locsim::ScoreOptions options;
+  options.log_file = *run.log_file;
+  options.out_dir = dir / "scored";
+  options.estimates = {{"external", dir / "run" / "odometry.tum", ""}};
+  options.overwrite = true;
+  std::size_t scored = 0;
+  for (auto _ : state) scored = locsim::score_estimates(options).samples[0];
+  fs::remove_all(dir);
+  state.counters["true_poses_per_s"] = benchmark::Counter(
+      static_cast<double>(scored * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ScoreExternalTumDemo)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_CalibrateMrclam(benchmark::State& state) {
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_calibrate";

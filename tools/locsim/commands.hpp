@@ -23,6 +23,7 @@ Command add_sweep(CLI::App& app);
 Command add_replay(CLI::App& app);
 Command add_import(CLI::App& app);
 Command add_export(CLI::App& app);
+Command add_score(CLI::App& app);
 Command add_calibrate(CLI::App& app);
 Command add_twin(CLI::App& app);
 Command add_generate(CLI::App& app);

@@ -22,13 +22,14 @@ int main(int argc, char** argv) {
 
   // In the order `locsim --help` lists them (a braced list is evaluated left to right).
   const std::vector<locsim::cli::Command> commands = {
-      locsim::cli::add_run(app),       locsim::cli::add_validate(app),
-      locsim::cli::add_plugins(app),   locsim::cli::add_new_plugin(app),
-      locsim::cli::add_sweep(app),     locsim::cli::add_replay(app),
-      locsim::cli::add_import(app),    locsim::cli::add_export(app),
-      locsim::cli::add_calibrate(app), locsim::cli::add_twin(app),
-      locsim::cli::add_generate(app),  locsim::cli::add_report(app),
-      locsim::cli::add_compare(app),   locsim::cli::add_merge(app)};
+      locsim::cli::add_run(app),     locsim::cli::add_validate(app),
+      locsim::cli::add_plugins(app), locsim::cli::add_new_plugin(app),
+      locsim::cli::add_sweep(app),   locsim::cli::add_replay(app),
+      locsim::cli::add_import(app),  locsim::cli::add_export(app),
+      locsim::cli::add_score(app),   locsim::cli::add_calibrate(app),
+      locsim::cli::add_twin(app),    locsim::cli::add_generate(app),
+      locsim::cli::add_report(app),  locsim::cli::add_compare(app),
+      locsim::cli::add_merge(app)};
 
   try {
     app.parse(argc, argv);
