@@ -17,6 +17,7 @@
 #include "sim/common/errors.hpp"
 #include "sim/producers/log_source.hpp"
 #include "sim/producers/rosbag_import.hpp"
+#include "sim/producers/text_table.hpp"
 #include "sim/run/export_bag.hpp"
 #include "sim/run/runner.hpp"
 #include "test_support.hpp"
@@ -77,10 +78,12 @@ TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
     }
   }
   EXPECT_EQ(header["header"]["profile"], "ros2");
-  // /map and /tf_static are offered transient local (durability 1), so a late node gets them.
+  // /map, /tf_static and the log's header are offered transient local (durability 1), so a late
+  // node gets them.
   for (const json& channel : header["channels"]) {
     const std::string qos = channel["metadata"]["offered_qos_profiles"];
-    const bool latched = channel["topic"] == "/map" || channel["topic"] == "/tf_static";
+    const bool latched = channel["topic"] == "/map" || channel["topic"] == "/tf_static" ||
+                         channel["topic"] == "/locsim/log_header";
     expect_contains(qos, latched ? "durability: 1" : "durability: 2");
   }
 
@@ -138,7 +141,8 @@ TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
     } else if (record.type == Record::Type::kEvent) {
       const json& m = topics["/locsim/events"].at(at["/locsim/events"]++);
       ++events;
-      expect_contains(m["data"].get<std::string>(), record.event.kind);
+      EXPECT_EQ(m["kind"], record.event.kind);
+      EXPECT_EQ(m["step"].get<std::string>(), std::to_string(record.event.step));
     }
   }
   EXPECT_GT(true_poses, 100u);
@@ -166,6 +170,114 @@ TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
   const ImportedRobot& imported = read.dataset.robots[0];
   EXPECT_EQ(imported.scans.size(), scans);
   EXPECT_EQ(imported.truth.size(), true_poses);
+}
+
+/// Readings equal: exactly, but an odometry heading (through a quaternion) to 1e-12 rad.
+void expect_same_reading(const Reading& a, const Reading& b) {
+  ASSERT_EQ(a.kind, b.kind);
+  ASSERT_EQ(a.robot, b.robot);
+  if (const auto* o = std::get_if<OdometryReading>(&a.data)) {
+    const auto& p = std::get<OdometryReading>(b.data);
+    EXPECT_EQ(o->fields, p.fields);
+    EXPECT_EQ(o->left_ticks, p.left_ticks);
+    EXPECT_EQ(o->right_ticks, p.right_ticks);
+    EXPECT_EQ(o->odometry.x, p.odometry.x);
+    EXPECT_EQ(o->odometry.y, p.odometry.y);
+    EXPECT_NEAR(o->odometry.theta, p.odometry.theta, 1e-12);
+    EXPECT_EQ(o->v_mps, p.v_mps);
+    EXPECT_EQ(o->omega_radps, p.omega_radps);
+  } else if (const auto* scan = std::get_if<LaserScan>(&a.data)) {
+    EXPECT_EQ(scan->ranges_m, std::get<LaserScan>(b.data).ranges_m);  // bit for bit
+  } else if (const auto* imu = std::get_if<ImuReading>(&a.data)) {
+    EXPECT_EQ(imu->yaw_rate_radps, std::get<ImuReading>(b.data).yaw_rate_radps);
+    EXPECT_EQ(imu->accel_mps2, std::get<ImuReading>(b.data).accel_mps2);
+  } else if (const auto* ptz = std::get_if<PtzReading>(&a.data)) {
+    const auto& q = std::get<PtzReading>(b.data);
+    EXPECT_EQ(ptz->pan_rad, q.pan_rad);
+    ASSERT_EQ(ptz->detections.size(), q.detections.size());
+    for (std::size_t i = 0; i < q.detections.size(); ++i) {
+      EXPECT_EQ(ptz->detections[i].id, q.detections[i].id);
+      EXPECT_EQ(ptz->detections[i].color, q.detections[i].color);
+      EXPECT_EQ(ptz->detections[i].range_m, q.detections[i].range_m);
+      EXPECT_EQ(ptz->detections[i].bearing_rad, q.detections[i].bearing_rad);
+      EXPECT_EQ(ptz->detections[i].truth_id, q.detections[i].truth_id);
+    }
+  } else if (const auto* u = std::get_if<UltrasonicReading>(&a.data)) {
+    const auto& v = std::get<UltrasonicReading>(b.data);
+    ASSERT_EQ(u->ranges.size(), v.ranges.size());
+    for (std::size_t i = 0; i < v.ranges.size(); ++i) {
+      EXPECT_EQ(u->ranges[i].beacon_id, v.ranges[i].beacon_id);
+      EXPECT_TRUE(u->ranges[i].range_m == v.ranges[i].range_m ||
+                  (std::isnan(u->ranges[i].range_m) && std::isnan(v.ranges[i].range_m)));
+      EXPECT_EQ(u->ranges[i].truth_status, v.ranges[i].truth_status);
+    }
+  }
+}
+
+TEST(RosbagExport, ExportThenImportGivesTheRunsRecordsAndItsLocalizersTheirEstimates) {
+  const fs::path dir = testing::temp_dir("round");
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.duration_s = 23.0;
+  options.out_dir = dir / "run";
+  options.log_file = dir / "demo.locsimlog";
+  options.localizers = {"ekf_landmarks", "amcl", "ultrasonic_amcl"};
+  options.readings = false;
+  run_simulation(options);
+  const auto exported = testing::locsim("export " + options.log_file->string() + " --rosbag2 " +
+                                        (dir / "bag").string());
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  const auto imported = testing::locsim("import rosbag2 " + (dir / "bag").string() + " --out " +
+                                        (dir / "back.locsimlog").string());
+  ASSERT_EQ(imported.exit_code, 0) << imported.output;
+  expect_contains(imported.output, "a bag locsim exported");
+
+  // Every record, in order: times to the nanosecond, readings as the log has them.
+  LogSource original(*options.log_file), back(dir / "back.locsimlog");
+  EXPECT_EQ(original.header().dump(), back.header().dump());  // the world, as exported
+  Record a, b;
+  std::size_t records = 0;
+  while (original.next(a)) {
+    ASSERT_TRUE(back.next(b)) << "record " << records;
+    ASSERT_EQ(a.type, b.type) << "record " << records;
+    if (a.type == Record::Type::kReading) {
+      EXPECT_NEAR(a.reading.t_s, b.reading.t_s, 1e-9);
+      expect_same_reading(a.reading, b.reading);
+    } else if (a.type == Record::Type::kGroundTruth) {
+      EXPECT_NEAR(a.t_s, b.t_s, 1e-9);
+      EXPECT_EQ(a.pose.x, b.pose.x);
+      EXPECT_NEAR(a.pose.theta, b.pose.theta, 1e-12);
+    } else if (a.type == Record::Type::kEvent) {
+      EXPECT_EQ(a.event.kind, b.event.kind);
+      EXPECT_EQ(a.event.step, b.event.step);
+      EXPECT_EQ(a.event.details, b.event.details);
+    }
+    ++records;
+  }
+  EXPECT_FALSE(back.next(b));
+  EXPECT_GT(records, 5000u);
+
+  // Replayed, the localizers give the run's estimates (TUM files to 1e-9) and metrics.
+  const auto replayed = testing::locsim(
+      "replay " + (dir / "back.locsimlog").string() + " --out " + (dir / "replay").string() +
+      " --localizer ekf_landmarks --localizer amcl --localizer ultrasonic_amcl");
+  ASSERT_EQ(replayed.exit_code, 0) << replayed.output;
+  for (const std::string label : {"ekf_landmarks", "amcl", "ultrasonic_amcl"}) {
+    SCOPED_TRACE(label);
+    const std::vector<StampedPose> ran = read_tum(dir / "run" / (label + ".tum"));
+    const std::vector<StampedPose> again = read_tum(dir / "replay" / (label + ".tum"));
+    ASSERT_EQ(ran.size(), again.size());
+    for (std::size_t i = 0; i < ran.size(); ++i) {
+      EXPECT_NEAR(ran[i].t_s, again[i].t_s, 1e-9);
+      EXPECT_NEAR(ran[i].pose.x, again[i].pose.x, 1e-9);
+      EXPECT_NEAR(ran[i].pose.y, again[i].pose.y, 1e-9);
+    }
+    const json m = testing::localizer_entry(dir / "run" / "metrics.json", label);
+    const json n = testing::localizer_entry(dir / "replay" / "metrics.json", label);
+    EXPECT_EQ(m["samples"], n["samples"]);
+    EXPECT_NEAR(m["position_error_m"]["rms"].get<double>(),
+                n["position_error_m"]["rms"].get<double>(), 1e-9);
+  }
 }
 
 TEST(RosbagExport, RefusesToReplaceWhatIsNotABagOrHoldsItsLog) {

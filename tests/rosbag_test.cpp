@@ -143,10 +143,12 @@ TEST(Cdr, RefusesAMessageCutShortOrACountItCannotHoldNamingTheByte) {
   }
   EXPECT_THROW(CdrReader(std::string("\x00\x01", 2)), CdrError);
   EXPECT_THROW(CdrReader(std::string("\x00\x03\x00\x00", 4)), CdrError);  // parameter list
-  CdrReader short_string(
-      std::string("\x00\x01\x00\x00\x10\x00\x00\x00"
-                  "ab",
-                  10));
+  // The reader looks at the bytes it is given: they must outlive it.
+  const std::string short_bytes(
+      "\x00\x01\x00\x00\x10\x00\x00\x00"
+      "ab",
+      10);
+  CdrReader short_string(short_bytes);
   try {
     short_string.read_string();
     FAIL();

@@ -59,6 +59,24 @@ json number(double value) {
   return value;
 }
 
+json detections_json(std::int64_t ns, const std::string& frame, double pan, double tilt,
+                     double zoom, const std::vector<Detection>& detections) {
+  json list = json::array();
+  for (const Detection& d : detections) {
+    list.push_back({{"color", d.color},
+                    {"id", d.id},
+                    {"range", number(d.range_m)},
+                    {"bearing", number(d.bearing_rad)},
+                    {"truth_id", d.truth_id},
+                    {"target", static_cast<int>(d.target)}});
+  }
+  return {{"header", header(ns, frame)},
+          {"pan", pan},
+          {"tilt", tilt},
+          {"zoom", zoom},
+          {"detections", list}};
+}
+
 }  // namespace
 
 RosbagRecorder::RosbagRecorder(const fs::path& folder, const WorldDef& world,
@@ -84,6 +102,10 @@ RosbagRecorder::RosbagRecorder(const fs::path& folder, const WorldDef& world,
     if (sensors.imu)
       transforms.push_back(transform(options_.epoch_ns, frame(robot, "base_link"),
                                      frame(robot, "imu_link"), sensors.imu->common.mount));
+  }
+  if (!options_.log_header.empty()) {
+    write(topic("/locsim/log_header", "std_msgs/msg/String", true), options_.epoch_ns,
+          {{"data", options_.log_header}});
   }
   if (!transforms.empty()) {
     write(topic("/tf_static", "tf2_msgs/msg/TFMessage", true), options_.epoch_ns,
@@ -136,14 +158,15 @@ std::size_t RosbagRecorder::topic(const std::string& name, const std::string& ty
 
 void RosbagRecorder::write(std::size_t index, std::int64_t ns, const json& message) {
   Topic& t = topics_[index];
-  writer_->write(t.channel, static_cast<std::uint32_t>(t.count), static_cast<std::uint64_t>(ns),
-                 static_cast<std::uint64_t>(ns), t.definition->encode(message));
+  writer_->write(t.channel, record_, static_cast<std::uint64_t>(ns), static_cast<std::uint64_t>(ns),
+                 t.definition->encode(message));
   ++t.count;
   first_ns_ = std::min(first_ns_, ns);
   last_ns_ = std::max(last_ns_, ns);
 }
 
 void RosbagRecorder::consume(const Record& record) {
+  ++record_;
   switch (record.type) {
     case Record::Type::kReading: {
       const Reading& reading = record.reading;
@@ -191,6 +214,26 @@ void RosbagRecorder::consume(const Record& record) {
                {"angular_velocity_covariance", std::vector<double>(9, 0.0)},
                {"linear_acceleration", vector3(imu->accel_mps2.x(), imu->accel_mps2.y(), 9.80665)},
                {"linear_acceleration_covariance", std::vector<double>(9, 0.0)}});
+      } else if (const auto* ptz = std::get_if<PtzReading>(&reading.data)) {
+        write(topic(prefix(r) + "/detections/ptz_camera", "locsim_msgs/msg/Detections"), ns,
+              detections_json(ns, frame(r, "base_link"), ptz->pan_rad, ptz->tilt_rad, ptz->zoom,
+                              ptz->detections));
+      } else if (const auto* omni = std::get_if<OmniReading>(&reading.data)) {
+        write(topic(prefix(r) + "/detections/omni_camera", "locsim_msgs/msg/Detections"), ns,
+              detections_json(ns, frame(r, "base_link"), 0.0, 0.0, 1.0, omni->detections));
+      } else if (const auto* rb = std::get_if<RangeBearingReading>(&reading.data)) {
+        write(topic(prefix(r) + "/detections/range_bearing", "locsim_msgs/msg/Detections"), ns,
+              detections_json(ns, frame(r, "base_link"), 0.0, 0.0, 1.0, rb->detections));
+      } else if (const auto* ultrasonic = std::get_if<UltrasonicReading>(&reading.data)) {
+        json ranges = json::array();
+        for (const BeaconRange& range : ultrasonic->ranges) {
+          ranges.push_back({{"receiver", range.receiver},
+                            {"beacon", range.beacon_id},
+                            {"range", number(range.range_m)},
+                            {"truth_status", static_cast<int>(range.truth_status)}});
+        }
+        write(topic(prefix(r) + "/beacon_ranges", "locsim_msgs/msg/BeaconRanges"), ns,
+              {{"header", header(ns, frame(r, "base_link"))}, {"ranges", ranges}});
       } else if (const auto* scan = std::get_if<LaserScan>(&reading.data);
                  scan != nullptr && robot.sensors.laser) {
         const LaserDef& laser = *robot.sensors.laser;
@@ -234,9 +277,13 @@ void RosbagRecorder::consume(const Record& record) {
     }
     case Record::Type::kEvent: {
       const SimEvent& event = record.event;
-      write(topic("/locsim/events", "std_msgs/msg/String"), stamp_ns(event.t_s),
-            {{"data", event.kind + (event.robot.empty() ? "" : " robot=" + event.robot) +
-                          (event.details.empty() ? "" : " " + event.details)}});
+      const std::int64_t ns = stamp_ns(event.t_s);
+      write(topic("/locsim/events", "locsim_msgs/msg/Event"), ns,
+            {{"header", header(ns, "map")},
+             {"kind", event.kind},
+             {"robot", event.robot},
+             {"step", event.step},
+             {"details", event.details}});
       break;
     }
     case Record::Type::kEnd:

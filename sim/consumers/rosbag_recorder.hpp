@@ -13,7 +13,14 @@
 //   /map              nav_msgs/OccupancyGrid           the static world as the localizers see it
 //                                                      (transient local)
 //   /ground_truth     geometry_msgs/PoseStamped        the true pose, in map
-//   /locsim/events    std_msgs/String                  kidnaps, put-downs, pushes, ...
+//   /locsim/events    locsim_msgs/Event                kidnaps, put-downs, pushes, ...
+//   /detections/ptz_camera, /detections/omni_camera, /detections/range_bearing
+//                     locsim_msgs/Detections           landmarks (and robots) seen: id, colour,
+//                                                      range, bearing (no ROS message has them)
+//   /beacon_ranges    locsim_msgs/BeaconRanges         the ultrasonic receivers' ranges
+//   /locsim/log_header std_msgs/String                 the log's header (its world and scenario),
+//                                                      so that `import rosbag2` rebuilds the log
+// Every message made of one record carries that record's number (from 1) as its MCAP sequence.
 // With several robots each robot's topics and frames are under its name (/robot2/scan,
 // robot2/base_link). Times: the record's time from `epoch_ns`. docs/ros.md.
 #pragma once
@@ -42,6 +49,8 @@ struct RosbagRecorderOptions {
   /// The MCAP file's name is NAME_0.mcap, as rosbag2 names a bag's first file; default: the
   /// folder's name.
   std::string bag_name;
+  /// The log's header (JSON text), written on /locsim/log_header; empty: none.
+  std::string log_header;
 };
 
 class RosbagRecorder final : public RecordConsumer {
@@ -78,6 +87,7 @@ class RosbagRecorder final : public RecordConsumer {
   std::vector<Topic> topics_;
   std::map<std::string, std::size_t> topic_index_;
   std::int64_t first_ns_ = 0, last_ns_ = 0;
+  std::uint32_t record_ = 0;  // records consumed: the sequence of the messages made of the latest
   double last_clock_s_ = -1.0;
   bool finished_ = false;
 };

@@ -342,6 +342,7 @@ void BagReader::read_mcap(
           ++topic.message_count;
           BagMessage message;
           message.log_time_ns = record.log_time_ns;
+          message.sequence = record.sequence;
           message.data = record.data;
           message.file = &file;
           message.offset = record.file_offset;

@@ -28,7 +28,8 @@ struct BagTopic {
 
 struct BagMessage {
   std::uint64_t log_time_ns = 0;
-  std::string_view data;  // the serialized message, valid during the callback only
+  std::uint32_t sequence = 0;  // MCAP's (the writer's counter); 0 in SQLite
+  std::string_view data;       // the serialized message, valid during the callback only
   /// Where it is, for messages about it: "file.mcap: byte 1234 (chunk), its record at byte 56"
   /// or "file.db3: row 17".
   std::string where() const;

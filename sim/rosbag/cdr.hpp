@@ -24,7 +24,8 @@ class CdrError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Reads one serialized message. Every read checks the bytes are there: a bad length or a message
+/// Reads one serialized message, a view of its bytes (they must outlive the reader). Every read
+/// checks the bytes are there: a bad length or a message
 /// cut short throws CdrError, never reads past `data`.
 class CdrReader {
  public:

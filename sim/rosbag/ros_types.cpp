@@ -11,7 +11,7 @@ namespace locsim::rosbag {
 namespace {
 
 // Fields only: the comments of ROS's files are theirs and carry nothing a decoder needs.
-constexpr std::array<std::pair<std::string_view, std::string_view>, 24> kDefinitions = {{
+constexpr std::array<std::pair<std::string_view, std::string_view>, 29> kDefinitions = {{
     {"builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n"},
     {"builtin_interfaces/Duration", "int32 sec\nuint32 nanosec\n"},
     {"std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"},
@@ -46,6 +46,16 @@ constexpr std::array<std::pair<std::string_view, std::string_view>, 24> kDefinit
     {"sensor_msgs/JointState",
      "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\n"
      "float64[] effort\n"},
+    // locsim's own, for what no ROS message carries (a bag carries their definitions).
+    {"locsim_msgs/Detection",
+     "string color\nint32 id\nfloat64 range\nfloat64 bearing\nint32 truth_id\nuint8 target\n"},
+    {"locsim_msgs/Detections",
+     "std_msgs/Header header\nfloat64 pan\nfloat64 tilt\nfloat64 zoom\nDetection[] detections\n"},
+    {"locsim_msgs/BeaconRange",
+     "int32 receiver\nint32 beacon\nfloat64 range\nuint8 truth_status\n"},
+    {"locsim_msgs/BeaconRanges", "std_msgs/Header header\nBeaconRange[] ranges\n"},
+    {"locsim_msgs/Event",
+     "std_msgs/Header header\nstring kind\nstring robot\nint64 step\nstring details\n"},
     {"sensor_msgs/Imu",
      "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n"
      "float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n"

@@ -75,6 +75,8 @@ ExportSummary export_rosbag2(const fs::path& log, const fs::path& out,
   const OccupancyGrid grid =
       rasterize_static_world(physics, source.scenario().localization.grid_resolution_m);
   if (options.bag_name.empty()) options.bag_name = out.filename().string();
+  // The log's header rides along: `import rosbag2` rebuilds the same world from it.
+  if (options.log_header.empty()) options.log_header = source.header().dump();
   ExportSummary summary;
   try {
     RosbagRecorder recorder(partial, world, grid, options);

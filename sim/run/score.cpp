@@ -36,7 +36,7 @@ bool is_label(const std::string& label) {
          });
 }
 
-double yaw_of(const rosbag::Value& q) {
+double estimate_yaw(const rosbag::Value& q) {
   const double x = q.number("x"), y = q.number("y"), z = q.number("z"), w = q.number("w");
   return std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
 }
@@ -92,8 +92,8 @@ ExternalTrajectory read_external_estimate(const ExternalEstimate& estimate, std:
         const rosbag::Value& pose =
             type == "geometry_msgs/PoseStamped" ? value.at("pose") : value.at("pose.pose");
         out.t_s.push_back(static_cast<double>(stamp - epoch_ns) / 1e9);
-        out.poses.push_back(
-            {pose.number("position.x"), pose.number("position.y"), yaw_of(pose.at("orientation"))});
+        out.poses.push_back({pose.number("position.x"), pose.number("position.y"),
+                             estimate_yaw(pose.at("orientation"))});
         if (type == "geometry_msgs/PoseStamped") {
           out.covariances.emplace_back();
         } else {

@@ -239,20 +239,25 @@ BENCHMARK(BM_ImportRosbag2Scans)
 
 /// `locsim export LOG --rosbag2 OUT` of the demo world's 60 s log (encoders, IMU, laser and
 /// truth as ROS messages, the map, zstd chunks). Counter: messages written per second.
-void BM_ExportRosbag2Demo(benchmark::State& state) {
-  const fs::path dir = fs::temp_directory_path() / "locsim_bench_export_bag";
+/// The demo world's 60 s run in `dir` (run/, with `localizers`), logged as demo.locsimlog.
+fs::path demo_log(const fs::path& dir, std::vector<std::string> localizers = {}) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   locsim::RunOptions run;
   run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
   run.out_dir = dir / "run";
   run.log_file = dir / "demo.locsimlog";
+  run.localizers = std::move(localizers);
   run.readings = false;
   locsim::run_simulation(run);
+  return *run.log_file;
+}
+
+void BM_ExportRosbag2Demo(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_export_bag";
+  const fs::path log = demo_log(dir);
   std::uint64_t messages = 0;
-  for (auto _ : state) {
-    messages = locsim::export_rosbag2(*run.log_file, dir / "bag", {}, true).messages;
-  }
+  for (auto _ : state) messages = locsim::export_rosbag2(log, dir / "bag", {}, true).messages;
   fs::remove_all(dir);
   state.counters["messages_per_s"] = benchmark::Counter(
       static_cast<double>(messages * state.iterations()), benchmark::Counter::kIsRate);
@@ -264,17 +269,8 @@ BENCHMARK(BM_ExportRosbag2Demo)->Unit(benchmark::kMillisecond)->UseRealTime();
 /// at every true pose. Counter: true poses scored per second.
 void BM_ScoreExternalTumDemo(benchmark::State& state) {
   const fs::path dir = fs::temp_directory_path() / "locsim_bench_score";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  locsim::RunOptions run;
-  run.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
-  run.out_dir = dir / "run";
-  run.log_file = dir / "demo.locsimlog";
-  run.localizers = {"odometry"};
-  run.readings = false;
-  locsim::run_simulation(run);
   locsim::ScoreOptions options;
-  options.log_file = *run.log_file;
+  options.log_file = demo_log(dir, {"odometry"});
   options.out_dir = dir / "scored";
   options.estimates = {{"external", dir / "run" / "odometry.tum", ""}};
   options.overwrite = true;

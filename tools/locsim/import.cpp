@@ -17,6 +17,7 @@
 #include "sim/common/files.hpp"
 #include "sim/producers/generic_import.hpp"
 #include "sim/producers/import_log.hpp"
+#include "sim/producers/locsim_bag.hpp"
 #include "sim/producers/mrclam_import.hpp"
 #include "sim/producers/rosbag_import.hpp"
 
@@ -31,7 +32,7 @@ struct State {
   bool overwrite = false, quiet = false;
   // rosbag2
   std::string topics_file, laser, odometry, imu, truth, map, base_frame, odom_frame, start;
-  bool receive_time = false, list = false;
+  bool receive_time = false, list = false, ignore_log_header = false;
 };
 
 /// --start "x,y,theta" [m, m, rad].
@@ -101,9 +102,9 @@ int execute(State& s) {
          {std::pair{!s.topics_file.empty() || !s.laser.empty() || !s.odometry.empty() ||
                         !s.imu.empty() || !s.truth.empty() || !s.map.empty() ||
                         !s.base_frame.empty() || !s.odom_frame.empty() || !s.start.empty() ||
-                        s.receive_time,
+                        s.receive_time || s.ignore_log_header,
                     "--topics, --laser, --odom, --imu, --truth, --map, --base-frame, "
-                    "--odom-frame, --start and --receive-time"},
+                    "--odom-frame, --start, --receive-time and --ignore-log-header"},
           std::pair{s.list, "--list"}}) {
       if (given) throw InputError(std::string(option) + ": for rosbag2 only");
     }
@@ -144,6 +145,17 @@ int execute(State& s) {
       mrclam.robots.push_back(subject);
     }
     if (mrclam.robots.empty()) throw InputError("--robots: no robot given");
+  }
+  // A bag locsim exported is rebuilt into the log it came from (its world carried along).
+  if (s.format == "rosbag2" && !s.ignore_log_header) {
+    if (const auto records = rebuild_locsim_log(s.source, s.out)) {
+      if (!s.quiet) {
+        std::printf(
+            "%s: a bag locsim exported: %llu records rebuilt, its world as exported -> %s\n",
+            s.source.c_str(), static_cast<unsigned long long>(*records), s.out.c_str());
+      }
+      return kExitOk;
+    }
   }
   std::vector<std::string> notes;
   ImportedDataset dataset;
@@ -232,6 +244,11 @@ Command add_import(CLI::App& app) {
       ->add_flag("--receive-time", state->receive_time,
                  "rosbag2: time readings by when the bag received them, not by their "
                  "headers' stamps")
+      ->group(bag);
+  import_command
+      ->add_flag("--ignore-log-header", state->ignore_log_header,
+                 "rosbag2: read a bag locsim exported by its ROS topics alone, as any other bag "
+                 "(without it, its /locsim/log_header rebuilds the exported log and its world)")
       ->group(bag);
   import_command->footer(
       std::string(
