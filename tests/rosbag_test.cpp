@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -287,9 +289,11 @@ struct Written {
 };
 
 /// Writes three channels of messages of all sizes, small chunks so that there are many.
-std::vector<Written> write_sample(const fs::path& file, McapCompression compression) {
+std::vector<Written> write_sample(const fs::path& file, McapCompression compression,
+                                  bool crcs = true) {
   McapWriterOptions options;
   options.compression = compression;
+  options.crcs = crcs;
   options.chunk_bytes = 4096;
   McapWriter writer(file, options);
   const std::uint16_t schema = writer.add_schema("std_msgs/msg/String", "ros2msg", "string data\n");
@@ -563,6 +567,79 @@ TEST(Bag, ReadsNothingOutsideItself) {
   } catch (const InputError& e) {
     expect_contains(e.what(), "a ROS 1 bag; locsim reads ROS 2 bags");
   }
+}
+
+/// Reads every message of `file` as an import would: each decoded by the bag's definition or
+/// locsim's. Returns how it ended: "read", or the kind of error a bad input may raise.
+std::string read_everything(const fs::path& file) {
+  try {
+    BagReader bag(file);
+    std::map<std::string, std::shared_ptr<MessageDefinition>> definitions;
+    bag.read([&](const BagTopic& topic, const BagMessage& message) {
+      try {
+        auto& definition = definitions[topic.name];
+        if (!definition) {
+          definition = std::make_shared<MessageDefinition>(
+              topic.definition_encoding == "ros2msg"
+                  ? MessageDefinition(topic.type, topic.definition)
+                  : MessageDefinition::known(topic.type));
+        }
+        definition->decode(message.data);
+      } catch (const CdrError&) {
+      } catch (const DefinitionError&) {
+      }
+    });
+  } catch (const InputError&) {
+    return "refused";
+  }
+  return "read";
+}
+
+// A bag from someone else may be anything: every byte flipped, a length cut or grown, and the
+// reader refuses or reads it, and never crashes, allocates without bound or reads past the file
+// (the sanitizer build runs this too).
+TEST(Bag, AMutatedBagIsRefusedOrReadNeverCrashes) {
+  const fs::path dir = temp_dir("mutated");
+  std::map<std::string, std::size_t> outcomes;
+  std::uint64_t state = 0x9e3779b97f4a7c15ull;
+  const auto next = [&] {  // splitmix64: the same mutations on every machine
+    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  };
+  // Without CRCs (a writer may leave them out) the flipped bytes reach the records and messages.
+  for (const auto& [compression, crcs] :
+       {std::pair{McapCompression::kNone, true}, std::pair{McapCompression::kZstd, true},
+        std::pair{McapCompression::kNone, false}, std::pair{McapCompression::kLz4, false}}) {
+    const fs::path good = dir / "good.mcap";
+    write_sample(good, compression, crcs);
+    const std::string bytes = read_file(good);
+    for (int i = 0; i < 1000; ++i) {
+      std::string mutated = bytes;
+      const int edits = 1 + static_cast<int>(next() % 4);
+      for (int e = 0; e < edits; ++e) {
+        const std::size_t at = next() % mutated.size();
+        switch (next() % 3) {
+          case 0:  // a random byte
+            mutated[at] = static_cast<char>(next());
+            break;
+          case 1:  // a length's high byte
+            mutated[at] = static_cast<char>(0xff);
+            break;
+          default:  // cut short
+            mutated.resize(at);
+            break;
+        }
+        if (mutated.empty()) break;
+      }
+      write_bytes(dir / "mutated.mcap", mutated);
+      ++outcomes[read_everything(dir / "mutated.mcap")];
+    }
+  }
+  // Both outcomes occur: the mutations reach past the checks as well as into them.
+  EXPECT_GT(outcomes["refused"], 1000u);  // 3379 of 4000 when written
+  EXPECT_GT(outcomes["read"], 200u);      // 621
 }
 
 // ---- the independent checkers -------------------------------------------------------------------

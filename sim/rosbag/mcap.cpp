@@ -536,7 +536,7 @@ void McapWriter::close_chunk() {
   put(chunk, chunk_start_ns_);
   put(chunk, chunk_end_ns_);
   put(chunk, static_cast<std::uint64_t>(chunk_.size()));
-  put(chunk, crc(0, chunk_));
+  put(chunk, options_.crcs ? crc(0, chunk_) : std::uint32_t{0});
   put_string(chunk, compression);
   put(chunk, static_cast<std::uint64_t>(records.size()));
   chunk.append(records);
@@ -584,7 +584,7 @@ void McapWriter::finish() {
   if (finished_) return;
   close_chunk();
   std::string data_end;
-  put(data_end, data_crc_);
+  put(data_end, options_.crcs ? data_crc_ : std::uint32_t{0});
   std::string record;
   put_record(record, kDataEnd, data_end);
   emit(record);
@@ -633,7 +633,7 @@ void McapWriter::finish() {
   std::string footer_record;
   put_record(footer_record, kFooter, footer + std::string(4, '\0'));
   const std::uint32_t summary_crc =
-      crc(0, tail + footer_record.substr(0, footer_record.size() - 4));
+      options_.crcs ? crc(0, tail + footer_record.substr(0, footer_record.size() - 4)) : 0;
   std::memcpy(footer_record.data() + footer_record.size() - 4, &summary_crc, 4);
   emit(tail + footer_record);
   emit(kMagic);

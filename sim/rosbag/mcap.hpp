@@ -114,6 +114,9 @@ struct McapWriterOptions {
   std::size_t chunk_bytes = 768 << 10;
   /// zstd's level: 1 is fast and within a few per cent of the default's size on sensor data.
   int zstd_level = 1;
+  /// Whether to write the chunks', data section's and summary's CRC-32s (0 says "none", as the
+  /// MCAP library's noChunkCRC and noSummaryCRC options write).
+  bool crcs = true;
 };
 
 /// Writes an MCAP file as it goes: schemas and channels are written where first added (and again
