@@ -2,7 +2,7 @@
 // on /locsim/log_header (the world and scenario, so the same world is rebuilt), and every record
 // is rebuilt from the bag's topics (the ROS messages a ROS user sees, and locsim_msgs for what no
 // ROS message carries), in the order of the records' numbers (their MCAP sequence). Times come
-// back to the nanosecond; an odometry heading through its quaternion to 1e-15 rad; everything
+// back to the nanosecond; an odometry heading through its quaternion to 1e-12 rad; everything
 // else (ranges, counts, detections, events) exactly. `locsim import rosbag2` takes this path for
 // such a bag (docs/ros.md).
 #pragma once
