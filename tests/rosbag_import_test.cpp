@@ -1,6 +1,7 @@
 // `locsim import rosbag2`: bags written here (MCAP and SQLite, as rosbag2 writes them) of a robot
 // driving a loop in a room, its scans cast in the room, its odometry drifting; imported, the
 // laser's mount, the times, the map and the truth are the bag's, and amcl localizes on them.
+#include "sim/producers/locsim_bag.hpp"
 #include "sim/producers/rosbag_import.hpp"
 
 #include <gtest/gtest.h>
@@ -595,6 +596,9 @@ TEST(RosbagImport, ListsTheTopicsAndWhatBecomesOfThemWritingNothing) {
                   "/chatter       std_msgs/msg/String                    1  skipped: a type "
                   "locsim does not read\n");
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  // A bag locsim did not write is not taken for one (and nothing is written for it).
+  EXPECT_FALSE(rebuild_locsim_log(bag, dir / "not_ours.locsimlog").has_value());
+  EXPECT_FALSE(fs::exists(dir / "not_ours.locsimlog.partial"));
   const auto other = testing::locsim("import generic " + dir.string() + " --list");
   EXPECT_EQ(other.exit_code, 2);
   expect_contains(other.output, "--list: for rosbag2 only");

@@ -54,33 +54,45 @@ std::optional<std::uint64_t> rebuild_locsim_log(const fs::path& bag_path, const 
   std::string header_text;
   std::map<std::string, std::vector<Kept>> topics;
   std::map<std::string, std::shared_ptr<rosbag::MessageDefinition>> definitions;
-  bag.read([&](const rosbag::BagTopic& topic, const rosbag::BagMessage& message) {
-    try {
-      auto& definition = definitions[topic.name];
-      if (!definition) {
-        definition = std::make_shared<rosbag::MessageDefinition>(
-            topic.definition_encoding == "ros2msg"
-                ? rosbag::MessageDefinition(topic.type, topic.definition)
-                : rosbag::MessageDefinition::known(topic.type));
-      }
-      rosbag::Value value = definition->decode(message.data);
-      if (topic.name == "/locsim/log_header") {
-        header_text = value.string("data");
+  // The recorder writes the header first, at the earliest time: a bag whose first message is
+  // something else is not one of locsim's, and is left there (an import then reads it as any).
+  struct NotLocsim {};
+  try {
+    bag.read([&](const rosbag::BagTopic& topic, const rosbag::BagMessage& message) {
+      if (header_text.empty() && topic.name != "/locsim/log_header") throw NotLocsim{};
+      // Frames, the clock and the map are the world's (the header has it): not decoded.
+      const std::string type = rosbag::short_type_name(topic.type);
+      if (type == "tf2_msgs/TFMessage" || type == "rosgraph_msgs/Clock" ||
+          type == "nav_msgs/OccupancyGrid") {
         return;
       }
-      const rosbag::Value* header = value.find("header");
-      const std::int64_t stamp =
-          header == nullptr
-              ? static_cast<std::int64_t>(message.log_time_ns)
-              : static_cast<std::int64_t>(header->number("stamp.sec")) * 1'000'000'000 +
-                    static_cast<std::int64_t>(header->number("stamp.nanosec"));
-      topics[topic.name].push_back({message.sequence, stamp, std::move(value)});
-    } catch (const InputError&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw InputError(message.where() + ", topic " + topic.name + ": " + e.what());
-    }
-  });
+      try {
+        auto& definition = definitions[topic.name];
+        if (!definition) {
+          definition = std::make_shared<rosbag::MessageDefinition>(
+              topic.definition_encoding == "ros2msg"
+                  ? rosbag::MessageDefinition(topic.type, topic.definition)
+                  : rosbag::MessageDefinition::known(topic.type));
+        }
+        rosbag::Value value = definition->decode(message.data);
+        if (topic.name == "/locsim/log_header") {
+          header_text = value.string("data");
+          return;
+        }
+        const rosbag::Value* header = value.find("header");
+        const std::int64_t stamp =
+            header == nullptr
+                ? static_cast<std::int64_t>(message.log_time_ns)
+                : static_cast<std::int64_t>(header->number("stamp.sec")) * 1'000'000'000 +
+                      static_cast<std::int64_t>(header->number("stamp.nanosec"));
+        topics[topic.name].push_back({message.sequence, stamp, std::move(value)});
+      } catch (const std::exception& e) {
+        throw InputError(message.where() + ", topic " + topic.name + ": " + e.what());
+      }
+    });
+  } catch (const NotLocsim&) {
+    return std::nullopt;
+  }
   if (header_text.empty()) return std::nullopt;
 
   nlohmann::ordered_json header;
