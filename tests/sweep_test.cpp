@@ -66,6 +66,7 @@ fs::path write_short_experiment(const fs::path& dir, const std::string& localize
 }
 
 using testing::test_plugin;
+using testing::write_stand_in;
 
 TEST(Sweep, VariationNoneRunsEverySeedOnTheDeclaredWorld) {
   // Seeds vary the world by default (each its own ground truth); `variation: none` in the
@@ -97,19 +98,6 @@ TEST(Sweep, VariationNoneRunsEverySeedOnTheDeclaredWorld) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("variation"), std::string::npos) << e.what();
   }
-}
-
-/// A stand-in for the locsim binary that each run executes (SweepOptions::locsim_binary): a shell
-/// script doing `cases` (a `case "$*" in` body matched against the run's arguments) and handing
-/// every other run to the real locsim. It makes a run end in error or crash at run time, after
-/// the sweep's checks, whatever locsim and its plugins do: deterministic, and independent of how
-/// `run`/`replay` report a plugin's failures.
-fs::path write_stand_in(const fs::path& dir, const std::string& cases) {
-  const fs::path script = dir / "locsim_stand_in.sh";
-  std::ofstream(script) << "#!/bin/sh\ncase \"$*\" in\n"
-                        << cases << "esac\nexec " << LOCSIM_BINARY << " \"$@\"\n";
-  fs::permissions(script, fs::perms::owner_all);
-  return script;
 }
 
 struct TimedOutcome {

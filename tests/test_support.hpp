@@ -92,6 +92,20 @@ inline void expect_contains(const std::string& text, const std::string& part) {
   EXPECT_NE(text.find(part), std::string::npos) << "message: " << text << "\nexpected: " << part;
 }
 
+/// A stand-in for the locsim binary that each run executes (SweepOptions::locsim_binary; a Slurm
+/// sweep's array tasks run it too): a shell script doing `cases` (a `case "$*" in` body matched
+/// against the run's arguments) and handing every other run to the real locsim. It makes a run end
+/// in error or crash at run time, after the sweep's checks, whatever locsim and its plugins do:
+/// deterministic, and independent of how `run`/`replay` report a plugin's failures.
+inline std::filesystem::path write_stand_in(const std::filesystem::path& dir,
+                                            const std::string& cases) {
+  const std::filesystem::path script = dir / "locsim_stand_in.sh";
+  std::ofstream(script) << "#!/bin/sh\ncase \"$*\" in\n"
+                        << cases << "esac\nexec " << LOCSIM_BINARY << " \"$@\"\n";
+  std::filesystem::permissions(script, std::filesystem::perms::owner_all);
+  return script;
+}
+
 /// A fresh, empty temporary folder named after the running test and `name`, under a folder of
 /// this build's own (named after a hash of its locsim binary's path): the test suites of two
 /// builds (the ci and sanitize presets, two clones) may run at once without emptying each

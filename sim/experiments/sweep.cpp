@@ -30,6 +30,7 @@
 #include "sim/common/process_tree.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
+#include "sim/experiments/sweep_lock.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
 #include "sim/producers/simulation.hpp"
@@ -81,6 +82,8 @@ json input_fingerprint(const ExperimentDef& experiment, const json& plugins) {
       {"format", 2}, {"locsim_version", locsim_version()}, {"files", files}, {"plugins", plugins}};
 }
 
+}  // namespace
+
 /// How fingerprint `now` differs from `before` ("" when it does not), input by input.
 std::string fingerprint_change(const json& before, const json& now) {
   if (!before.is_object() || before.value("format", 0) != 2) {
@@ -112,6 +115,8 @@ std::string fingerprint_change(const json& before, const json& now) {
   for (const std::string& change : changes) out += (out.empty() ? "" : "; ") + change;
   return out;
 }
+
+namespace {
 
 /// `text` from an input file for a message: quoted, control characters shown as '?', and cut
 /// after `max_bytes` (at a UTF-8 boundary) saying how long it was: a line of megabytes is not
@@ -163,6 +168,8 @@ json read_json_file(const fs::path& file) {
   }
 }
 
+}  // namespace
+
 /// A sweep folder's sweep.json, with the keys resume and merge rely on checked. Throws
 /// InputError naming the file (its line, or the key) when it is not a sweep's.
 json read_sweep_header(const fs::path& dir) {
@@ -180,6 +187,8 @@ json read_sweep_header(const fs::path& dir) {
     throw InputError(where, "shard", "expected null or [K, N]");
   return header;
 }
+
+namespace {
 
 /// Every run's newest result in results.jsonl, in file order: a resume appends a retried run's
 /// new result after its old one. Each result goes in one write of its whole line, so a sweep
@@ -235,109 +244,6 @@ std::vector<json> read_results(const fs::path& file) {
   return out;
 }
 
-/// The file whose flock(2) says who writes a sweep folder (docs/experiments.md).
-constexpr const char* kLockFile = "sweep.lock";
-
-/// Who holds the lock file `file` as it says ("locsim sweep (pid 123)"). The holder writes it
-/// just after taking the lock: a reader that comes in between waits for it a little.
-std::string holder_of(const fs::path& file) {
-  for (int attempt = 0; attempt < 20; ++attempt) {
-    std::ifstream in(file);
-    long pid = 0;
-    std::string command;
-    if (in >> pid >> command && pid > 0 && (command == "sweep" || command == "merge"))
-      return "locsim " + command + " (pid " + std::to_string(pid) + ")";
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return "another locsim (pid unknown)";
-}
-
-/// Who holds `dir`'s lock ("" when no one does), without taking it.
-std::string lock_holder(const fs::path& dir) {
-  const int fd = ::open((dir / kLockFile).c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return {};  // a live holder always has the file
-  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  ::close(fd);  // drops the shared lock, when taken
-  return held ? holder_of(dir / kLockFile) : std::string();
-}
-
-/// Whether `dir` holds anything but its lock file.
-bool holds_files(const fs::path& dir) {
-  if (!fs::is_directory(dir)) return false;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
-    if (entry.path().filename() != kLockFile) return true;
-  }
-  return false;
-}
-
-/// One locsim at a time writes a sweep folder: a sweep (or --resume) holds an exclusive flock(2)
-/// on DIR/sweep.lock from before it reads DIR until it ends, and merge on the folder it makes.
-/// The kernel drops the lock when its holder dies, however it dies: a sweep killed with SIGKILL
-/// leaves its lock file, held by no one, and the next --resume takes it. (A pid file alone
-/// would have to guess whether its pid still is that sweep.) The file names its holder for the
-/// message of whoever finds it held.
-class FolderLock {
- public:
-  /// Takes `dir`'s lock for `command` ("sweep" or "merge"), making the folder when missing.
-  /// Throws InputError, after `option`, naming the folder and the holder when another process
-  /// holds it; nothing is written then.
-  FolderLock(const fs::path& dir, const std::string& command, const std::string& option)
-      : dir_(dir), file_(dir / kLockFile) {
-    made_dir_ = !make_output_folder(dir, option).empty();
-    for (;;) {
-      fd_ = ::open(file_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-      if (fd_ < 0)
-        throw std::runtime_error("cannot open " + file_.string() + ": " + std::strerror(errno));
-      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-        const int error = errno;
-        ::close(fd_);
-        fd_ = -1;
-        if (error != EWOULDBLOCK)
-          throw std::runtime_error("cannot lock " + file_.string() + ": " + std::strerror(error));
-        throw InputError(option + ": '" + dir.string() + "' is in use by " + holder_of(file_) +
-                         ": one locsim at a time writes a sweep folder; wait for it to end (a "
-                         "sweep that was killed holds nothing: --resume then finishes it)");
-      }
-      // Its holder may have removed the file (ending) between the open and the lock: this lock
-      // is then on a file nobody else finds. The one at the path is the lock.
-      struct stat held {
-      }, named{};
-      if (::fstat(fd_, &held) == 0 && ::stat(file_.c_str(), &named) == 0 &&
-          held.st_dev == named.st_dev && held.st_ino == named.st_ino) {
-        break;
-      }
-      ::close(fd_);
-      fd_ = -1;
-    }
-    const std::string holder = std::to_string(::getpid()) + " " + command + "\n";
-    if (::ftruncate(fd_, 0) != 0 ||
-        ::pwrite(fd_, holder.data(), holder.size(), 0) != static_cast<ssize_t>(holder.size())) {
-      const std::string reason = std::strerror(errno);
-      release();
-      throw std::runtime_error("cannot write " + file_.string() + ": " + reason);
-    }
-  }
-  ~FolderLock() { release(); }
-  FolderLock(const FolderLock&) = delete;
-  FolderLock& operator=(const FolderLock&) = delete;
-
- private:
-  /// Removes the file while still holding it (see the check above), then a folder the lock made
-  /// that nothing was written into (a refused sweep leaves nothing).
-  void release() {
-    if (fd_ < 0) return;
-    ::unlink(file_.c_str());
-    ::close(fd_);
-    fd_ = -1;
-    std::error_code ignored;
-    if (made_dir_) fs::remove(dir_, ignored);  // only when empty
-  }
-
-  fs::path dir_, file_;
-  int fd_ = -1;
-  bool made_dir_ = false;
-};
-
 /// A result as one line of results.jsonl. Invalid UTF-8 (a plugin's output in a reason) is
 /// replaced rather than thrown on.
 std::string jsonl_line(const json& result) {
@@ -351,6 +257,8 @@ void rewrite_results(const fs::path& file, const std::vector<json>& results) {
   write_file(file, text);
 }
 
+}  // namespace
+
 /// Whether a result stands on --resume. ok, and failed (the localizer's own failure: replaying
 /// the same log gives it again) do; error (locsim could not produce a result), crashed and
 /// timeout (may be the machine's doing) are worth running again.
@@ -358,6 +266,8 @@ bool result_stands(const json& result, bool retry_failed) {
   const std::string status = result.value("status", "");
   return status == "ok" || (status == "failed" && !retry_failed);
 }
+
+namespace {
 
 constexpr std::size_t kMaxReasonBytes = 4096;
 // A run's log.txt keeps this much of what its process printed first and last.
@@ -935,6 +845,12 @@ json check_localizers(const ExperimentDef& experiment) {
 
 }  // namespace
 
+SweepPlan plan_sweep(const fs::path& experiment_file) {
+  const ExperimentDef experiment = load_experiment(experiment_file);
+  const json plugins = check_localizers(experiment);
+  return {experiment.name, expand_runs(experiment).size(), input_fingerprint(experiment, plugins)};
+}
+
 SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt) {
   const ExperimentDef experiment = load_experiment(options.experiment_file);
   if (options.jobs < 1) throw InputError("--jobs: must be >= 1");
@@ -1344,7 +1260,8 @@ void copy_tree(const fs::path& from, const fs::path& to) {
 
 }  // namespace
 
-void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
+void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts,
+                  const std::string& kept) {
   if (parts.empty()) throw InputError("merge: give the shard folders to join");
   std::map<std::size_t, std::pair<json, const fs::path*>> by_index;  // with the part it is from
   json header, first;
@@ -1386,11 +1303,20 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
   check_output_folder(out_dir, "merge: out");
   if (const std::string holder = lock_holder(out_dir); !holder.empty())
     throw InputError("merge: folder '" + out_dir.string() + "' is in use by " + holder);
-  if (holds_files(out_dir))
+  // What an earlier merge wrote beside `kept`: the same shards joined again replace it.
+  const auto clear_beside_kept = [&] {
+    std::error_code ignored;
+    for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, ignored)) {
+      const fs::path name = entry.path().filename();
+      if (name != "sweep.lock" && name != kept) fs::remove_all(entry.path(), ignored);
+    }
+  };
+  if (kept.empty() && holds_files(out_dir))
     throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
   const FolderLock lock(out_dir, "merge", "merge: out");
-  if (holds_files(out_dir))  // again, under the lock
+  if (kept.empty() && holds_files(out_dir))  // again, under the lock
     throw InputError("merge: folder '" + out_dir.string() + "' is not empty");
+  if (!kept.empty()) clear_beside_kept();
   header["shard"] = nullptr;
   header["merged_from"] = json::array();
   for (const fs::path& part : parts) header["merged_from"].push_back(part.string());
@@ -1411,10 +1337,7 @@ void merge_sweeps(const fs::path& out_dir, const std::vector<fs::path>& parts) {
     write_file(out_dir / "results.jsonl", results);
     write_tables(out_dir);
   } catch (...) {
-    std::error_code ignored;
-    for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, ignored)) {
-      if (entry.path().filename() != "sweep.lock") fs::remove_all(entry.path(), ignored);
-    }
+    clear_beside_kept();
     throw;
   }
   if (by_index.size() != header["runs"].get<std::size_t>()) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstddef>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -43,12 +44,35 @@ struct SweepSummary {
 /// plugin that cannot be found or loaded: all before anything is simulated or written.
 SweepSummary run_sweep(const SweepOptions& options, const std::atomic<bool>* interrupt = nullptr);
 
+/// What a sweep of an experiment runs, checked as run_sweep checks it before it writes anything.
+struct SweepPlan {
+  std::string experiment;              // its name
+  std::size_t runs = 0;                // localizer configurations x seeds (or logs)
+  nlohmann::ordered_json fingerprint;  // of its inputs, as sweep.json holds it
+};
+
+/// Throws as run_sweep does, before writing anything (InputError, PluginError).
+SweepPlan plan_sweep(const std::filesystem::path& experiment_file);
+
+/// How fingerprint `now` differs from `before`, input by input ("" when it does not).
+std::string fingerprint_change(const nlohmann::ordered_json& before,
+                               const nlohmann::ordered_json& now);
+
+/// A sweep folder's sweep.json. Throws InputError naming the file (its line, or the key) when it
+/// is not a sweep's.
+nlohmann::ordered_json read_sweep_header(const std::filesystem::path& dir);
+
+/// Whether a result stands on --resume: ok, and failed unless `retry_failed`.
+bool result_stands(const nlohmann::ordered_json& result, bool retry_failed);
+
 /// Joins shard folders into `out_dir`: results.jsonl, results.csv and the summary. Throws
 /// InputError, before `out_dir` is made, for a folder that is not a sweep's, a corrupt sweep.json
 /// or results.jsonl, shards of other inputs, a folder given twice or a run in two shards, and a
-/// shard a live sweep still writes.
+/// shard a live sweep still writes. `kept`, when not empty, is an entry of `out_dir` that is not
+/// the merge's (the shards of a Slurm sweep, sim/experiments/slurm.hpp): it does not make the
+/// folder "not empty", and what an earlier merge wrote beside it is replaced.
 void merge_sweeps(const std::filesystem::path& out_dir,
-                  const std::vector<std::filesystem::path>& parts);
+                  const std::vector<std::filesystem::path>& parts, const std::string& kept = "");
 
 /// A sweep folder's results (results.jsonl: each run's newest line, as the tables take them), in
 /// run order. Throws InputError for a corrupt results.jsonl, naming the file and line.

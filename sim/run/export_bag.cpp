@@ -30,7 +30,7 @@ bool is_bag_folder(const fs::path& dir) {
 }
 
 /// Whether `file` lies inside `dir` (after links are followed).
-bool inside(const fs::path& file, const fs::path& dir) {
+bool is_within(const fs::path& file, const fs::path& dir) {
   std::error_code error;
   const fs::path f = fs::weakly_canonical(file, error);
   const fs::path d = fs::weakly_canonical(dir, error);
@@ -54,7 +54,7 @@ ExportSummary export_rosbag2(const fs::path& log, const fs::path& out,
     throw InputError("--rosbag2: " + out.string() +
                      " is not a bag folder (metadata.yaml and .mcap files only): not replaced");
   }
-  if (inside(log, out)) {
+  if (is_within(log, out)) {
     throw InputError("--rosbag2: " + out.string() + " holds the log " + log.string() +
                      ", which the export reads: not replaced");
   }

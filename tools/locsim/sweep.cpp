@@ -4,14 +4,17 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "commands.hpp"
 #include "common.hpp"
 #include "sim/common/errors.hpp"
+#include "sim/experiments/slurm.hpp"
 
 namespace locsim::cli::sweep_cmd {
 
@@ -19,10 +22,62 @@ namespace locsim::cli::sweep_cmd {
 struct State {
   SweepOptions options;
   std::string shard;
+  int slurm_tasks = 0;  // --slurm N; 0: a local sweep
+  std::vector<std::string> sbatch_options;
 };
+
+/// Says that `errors` runs ended in error, and where the reasons are: exit 1.
+int runs_in_error(std::size_t errors, const std::filesystem::path& out_dir) {
+  std::fflush(stdout);
+  std::fprintf(stderr,
+               "locsim sweep: %zu run%s ended in error (locsim could not produce a result); the "
+               "reasons are in %s (column reason) and each such run's log.txt; fix the cause and "
+               "pass --resume to run them again\n",
+               errors, errors == 1 ? "" : "s", (out_dir / "results.csv").c_str());
+  return kExitFailure;
+}
+
+/// `locsim sweep --slurm`: the shards as a Slurm job array, waited for and merged.
+int execute_on_slurm(const State& s) {
+  SlurmSweepOptions slurm;
+  slurm.sweep = s.options;
+  slurm.tasks = s.slurm_tasks;
+  slurm.sbatch_options = s.sbatch_options;
+  slurm.progress = [](const std::string& line) {
+    std::fprintf(stderr, "%s\n", line.c_str());
+    std::fflush(stderr);
+  };
+  const SlurmSweepSummary summary = run_sweep_on_slurm(slurm, catch_sigint());
+  const std::string& out = s.options.out_dir.string();
+  if (summary.interrupted) {
+    std::fprintf(stderr,
+                 "locsim sweep: interrupted; Slurm job %s still runs (`scancel %s` ends it); "
+                 "the same command with --resume waits for it and merges\n",
+                 summary.job_id.c_str(), summary.job_id.c_str());
+    return kExitInterrupted;
+  }
+  std::printf("%s: %zu runs, %zu with a result, %zu in error%s -> %s\n",
+              s.options.experiment_file.c_str(), summary.runs, summary.with_result, summary.errors,
+              summary.job_id.empty() ? " (every shard was done: merged again)" : "", out.c_str());
+  if (!summary.unfinished.empty()) {
+    std::fflush(stdout);
+    for (const auto& [shard, log] : summary.unfinished) {
+      std::fprintf(stderr, "locsim sweep: shard %d has runs without a result; its task's log: %s\n",
+                   shard, log.empty() ? "(none)" : log.c_str());
+    }
+    std::fprintf(stderr,
+                 "locsim sweep: %zu of %zu runs have no result (a task failed or was "
+                 "cancelled); fix the cause and pass --resume: only those shards run again\n",
+                 summary.runs - summary.with_result - summary.errors, summary.runs);
+    return kExitFailure;
+  }
+  if (summary.errors > 0) return runs_in_error(summary.errors, s.options.out_dir);
+  return kExitOk;
+}
 
 int execute(State& s) {
   SweepOptions& options = s.options;
+  if (s.slurm_tasks > 0) return execute_on_slurm(s);
   if (!s.shard.empty()) {
     int k = 0, n = 0;
     char slash = 0;
@@ -41,16 +96,7 @@ int execute(State& s) {
               summary.not_ok, summary.interrupted ? ", interrupted (--resume finishes it)" : "",
               options.out_dir.c_str());
   if (summary.interrupted) return kExitInterrupted;
-  if (summary.errors > 0) {
-    std::fflush(stdout);
-    std::fprintf(stderr,
-                 "locsim sweep: %zu run%s ended in error (locsim could not produce a result); "
-                 "the reasons are in %s (column reason) and each such run's log.txt; fix the "
-                 "cause and pass --resume to run them again\n",
-                 summary.errors, summary.errors == 1 ? "" : "s",
-                 (options.out_dir / "results.csv").c_str());
-    return kExitFailure;
-  }
+  if (summary.errors > 0) return runs_in_error(summary.errors, options.out_dir);
   return kExitOk;
 }
 
@@ -78,8 +124,22 @@ Command add_sweep(CLI::App& app) {
       ->add_flag("--retry-failed", options.retry_failed,
                  "With --resume: run the failed runs again too")
       ->needs(resume_flag);
-  sweep->add_option("--shard", state->shard,
-                    "K/N: run only the K-th of N deterministic slices (merge them after)");
+  CLI::Option* const shard_option =
+      sweep->add_option("--shard", state->shard,
+                        "K/N: run only the K-th of N deterministic slices (merge them after)");
+  CLI::Option* const slurm_option =
+      sweep
+          ->add_option("--slurm", state->slurm_tasks,
+                       "Run the sweep on a Slurm cluster as a job array of N tasks (each one "
+                       "shard); wait for it and merge into --out")
+          ->transform(whole_number_in(1, 1000000))
+          ->excludes(shard_option);
+  sweep
+      ->add_option("--sbatch", state->sbatch_options,
+                   "With --slurm: an option for sbatch, as sbatch takes it "
+                   "(--sbatch=--partition=cpu --sbatch=--time=2:00:00); repeatable")
+      ->needs(slurm_option)
+      ->allow_extra_args(false);
   sweep->footer(
       "Checks first: every plugin is found and loaded and every configuration's parameters are\n"
       "checked as `locsim run` does, before anything is simulated or the folder is made.\n"
@@ -91,10 +151,18 @@ Command add_sweep(CLI::App& app) {
       "--resume runs error, crashed and timeout runs again (and failed ones with --retry-failed);\n"
       "their new result replaces the old one. One sweep at a time writes a folder: it holds\n"
       "DIR/sweep.lock (flock) while it runs; a sweep killed hard holds nothing.\n\n"
+      "--slurm N submits the shards as one job array (sbatch, from PATH; the experiment, --out\n"
+      "and this locsim must be at the same paths on the nodes), shows the job's state until it\n"
+      "ends and merges the shards into --out, which is then the same as a local sweep's; what\n"
+      "the cluster wrote stays in DIR/slurm (job.sh, logs/JOB_TASK.log, shard-K/). --jobs is\n"
+      "each task's runs at a time and the CPUs it asks for. --resume submits only the shards\n"
+      "with a run to do, after waiting for a job of the folder still queued. Ctrl-C leaves the\n"
+      "job running (--resume waits for it again).\n\n"
       "Exit codes:\n"
       "  0    every run has a result (ok, failed, crashed or timeout)\n"
       "  1    some run ended in error (the last line says how many; results.csv says why), or a\n"
-      "       failure not caused by the input\n"
+      "       failure not caused by the input; --slurm: a task left runs without a result (the\n"
+      "       message names its log), sbatch refused the job (its message), or squeue failed\n"
       "  2    bad input: experiment file, world, scenario, command line, or a parameter a plugin\n"
       "       does not declare or accept (the message names the file:line:col and key); --out\n"
       "       in use by another live sweep (the message names its pid); a corrupt sweep.json or\n"
