@@ -54,21 +54,17 @@ double number(const json& value) {
                            : value.get<double>();
 }
 
-TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
-  const fs::path dir = testing::temp_dir("export");
-  const fs::path log = demo_log(dir);
-  const auto exported =
-      testing::locsim("export " + log.string() + " --rosbag2 " + (dir / "bag").string());
-  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+/// Every message of an MCAP file as the independent reader (tests/checkers) decodes it: its
+/// summary line (the header and channels) into `header`, the messages by topic into `topics`.
+void dump_bag(const fs::path& mcap, json& header,
+              std::map<std::string, std::vector<json>>& topics) {
   const fs::path checkers = fs::path(LOCSIM_SOURCE_DIR) / "tests" / "checkers";
   ASSERT_TRUE(fs::exists(checkers / "node_modules"))
       << "run tools/setup (npm ci in tests/checkers)";
-  const auto dumped = testing::run_command("node " + (checkers / "mcap_dump.mjs").string() + " " +
-                                           (dir / "bag" / "bag_0.mcap").string());
+  const auto dumped =
+      testing::run_command("node " + (checkers / "mcap_dump.mjs").string() + " " + mcap.string());
   ASSERT_EQ(dumped.exit_code, 0) << dumped.output;
-  std::map<std::string, std::vector<json>> topics;
   std::istringstream lines(dumped.output);
-  json header;
   for (std::string line; std::getline(lines, line);) {
     const json j = json::parse(line);
     if (j.contains("header")) {
@@ -77,6 +73,17 @@ TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
       topics[j["topic"].get<std::string>()].push_back(j["message"]);
     }
   }
+}
+
+TEST(RosbagExport, AnIndependentReaderDecodesEveryTopicToTheLogsValues) {
+  const fs::path dir = testing::temp_dir("export");
+  const fs::path log = demo_log(dir);
+  const auto exported =
+      testing::locsim("export " + log.string() + " --rosbag2 " + (dir / "bag").string());
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  json header;
+  std::map<std::string, std::vector<json>> topics;
+  ASSERT_NO_FATAL_FAILURE(dump_bag(dir / "bag" / "bag_0.mcap", header, topics));
   EXPECT_EQ(header["header"]["profile"], "ros2");
   // /map, /tf_static and the log's header are offered transient local (durability 1), so a late
   // node gets them.
@@ -304,9 +311,95 @@ TEST(RosbagExport, RefusesToReplaceWhatIsNotABagOrHoldsItsLog) {
     export_rosbag2(dir / "bag" / "inside.db3", dir / "bag", {}, true);
     FAIL();
   } catch (const InputError& e) {
-    expect_contains(e.what(), "which the export reads: not replaced");
+    expect_contains(e.what(), "which locsim reads: not replaced");
   }
   EXPECT_TRUE(fs::exists(dir / "bag" / "inside.db3"));
+}
+
+TEST(RosbagRun, ARunsBagHoldsEachLocalizersEstimatesAndParticlesAndAReplayOfItsLogTheSame) {
+  // `run --rosbag2`: the estimates (with their covariance) at every true pose, and the particles
+  // at --rosbag2-particles-hz, as the independent reader decodes them. The replay of the run's log
+  // writes the same localizer messages, bit for bit: the particles are taken at the same instants,
+  // after the same records.
+  const fs::path dir = testing::temp_dir("run_bag");
+  const std::string world = (fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml").string();
+  const std::string localizers = " --localizer amcl --localizer ekf_landmarks";
+  auto o = testing::locsim("run " + world + " --duration 6 --no-readings --out " +
+                           (dir / "run").string() + " --log " + (dir / "run.locsimlog").string() +
+                           localizers + " --rosbag2 " + (dir / "run_bag").string() +
+                           " --rosbag2-particles-hz 5");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  o = testing::locsim("replay " + (dir / "run.locsimlog").string() + " --no-readings --out " +
+                      (dir / "replay").string() + localizers + " --rosbag2 " +
+                      (dir / "replay_bag").string() + " --rosbag2-particles-hz 5");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  json header;
+  std::map<std::string, std::vector<json>> run, replay;
+  ASSERT_NO_FATAL_FAILURE(dump_bag(dir / "run_bag" / "run_bag_0.mcap", header, run));
+  ASSERT_NO_FATAL_FAILURE(dump_bag(dir / "replay_bag" / "replay_bag_0.mcap", header, replay));
+
+  for (const std::string label : {"amcl", "ekf_landmarks"}) {
+    SCOPED_TRACE(label);
+    const std::vector<json>& poses = run["/localizers/" + label + "/pose"];
+    const std::vector<StampedPose> tum = read_tum(dir / "run" / (label + ".tum"));
+    ASSERT_EQ(poses.size(), tum.size());
+    for (std::size_t i = 0; i < tum.size(); ++i) {
+      const json& m = poses[i];
+      EXPECT_EQ(m["header"]["frame_id"], "map");
+      EXPECT_EQ(stamp_ns(m["header"]), 1'000'000'000 + std::llround(tum[i].t_s * 1e9));
+      EXPECT_NEAR(m["pose"]["pose"]["position"]["x"].get<double>(), tum[i].pose.x, 1e-6);
+      EXPECT_NEAR(m["pose"]["pose"]["position"]["y"].get<double>(), tum[i].pose.y, 1e-6);
+      EXPECT_NEAR(std::remainder(yaw(m["pose"]["pose"]["orientation"]) - tum[i].pose.theta,
+                                 2.0 * std::numbers::pi),
+                  0.0, 1e-6);
+      // ROS's 6 x 6 over (x, y, z, roll, pitch, yaw): x, y and yaw filled, symmetric, the rest 0.
+      const json& c = m["pose"]["covariance"];
+      ASSERT_EQ(c.size(), 36u);
+      for (int r = 0; r < 6; ++r) {
+        for (int k = 0; k < 6; ++k) {
+          const bool planar = (r == 0 || r == 1 || r == 5) && (k == 0 || k == 1 || k == 5);
+          if (!planar) {
+            EXPECT_EQ(number(c[r * 6 + k]), 0.0) << r << "," << k;
+          }
+          // as the filter gives it: symmetric to its rounding
+          EXPECT_NEAR(number(c[r * 6 + k]), number(c[k * 6 + r]),
+                      1e-12 * (std::abs(number(c[0])) + std::abs(number(c[35]))));
+        }
+      }
+      EXPECT_GT(number(c[0]), 0.0);
+      EXPECT_GT(number(c[35]), 0.0);
+    }
+    EXPECT_EQ(run["/localizers/" + label + "/pose"], replay["/localizers/" + label + "/pose"]);
+  }
+  // amcl's particles at 0, 0.2, ..., 6 s; the EKF has none.
+  const std::vector<json>& clouds = run["/localizers/amcl/particles"];
+  ASSERT_EQ(clouds.size(), 31u);
+  for (std::size_t i = 0; i < clouds.size(); ++i) {
+    EXPECT_EQ(stamp_ns(clouds[i]["header"]), 1'000'000'000 + 200'000'000 * static_cast<long>(i));
+    EXPECT_GE(clouds[i]["poses"].size(), 500u);  // amcl's default min_particles
+  }
+  EXPECT_EQ(run.count("/localizers/ekf_landmarks/particles"), 0u);
+  EXPECT_EQ(clouds, replay["/localizers/amcl/particles"]);
+  // The stream's topics too: the bag of a run is an exported log and more.
+  for (const char* topic : {"/scan", "/odom", "/ground_truth", "/tf", "/map"}) {
+    EXPECT_FALSE(run[topic].empty()) << topic;
+  }
+
+  // A bag folder is replaced only with --overwrite, and a folder of other files never.
+  o = testing::locsim("replay " + (dir / "run.locsimlog").string() + " --no-readings --out " +
+                      (dir / "replay2").string() + " --rosbag2 " + (dir / "replay_bag").string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  expect_contains(o.output, "exists (pass --overwrite to replace a bag)");
+  EXPECT_FALSE(fs::exists(dir / "replay2"));
+  o = testing::locsim("replay " + (dir / "run.locsimlog").string() + " --no-readings --out " +
+                      (dir / "replay2").string() + " --rosbag2 " + (dir / "run").string() +
+                      " --overwrite");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  expect_contains(o.output, "is not a bag folder");
+  o = testing::locsim("run " + world + " --duration 1 --out " + (dir / "run3").string() +
+                      " --rosbag2-particles-hz 5");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  expect_contains(o.output, "--rosbag2-particles-hz requires --rosbag2");
 }
 
 }  // namespace

@@ -1,12 +1,16 @@
 #include "sim/consumers/rosbag_recorder.hpp"
 
+#include <array>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <string_view>
 #include <variant>
 
 #include "sim/common/files.hpp"
+#include "sim/plugin_host/localizer_host.hpp"
 #include "sim/rosbag/ros_types.hpp"
 #include "sim/sensors/models.hpp"
 
@@ -57,6 +61,20 @@ json number(double value) {
   if (std::isnan(value)) return "NaN";
   if (std::isinf(value)) return value > 0 ? "Infinity" : "-Infinity";
   return value;
+}
+
+// The localizers' messages, written straight to CDR: a particle cloud is thousands of poses
+// ten times a second, too many for the JSON of the other topics (twenty times the replay's own
+// time). The same bytes as MessageDefinition::encode of their JSON (the independent reader checks
+// them, tests/rosbag_export_test.cpp).
+void put_header(rosbag::CdrWriter& cdr, std::int64_t ns, std::string_view frame) {
+  cdr.write(static_cast<std::int32_t>(ns / 1'000'000'000));
+  cdr.write(static_cast<std::uint32_t>(ns % 1'000'000'000));
+  cdr.write_string(frame);
+}
+void put_pose(rosbag::CdrWriter& cdr, double x, double y, double theta) {
+  for (const double v : {x, y, 0.0, 0.0, 0.0, std::sin(0.5 * theta), std::cos(0.5 * theta)})
+    cdr.write(v);
 }
 
 json detections_json(std::int64_t ns, const std::string& frame, double pan, double tilt,
@@ -157,9 +175,13 @@ std::size_t RosbagRecorder::topic(const std::string& name, const std::string& ty
 }
 
 void RosbagRecorder::write(std::size_t index, std::int64_t ns, const json& message) {
+  write_cdr(index, ns, topics_[index].definition->encode(message));
+}
+
+void RosbagRecorder::write_cdr(std::size_t index, std::int64_t ns, const std::string& cdr) {
   Topic& t = topics_[index];
   writer_->write(t.channel, record_, static_cast<std::uint64_t>(ns), static_cast<std::uint64_t>(ns),
-                 t.definition->encode(message));
+                 cdr);
   ++t.count;
   first_ns_ = std::min(first_ns_, ns);
   last_ns_ = std::max(last_ns_, ns);
@@ -289,6 +311,67 @@ void RosbagRecorder::consume(const Record& record) {
     case Record::Type::kEnd:
       break;
   }
+}
+
+std::string RosbagRecorder::localizer_topic(std::size_t localizer, const char* what) const {
+  const LocalizerInfo& info = localizers_[localizer];
+  // A ROS name holds letters, digits and underscores, and no name part starts with a digit
+  // (a sweep's labels hold '-', '=' and '.').
+  std::string label;
+  for (const char c : info.label) label += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  if (label.empty() || std::isdigit(static_cast<unsigned char>(label.front()))) label = "_" + label;
+  return prefix(static_cast<int>(info.robot)) + "/localizers/" + label + "/" + what;
+}
+
+void RosbagRecorder::add_localizers(const std::vector<LocalizerInfo>& localizers,
+                                    LocalizerHost* host, double particles_hz) {
+  localizers_ = localizers;
+  host_ = host;
+  particle_period_s_ = particles_hz > 0.0 ? 1.0 / particles_hz : 0.0;
+  next_particles_s_ = 0.0;
+}
+
+void RosbagRecorder::estimate(const EstimateSample& sample) {
+  if (sample.localizer >= localizers_.size()) return;
+  const std::int64_t ns = stamp_ns(sample.t_s);
+  // ROS's 6 x 6 over (x, y, z, roll, pitch, yaw), row-major; locsim's 3 x 3 over (x, y, theta).
+  std::array<double, 36> covariance{};
+  constexpr int kRos[3] = {0, 1, 5};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) covariance[kRos[i] * 6 + kRos[j]] = sample.covariance[i * 3 + j];
+  }
+  cdr_.clear();
+  put_header(cdr_, ns, "map");
+  put_pose(cdr_, sample.pose.x, sample.pose.y, sample.pose.theta);
+  for (const double c : covariance) cdr_.write(c);  // a fixed array: no count
+  write_cdr(topic(localizer_topic(sample.localizer, "pose"),
+                  "geometry_msgs/msg/PoseWithCovarianceStamped"),
+            ns, cdr_.bytes());
+}
+
+void RosbagRecorder::failure(const LocalizerFailure& failure) {
+  if (failure.localizer >= localizers_.size()) return;
+  const std::int64_t ns = stamp_ns(failure.t_s);
+  write(topic(localizer_topic(failure.localizer, "failure"), "std_msgs/msg/String", true), ns,
+        {{"data", "failed in its " + failure.call + " call: " + failure.message}});
+}
+
+void RosbagRecorder::records_until(double t_s) {
+  // A nanosecond's slack: a log's times and the simulation's clock may differ in the last bit.
+  if (host_ == nullptr || particle_period_s_ <= 0.0 || t_s + 1e-9 < next_particles_s_) return;
+  const std::int64_t ns = stamp_ns(t_s);
+  const std::vector<LocalizerSnapshot> snapshots = host_->snapshot(t_s);
+  for (std::size_t k = 0; k < snapshots.size() && k < localizers_.size(); ++k) {
+    if (snapshots[k].particles.empty()) continue;
+    cdr_.clear();
+    put_header(cdr_, ns, "map");
+    cdr_.write_count(snapshots[k].particles.size());
+    for (const locsim_pose2& p : snapshots[k].particles) put_pose(cdr_, p.x, p.y, p.theta);
+    write_cdr(topic(localizer_topic(k, "particles"), "geometry_msgs/msg/PoseArray"), ns,
+              cdr_.bytes());
+  }
+  // The next instant on the grid of 1 / particles_hz after t_s (never a burst after a gap).
+  next_particles_s_ = (std::floor((t_s + 1e-9) / particle_period_s_) + 1.0) * particle_period_s_;
 }
 
 std::uint64_t RosbagRecorder::messages() const {

@@ -60,10 +60,12 @@ std::optional<std::uint64_t> rebuild_locsim_log(const fs::path& bag_path, const 
   try {
     bag.read([&](const rosbag::BagTopic& topic, const rosbag::BagMessage& message) {
       if (header_text.empty() && topic.name != "/locsim/log_header") throw NotLocsim{};
-      // Frames, the clock and the map are the world's (the header has it): not decoded.
+      // Frames, the clock and the map are the world's (the header has it), and the localizers'
+      // outputs (a run's or replay's --rosbag2) are not records: not decoded.
       const std::string type = rosbag::short_type_name(topic.type);
       if (type == "tf2_msgs/TFMessage" || type == "rosgraph_msgs/Clock" ||
-          type == "nav_msgs/OccupancyGrid") {
+          type == "nav_msgs/OccupancyGrid" ||
+          topic.name.find("/localizers/") != std::string::npos) {
         return;
       }
       try {

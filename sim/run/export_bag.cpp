@@ -40,8 +40,7 @@ bool is_within(const fs::path& file, const fs::path& dir) {
 
 }  // namespace
 
-ExportSummary export_rosbag2(const fs::path& log, const fs::path& out,
-                             RosbagRecorderOptions options, bool overwrite) {
+void check_bag_folder(const fs::path& out, bool overwrite, const std::vector<fs::path>& inputs) {
   if (out.empty() || !out.has_filename()) {
     throw InputError("--rosbag2: " + quote_input(out.string()) + " does not name a bag folder");
   }
@@ -54,11 +53,20 @@ ExportSummary export_rosbag2(const fs::path& log, const fs::path& out,
     throw InputError("--rosbag2: " + out.string() +
                      " is not a bag folder (metadata.yaml and .mcap files only): not replaced");
   }
-  if (is_within(log, out)) {
-    throw InputError("--rosbag2: " + out.string() + " holds the log " + log.string() +
-                     ", which the export reads: not replaced");
+  for (const fs::path& input : inputs) {
+    if (is_within(input, out)) {
+      throw InputError("--rosbag2: " + out.string() + " holds " + input.string() +
+                       ", which locsim reads: not replaced");
+    }
   }
   check_output_folder(out.parent_path(), "--rosbag2");
+}
+
+ExportSummary export_rosbag2(const fs::path& log, const fs::path& out,
+                             RosbagRecorderOptions options, bool overwrite) {
+  check_bag_folder(out, overwrite, {log});
+  std::error_code error;
+  const bool exists = fs::exists(fs::symlink_status(out, error));
   const fs::path partial = out.string() + ".partial";
   if (fs::exists(fs::symlink_status(partial, error))) {
     if (!fs::is_directory(partial) || !is_bag_folder(partial)) {

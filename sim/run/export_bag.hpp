@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <vector>
 
 #include "sim/consumers/rosbag_recorder.hpp"
 
@@ -14,6 +15,12 @@ struct ExportSummary {
   std::uint64_t messages = 0;  // in the bag
   std::uintmax_t bag_bytes = 0;
 };
+
+/// Refuses (InputError) a bag folder OUT that exists, unless `overwrite` and it is a bag folder
+/// (metadata.yaml, .mcap and .db3 files only) that holds none of `inputs` (what locsim reads),
+/// and one whose parent cannot be a folder. `export` and --rosbag2 of `run` and `replay` check it.
+void check_bag_folder(const std::filesystem::path& out, bool overwrite,
+                      const std::vector<std::filesystem::path>& inputs);
 
 /// Writes the bag into OUT.partial and renames it OUT at the end: a failed export leaves no bag.
 /// OUT must not exist, unless `overwrite` and it is a bag folder (metadata.yaml, .mcap and .db3

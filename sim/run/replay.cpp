@@ -8,6 +8,7 @@
 #include "sim/consumers/config_json.hpp"
 #include "sim/consumers/frame_capture.hpp"
 #include "sim/producers/log_source.hpp"
+#include "sim/run/export_bag.hpp"
 #include "sim/run/runner.hpp"
 
 namespace locsim {
@@ -30,6 +31,10 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   std::vector<RunFolder::Output> outputs;
   if (video_file) outputs.push_back({"--video", *video_file, false});
   if (frames_dir) outputs.push_back({"--frames", *frames_dir, true});
+  if (options.rosbag2) {
+    check_bag_folder(*options.rosbag2, options.overwrite, read);
+    outputs.push_back({"--rosbag2", *options.rosbag2, true});
+  }
   RunFolder::check_apart(options.out_dir, outputs);
   RunFolder::check(options.out_dir, options.overwrite, read);
   const std::uint64_t seed = options.seed.value_or(source.seed());
@@ -64,7 +69,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   if (video)
     capture.emplace(*options.video, options.video_options, source.world(), &session.host());
   std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
-  for (const auto& file : {video_file, frames_dir}) {
+  for (const auto& file : {video_file, frames_dir, options.rosbag2}) {
     if (file) keep.push_back(*file);
   }
   try {
@@ -81,11 +86,13 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
   RunEnd end;
   const auto start = std::chrono::steady_clock::now();
   try {
-    session.start(keep);
+    // A bag carries the log's header, as an exported log's does.
+    session.start(keep, options.rosbag2 ? header.dump() : std::string());
     // After the localizers (it snapshots them), so the driver, not the fan-out, tells it first
     // when the time moves on: a frame then holds every record of its time and none later.
     if (capture) session.input().add(*capture);
     Record record;
+    std::optional<double> stream_t_s;  // the time of the records so far
     std::size_t since_flush = 0;
     while (source.next(record)) {
       ++result.records;
@@ -96,6 +103,8 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
                          : record.type == Record::Type::kEvent ? record.event.t_s
                                                                : record.t_s;
       if (capture) capture->advance(t_s);
+      if (stream_t_s && t_s > *stream_t_s) session.records_until(*stream_t_s);
+      stream_t_s = t_s;
       input.consume(record);
       result.replayed_s = t_s;
       if (++since_flush == 4096) {
@@ -107,6 +116,7 @@ ReplayResult replay_log(const ReplayOptions& options, const std::atomic<bool>* i
         }
       }
     }
+    if (stream_t_s && end.completed()) session.records_until(*stream_t_s);
     if (capture && end.completed()) capture->end_of_stream();
   } catch (...) {
     end.caught();

@@ -12,6 +12,7 @@
 #include "sim/consumers/config_json.hpp"
 #include "sim/consumers/frame_capture.hpp"
 #include "sim/producers/simulation_source.hpp"
+#include "sim/run/export_bag.hpp"
 #include "sim/scenario/scenario_loader.hpp"
 #include "sim/stream/log_file.hpp"
 #include "sim/world/variation.hpp"
@@ -129,6 +130,10 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   if (options.log_file) outputs.push_back({"--log", *options.log_file, false});
   if (video_file) outputs.push_back({"--video", *video_file, false});
   if (frames_dir) outputs.push_back({"--frames", *frames_dir, true});
+  if (options.rosbag2) {
+    check_bag_folder(*options.rosbag2, options.overwrite, read);
+    outputs.push_back({"--rosbag2", *options.rosbag2, true});
+  }
   RunFolder::check_apart(result.out_dir, outputs);
   RunFolder::check(result.out_dir, options.overwrite, read);
   // The localizers' processes start before the simulation (and any renderer) has threads.
@@ -210,7 +215,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
     throw;
   }
   std::vector<fs::path> keep = read;  // --overwrite empties the folder, but not of these
-  for (const auto& file : {options.log_file, video_file, frames_dir}) {
+  for (const auto& file : {options.log_file, video_file, frames_dir, options.rosbag2}) {
     if (file) keep.push_back(*file);
   }
   try {
@@ -232,10 +237,12 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
   bool progress_shown = false;
   RunEnd end;
   try {
-    session.start(keep);
+    // A bag carries the log's header, as an exported log's does.
+    session.start(keep, options.rosbag2 ? log_header(options, inputs).dump() : std::string());
     if (log) session.input().add(*log);
     if (capture) session.input().add(*capture);
     source.emit(input);
+    session.records_until(sim.time_s());
     if (capture) capture->after_step(sim);
     while (!sim.done()) {
       if (interrupt != nullptr && interrupt->load(std::memory_order_relaxed)) {
@@ -244,6 +251,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
       }
       sim.step();
       source.emit(input);
+      session.records_until(sim.time_s());
       if (capture) capture->after_step(sim);
       if (sim.step_index() % steps_per_s == 0) session.flush_now_and_then();
       if (options.realtime) {

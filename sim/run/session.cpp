@@ -26,19 +26,18 @@ Session::Session(const SessionOptions& options, const WorldDef& world, const Sce
     specs.push_back(parse_localizer_spec(text));
     specs.back().params_file = params_file;
   }
-  OccupancyGrid grid;
-  if (!specs.empty()) {
+  if (!specs.empty() || options.rosbag2) {
     // The static world only, rasterized as the localizers see it (no robot moves in it).
     const PhysicsWorld physics(world);
-    grid = rasterize_static_world(physics, scenario.localization.grid_resolution_m);
+    grid_ = rasterize_static_world(physics, scenario.localization.grid_resolution_m);
   }
   HostOptions host;
   host.isolate = options.isolate;
   host.plugin_timeout_s = options.plugin_timeout_s;
   host.plugin_memory_bytes = options.plugin_memory_bytes;
   host.interrupt = interrupt;
-  host_ = std::make_unique<LocalizerHost>(specs, world, scenario.localization, grid, seed, host);
-  scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence, &grid);
+  host_ = std::make_unique<LocalizerHost>(specs, world, scenario.localization, grid_, seed, host);
+  scorer_ = std::make_unique<Scorer>(world, host_->localizers(), options.convergence, &grid_);
 }
 
 std::vector<std::filesystem::path> session_input_files(const SessionOptions& options) {
@@ -68,7 +67,7 @@ void Session::open(const std::filesystem::path& out_dir, const std::string& run_
   running_at_ = status == std::string::npos ? status : status + 10;  // past `"status": `
 }
 
-void Session::start(const std::vector<std::filesystem::path>& keep) {
+void Session::start(const std::vector<std::filesystem::path>& keep, const std::string& log_header) {
   folder_.prepare(options_.overwrite, keep);
   recorder_ =
       std::make_unique<RunRecorder>(folder_, world_, host_->localizers(), options_.readings);
@@ -77,6 +76,17 @@ void Session::start(const std::vector<std::filesystem::path>& keep) {
   fanout_.add(*host_);  // first: workers get each record as early as possible
   fanout_.add(*scorer_);
   fanout_.add(*recorder_);
+  if (options_.rosbag2) {
+    const std::filesystem::path& dir = *options_.rosbag2;
+    // The driver checked that it is a bag folder --overwrite may replace.
+    if (std::filesystem::exists(dir)) std::filesystem::remove_all(dir);
+    RosbagRecorderOptions bag;
+    bag.log_header = log_header;
+    bag_ = std::make_unique<RosbagRecorder>(dir, world_, grid_, bag);
+    bag_->add_localizers(host_->localizers(), host_.get(), options_.rosbag2_particles_hz);
+    host_->add_output(*bag_);
+    fanout_.add(*bag_);
+  }
 }
 
 void RunEnd::caught(const std::string& context) {
@@ -109,6 +119,14 @@ nlohmann::ordered_json Session::finish(double t_end_s, RunEnd& end) {
   // Each output on its own: a file that cannot be written costs the others nothing. The
   // recorder's files first: those a failed write cut are removed (on a full disk that frees their
   // room) before metrics.json is written.
+  // The bag of a run that failed or was interrupted too: a valid bag up to there, as the video.
+  if (bag_) {
+    try {
+      bag_->finish();
+    } catch (...) {
+      end.caught();
+    }
+  }
   nlohmann::ordered_json localizers = nlohmann::ordered_json::array();
   if (!recorder_) return localizers;  // the run failed before its files were opened
   try {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "sim/consumers/frame_state.hpp"
+#include "sim/consumers/rosbag_recorder.hpp"
 #include "sim/consumers/run_recorder.hpp"
 #include "sim/metrics/error_metrics.hpp"
 #include "sim/metrics/scorer.hpp"
@@ -37,6 +38,10 @@ struct SessionOptions {
   /// --plugin-memory: what each localizer's process may allocate beyond what it starts with
   /// [bytes]; 0: no limit
   std::uint64_t plugin_memory_bytes = 0;
+  /// --rosbag2: also write the stream as a ROS 2 bag into this folder, with every localizer's
+  /// estimates and particles (consumers/rosbag_recorder); checked by the driver (check_bag_folder)
+  std::optional<std::filesystem::path> rosbag2;
+  double rosbag2_particles_hz = 10.0;  // --rosbag2-particles-hz: of simulated time; 0: none [Hz]
 };
 
 /// How a run or replay ended: completed, interrupted (Ctrl-C) or failed (with the first error,
@@ -72,7 +77,15 @@ class Session {
   /// Readies the folder (with overwrite, emptied but for run.json and `keep`, the driver's own
   /// outputs and inputs that lie in it) and opens its files. What fails here fails the run: the
   /// drivers call it where they catch the run's failures, so that run.json says it.
-  void start(const std::vector<std::filesystem::path>& keep = {});
+  /// With --rosbag2, also begins the bag (replacing the bag folder --overwrite allows), carrying
+  /// `log_header` (the log's header as JSON text, so that `import rosbag2` rebuilds the log).
+  void start(const std::vector<std::filesystem::path>& keep = {},
+             const std::string& log_header = "");
+  /// Every record up to `t_s` has gone into input(), none later: what is due by then from the
+  /// localizers' state (the bag's particles) is taken. The drivers call it as the time moves on.
+  void records_until(double t_s) {
+    if (bag_) bag_->records_until(t_s);
+  }
   /// Where the producer's records go: host, scorer, recorder, then what the driver adds.
   RecordFanout& input() { return fanout_; }
   /// Flushes input() (the files' buffers to the system, the records gathered for the localizers'
@@ -112,6 +125,8 @@ class Session {
   std::unique_ptr<LocalizerHost> host_;
   std::unique_ptr<Scorer> scorer_;
   std::unique_ptr<RunRecorder> recorder_;
+  OccupancyGrid grid_;  // the static world as the localizers (and the bag's /map) see it
+  std::unique_ptr<RosbagRecorder> bag_;
   RunFolder folder_;
   std::size_t running_at_ = std::string::npos;  // where run.json says "running" [byte]
   int run_json_lock_ = -1;                      // run.json as open() wrote it, locked

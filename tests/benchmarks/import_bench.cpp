@@ -30,6 +30,7 @@
 #include "sim/rosbag/message_definition.hpp"
 #include "sim/rosbag/ros_types.hpp"
 #include "sim/run/export_bag.hpp"
+#include "sim/run/replay.hpp"
 #include "sim/run/runner.hpp"
 #include "sim/run/score.hpp"
 #include "tests/noisy_world.hpp"
@@ -263,6 +264,26 @@ void BM_ExportRosbag2Demo(benchmark::State& state) {
       static_cast<double>(messages * state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ExportRosbag2Demo)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// `locsim replay` of the demo world's 60 s log with amcl, without (0) and with (1) --rosbag2: the
+/// bag's cost beside the replay's own (the stream's topics, amcl's estimate at every true pose and
+/// its particle cloud at 10 Hz, zstd chunks). Counter: true poses replayed per second.
+void BM_ReplayRosbag2Demo(benchmark::State& state) {
+  const fs::path dir = fs::temp_directory_path() / "locsim_bench_replay_bag";
+  locsim::ReplayOptions options;
+  options.log_file = demo_log(dir);
+  options.out_dir = dir / "replay";
+  options.localizers = {"amcl"};
+  options.readings = false;
+  options.overwrite = true;
+  if (state.range(0) == 1) options.rosbag2 = dir / "bag";
+  std::size_t true_poses = 0;
+  for (auto _ : state) true_poses = locsim::replay_log(options).true_poses;
+  fs::remove_all(dir);
+  state.counters["true_poses_per_s"] = benchmark::Counter(
+      static_cast<double>(true_poses * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ReplayRosbag2Demo)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 /// `locsim score` of an external TUM estimate on the demo world's 60 s log (the run's own
 /// odometry.tum, given back as a file): the log through the scorer and the recorder, the estimate

@@ -269,6 +269,19 @@ void add_session_options(CLI::App* command, SessionCli& cli, SessionOptions& ses
       ->capture_default_str();
   command->add_flag("!--no-readings", session.readings,
                     "Do not write readings/ (one CSV per sensor)");
+  CLI::Option* const bag =
+      command->add_option("--rosbag2", session.rosbag2,
+                          "Also write the run as a ROS 2 bag folder (MCAP): the topics of "
+                          "`locsim export`, and each localizer's estimates "
+                          "(/localizers/LABEL/pose) and particles (/localizers/LABEL/particles); "
+                          "must not exist (--overwrite replaces a bag folder); docs/ros.md");
+  command
+      ->add_option("--rosbag2-particles-hz", session.rosbag2_particles_hz,
+                   "With --rosbag2: how often the particles are written, per simulated second; "
+                   "0: never")
+      ->check(number_in(0.0, 1000.0))
+      ->needs(bag)
+      ->capture_default_str();
   command->add_flag("--overwrite", session.overwrite,
                     "Empty the --out folder first if it holds a run (run.json: completed, "
                     "failed or killed; not one still going on); any other non-empty folder "
