@@ -101,6 +101,74 @@ TEST(Score, ABuiltInFiltersOwnTumScoresAsTheBuiltInScorerScoredIt) {
   expect_contains(testing::read_file(dir / "scored" / "report.md"), "| amcl_tum | ok |");
 }
 
+TEST(Score, IntoARunFolderAnEstimateJoinsTheRunsLocalizersAndItsReport) {
+  // `locsim score RUN`: beside the run's own filters, in its metrics.json, run.json and report.
+  const fs::path dir = testing::temp_dir("score_run");
+  const DemoRun demo = demo_run(dir);
+  fs::copy_file(demo.run / "amcl.tum", dir / "nav2_amcl.tum");
+  const std::string run = demo.run.string();
+  auto o = testing::locsim("score " + run + " --estimate " + (dir / "nav2_amcl.tum").string() +
+                           " --label nav2_amcl");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json all = json::parse(testing::read_file(demo.run / "metrics.json"));
+  ASSERT_EQ(all["localizers"].size(), 3u);
+  const json a = entry(demo.run / "metrics.json", "amcl");
+  const json b = entry(demo.run / "metrics.json", "nav2_amcl");
+  EXPECT_EQ(b["plugin"], "external");
+  EXPECT_EQ(a["samples"], b["samples"]);
+  EXPECT_NEAR(a["position_error_m"]["rms"].get<double>(),
+              b["position_error_m"]["rms"].get<double>(), 2e-6);
+  EXPECT_EQ(a["segments"].size(), b["segments"].size());
+  EXPECT_EQ(testing::read_file(demo.run / "nav2_amcl.tum").empty(), false);
+  const json run_json = json::parse(testing::read_file(demo.run / "run.json"));
+  EXPECT_EQ(run_json["localizers"].size(), 3u);
+  ASSERT_EQ(run_json["scored"].size(), 1u);
+  EXPECT_EQ(run_json["scored"][0]["label"], "nav2_amcl");
+  EXPECT_FALSE(fs::exists(demo.run / ".score.partial"));
+  const auto report = testing::run_command(std::string(LOCSIM_PYTHON_EXECUTABLE) + " " +
+                                           LOCSIM_SOURCE_DIR + "/tools/report.py " + run);
+  EXPECT_EQ(report.exit_code, 0) << report.output;
+  const std::string markdown = testing::read_file(demo.run / "report.md");
+  expect_contains(markdown, "| amcl | ok |");
+  expect_contains(markdown, "| nav2_amcl | ok |");
+
+  // Scored again (another file), it replaces its own entries.
+  o = testing::locsim("score " + run + " --estimate " + (demo.run / "odometry.tum").string() +
+                      " --label nav2_amcl");
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_EQ(json::parse(testing::read_file(demo.run / "metrics.json"))["localizers"].size(), 3u);
+  EXPECT_NEAR(
+      entry(demo.run / "metrics.json", "nav2_amcl")["position_error_m"]["rms"].get<double>(),
+      entry(demo.run / "metrics.json", "odometry")["position_error_m"]["rms"].get<double>(), 2e-6);
+  // Never over the run's own: a localizer's label, a file of the run; the files stay as they were.
+  const std::string metrics = testing::read_file(demo.run / "metrics.json");
+  const std::string groundtruth = testing::read_file(demo.run / "groundtruth.tum");
+  for (const auto& [label, message] :
+       {std::pair{"amcl", "one of the run's own localizers has it"},
+        std::pair{"groundtruth", "the run has a file groundtruth.tum of its own"}}) {
+    o = testing::locsim("score " + run + " --estimate " + (dir / "nav2_amcl.tum").string() +
+                        " --label " + label);
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    expect_contains(o.output, message);
+  }
+  EXPECT_EQ(testing::read_file(demo.run / "metrics.json"), metrics);
+  EXPECT_EQ(testing::read_file(demo.run / "groundtruth.tum"), groundtruth);
+  // A run that kept no log cannot be scored into: it says what to do.
+  o = testing::locsim("run " + std::string(LOCSIM_SOURCE_DIR) +
+                      "/worlds/demo/demo.yaml --duration 1 --no-readings --out " +
+                      (dir / "nolog").string());
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  o = testing::locsim("score " + (dir / "nolog").string() + " --estimate " +
+                      (dir / "nav2_amcl.tum").string() + " --label x");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  expect_contains(o.output, "the run kept no log");
+  // A log needs --out.
+  o = testing::locsim("score " + demo.log.string() + " --estimate " +
+                      (dir / "nav2_amcl.tum").string() + " --label x");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  expect_contains(o.output, "--out: give the folder to write");
+}
+
 TEST(Score, ABagTopicWithCovariancesIsPutOnTheLogsClockAndJudgedForConsistency) {
   const fs::path dir = testing::temp_dir("bag");
   const DemoRun demo = demo_run(dir);

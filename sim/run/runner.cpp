@@ -149,6 +149,7 @@ RunResult run_simulation(const RunOptions& options, const std::atomic<bool>* int
     if (end != nullptr && !end->error.empty()) run["error"] = end->error;
     if (end != nullptr && !end->removed.empty()) run["removed_files"] = end->removed;
     run["seed"] = options.seed;
+    if (options.log_file) run["log_file"] = options.log_file->string();  // what `score RUN` reads
     run["world_file"] = options.world_file.string();
     run["scenario_file"] = inputs.scenario.source.string();
     if (options.params_file) run["params_file"] = options.params_file->string();

@@ -245,4 +245,120 @@ ScoreResult score_estimates(const ScoreOptions& options) {
   return result;
 }
 
+namespace {
+
+/// A JSON object file of a run folder, or InputError naming it.
+nlohmann::ordered_json read_run_file(const fs::path& file) {
+  nlohmann::ordered_json j;
+  try {
+    j = nlohmann::ordered_json::parse(read_text(file));
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(file.string() + ": not valid JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) throw InputError(file.string() + ": not a JSON object");
+  return j;
+}
+
+/// Replaces the entry of `list` whose `key` is `value`, or appends `entry`.
+void put_entry(nlohmann::ordered_json& list, const nlohmann::ordered_json& entry, const char* key) {
+  for (nlohmann::ordered_json& e : list) {
+    if (e.is_object() && e.value(key, nlohmann::ordered_json()) == entry[key]) {
+      e = entry;
+      return;
+    }
+  }
+  list.push_back(entry);
+}
+
+}  // namespace
+
+fs::path log_of_run(const fs::path& run_dir) {
+  const fs::path run_file = run_dir / "run.json";
+  if (!fs::is_regular_file(run_file)) {
+    throw InputError(run_dir.string() + ": not a run folder (no run.json)");
+  }
+  const nlohmann::ordered_json run = read_run_file(run_file);
+  if (run.value("status", "") == "running") {
+    throw InputError(run_file.string() + ": the run is still going on (status running)");
+  }
+  if (!run.contains("log_file") || !run["log_file"].is_string()) {
+    throw InputError(run_file.string() +
+                     ": the run kept no log, which the estimates are scored on; run it with "
+                     "--log FILE (or replay a log), or score a log: locsim score LOG --out DIR");
+  }
+  const fs::path log = run["log_file"].get<std::string>();
+  if (!fs::exists(log)) {
+    throw InputError(run_file.string() + ": its log_file " + log.string() +
+                     " is not there (a path relative to where the run was started); score the "
+                     "log itself: locsim score LOG --out DIR");
+  }
+  return log;
+}
+
+ScoreResult score_into_run(const fs::path& run_dir, ScoreOptions options) {
+  options.log_file = log_of_run(run_dir);
+  const fs::path run_file = run_dir / "run.json";
+  nlohmann::ordered_json run = read_run_file(run_file);
+  // The robot's folder in the run, and the labels its metrics.json has.
+  const nlohmann::ordered_json robots = run.value("robots", nlohmann::ordered_json::array());
+  fs::path robot_dir;
+  for (const auto& robot : robots) {
+    if (options.robot.empty() ? robots.size() == 1 : robot.value("name", "") == options.robot)
+      robot_dir = run_dir / robot.value("folder", ".");
+  }
+  if (robot_dir.empty()) {
+    throw InputError(run_file.string() + (options.robot.empty()
+                                              ? ": a run of several robots: name one with --robot"
+                                              : ": no robot " + quote_input(options.robot)));
+  }
+  const fs::path metrics_file = robot_dir / "metrics.json";
+  nlohmann::ordered_json metrics =
+      fs::exists(metrics_file) ? read_run_file(metrics_file) : nlohmann::ordered_json::object();
+  if (!metrics.contains("localizers")) metrics["localizers"] = nlohmann::ordered_json::array();
+  for (const ExternalEstimate& e : options.estimates) {
+    bool external = false;
+    for (const auto& entry : metrics["localizers"]) {
+      if (entry.value("label", "") == e.label) {
+        if (entry.value("plugin", "") != "external") {
+          throw InputError("--label " + e.label + ": one of the run's own localizers has it");
+        }
+        external = true;  // scored before: replaced
+      }
+    }
+    if (!external && fs::exists(robot_dir / (e.label + ".tum"))) {
+      throw InputError("--label " + e.label + ": the run has a file " + e.label +
+                       ".tum of its own");
+    }
+  }
+
+  // Scored into a folder of its own inside the run, then joined with the run's files.
+  const fs::path partial = run_dir / ".score.partial";
+  std::error_code ignored;
+  fs::remove_all(partial, ignored);
+  options.out_dir = partial;
+  options.overwrite = false;
+  ScoreResult result;
+  try {
+    result = score_estimates(options);
+    const nlohmann::ordered_json scored = read_run_file(partial / "metrics.json");
+    const nlohmann::ordered_json scored_run = read_run_file(partial / "run.json");
+    for (const ExternalEstimate& e : options.estimates) {
+      fs::copy_file(partial / (e.label + ".tum"), robot_dir / (e.label + ".tum"),
+                    fs::copy_options::overwrite_existing);
+    }
+    for (const auto& entry : scored["localizers"]) put_entry(metrics["localizers"], entry, "label");
+    if (!run.contains("localizers")) run["localizers"] = nlohmann::ordered_json::array();
+    for (const auto& entry : scored_run["localizers"]) put_entry(run["localizers"], entry, "label");
+    if (!run.contains("scored")) run["scored"] = nlohmann::ordered_json::array();
+    for (const auto& entry : scored_run["estimates"]) put_entry(run["scored"], entry, "label");
+    write_json_atomically(metrics_file, metrics);
+    write_json_atomically(run_file, run);
+  } catch (...) {
+    fs::remove_all(partial, ignored);
+    throw;
+  }
+  fs::remove_all(partial, ignored);
+  return result;
+}
+
 }  // namespace locsim

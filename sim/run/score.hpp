@@ -56,4 +56,16 @@ struct ScoreResult {
 /// option) before anything is written.
 ScoreResult score_estimates(const ScoreOptions& options);
 
+/// The log a run folder's run.json names (log_file: a run with --log, a replay). Throws
+/// InputError when it is not a finished run's folder, names no log, or the log is not there.
+std::filesystem::path log_of_run(const std::filesystem::path& run_dir);
+
+/// `locsim score RUN`: the estimates scored on the run's log (run.json's log_file: a run with
+/// --log, a replay) and added to the run folder beside its own localizers: LABEL.tum in the
+/// robot's folder, its entry in metrics.json, in run.json's "localizers" and "scored" (an
+/// estimate scored again replaces its entries). `options.log_file` and `out_dir` are set here.
+/// Throws InputError before the run's files are touched: not a finished run's folder, no log
+/// kept, a label a localizer or a file of the run has.
+ScoreResult score_into_run(const std::filesystem::path& run_dir, ScoreOptions options);
+
 }  // namespace locsim

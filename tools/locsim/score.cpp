@@ -1,8 +1,9 @@
-// `locsim score LOG --estimate FILE --label NAME`: anyone's estimates scored as the built-in
+// `locsim score LOG|RUN --estimate FILE --label NAME`: anyone's estimates scored as the built-in
 // localizers are (docs/ros.md).
 #include "sim/run/score.hpp"
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,7 +32,19 @@ int execute(State& s) {
     throw InputError("--topic: give one for every --estimate, or one for all");
   }
   ScoreOptions& options = s.options;
-  options.log_file = s.log;
+  // A run folder without --out: the estimates join its own localizers there.
+  const bool into_run = std::filesystem::is_directory(s.log) && s.out.empty();
+  if (!into_run && s.out.empty()) {
+    throw InputError(
+        "--out: give the folder to write (or score into a run folder: locsim score "
+        "RUN)");
+  }
+  if (std::filesystem::is_directory(s.log) && !into_run) {
+    // A run folder with --out: its log, scored into a folder of its own.
+    options.log_file = log_of_run(s.log);
+  } else {
+    options.log_file = s.log;
+  }
   options.out_dir = s.out;
   options.robot = s.robot;
   options.overwrite = s.overwrite;
@@ -41,11 +54,12 @@ int execute(State& s) {
         {s.labels[i], s.estimates[i],
          s.topics.empty() ? std::string() : s.topics[s.topics.size() == 1 ? 0 : i]});
   }
-  const ScoreResult result = score_estimates(options);
+  const ScoreResult result = into_run ? score_into_run(s.log, options) : score_estimates(options);
   if (!s.quiet) {
     for (std::size_t i = 0; i < result.samples.size(); ++i) {
-      std::printf("%s: %s scored at %zu of %zu true poses -> %s\n", s.log.c_str(),
-                  s.labels[i].c_str(), result.samples[i], result.true_poses, s.out.c_str());
+      std::printf("%s: %s scored at %zu of %zu true poses -> %s\n", options.log_file.c_str(),
+                  s.labels[i].c_str(), result.samples[i], result.true_poses,
+                  (into_run ? s.log : s.out).c_str());
     }
   }
   return kExitOk;
@@ -58,8 +72,15 @@ namespace locsim::cli {
 Command add_score(CLI::App& app) {
   const auto state = std::make_shared<score_cmd::State>();
   CLI::App* const command = app.add_subcommand(
-      "score", "Score estimates made outside locsim (a TUM file, a ROS 2 bag's topic) on a log");
-  command->add_option("log", state->log, "The log the estimates were made on")->required();
+      "score",
+      "Score estimates made outside locsim (a TUM file, a ROS 2 bag's topic) on a log, or into "
+      "a run folder beside its own localizers");
+  command
+      ->add_option("log", state->log,
+                   "The log the estimates were made on, or a run folder that kept its log (a "
+                   "run with --log, a replay): without --out the estimates join its localizers "
+                   "there (metrics.json, LABEL.tum, run.json), for `locsim report`")
+      ->required();
   command
       ->add_option("--estimate", state->estimates,
                    "A TUM file (times on the log's clock), or a ROS 2 bag (with --topic); repeat "
@@ -70,8 +91,8 @@ Command add_score(CLI::App& app) {
   command->add_option("--topic", state->topics,
                       "A bag's PoseWithCovarianceStamped, Odometry or PoseStamped topic (e.g. "
                       "/amcl_pose)");
-  command->add_option("--out", state->out, "Output folder (a run folder: metrics.json, LABEL.tum)")
-      ->required();
+  command->add_option("--out", state->out,
+                      "Output folder (a run folder: metrics.json, LABEL.tum); needed for a log");
   command->add_option("--robot", state->robot, "The robot the estimates are of (a log of several)");
   command
       ->add_option("--converged-within-m", state->options.convergence.position_m,
