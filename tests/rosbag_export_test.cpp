@@ -385,6 +385,17 @@ TEST(RosbagRun, ARunsBagHoldsEachLocalizersEstimatesAndParticlesAndAReplayOfItsL
     EXPECT_FALSE(run[topic].empty()) << topic;
   }
 
+  // `export RUN` exports the log the run kept: the stream's topics as the run's own bag has them.
+  o = testing::locsim("export " + (dir / "run").string() + " --rosbag2 " +
+                      (dir / "exported").string());
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  expect_contains(o.output, (dir / "run.locsimlog").string());
+  std::map<std::string, std::vector<json>> exported;
+  ASSERT_NO_FATAL_FAILURE(dump_bag(dir / "exported" / "exported_0.mcap", header, exported));
+  for (const char* topic : {"/scan", "/odom", "/ground_truth", "/imu", "/locsim/events"}) {
+    EXPECT_EQ(exported[topic], run[topic]) << topic;
+  }
+
   // A bag folder is replaced only with --overwrite, and a folder of other files never.
   o = testing::locsim("replay " + (dir / "run.locsimlog").string() + " --no-readings --out " +
                       (dir / "replay2").string() + " --rosbag2 " + (dir / "replay_bag").string());

@@ -282,15 +282,16 @@ fs::path log_of_run(const fs::path& run_dir) {
     throw InputError(run_file.string() + ": the run is still going on (status running)");
   }
   if (!run.contains("log_file") || !run["log_file"].is_string()) {
-    throw InputError(run_file.string() +
-                     ": the run kept no log, which the estimates are scored on; run it with "
-                     "--log FILE (or replay a log), or score a log: locsim score LOG --out DIR");
+    throw InputError(
+        run_file.string() +
+        ": the run kept no log (run it with --log FILE, or replay a log), or give a log "
+        "instead of the run folder");
   }
   const fs::path log = run["log_file"].get<std::string>();
   if (!fs::exists(log)) {
     throw InputError(run_file.string() + ": its log_file " + log.string() +
-                     " is not there (a path relative to where the run was started); score the "
-                     "log itself: locsim score LOG --out DIR");
+                     " is not there (a path relative to where the run was started): give the log "
+                     "itself instead of the run folder");
   }
   return log;
 }

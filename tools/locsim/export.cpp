@@ -1,5 +1,6 @@
-// `locsim export LOG --rosbag2 OUT`: a log as a ROS 2 bag (docs/ros.md).
+// `locsim export LOG|RUN --rosbag2 OUT`: a log (or a run folder's) as a ROS 2 bag (docs/ros.md).
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -7,6 +8,7 @@
 #include "common.hpp"
 #include "sim/common/errors.hpp"
 #include "sim/run/export_bag.hpp"
+#include "sim/run/score.hpp"
 
 namespace locsim::cli::export_cmd {
 
@@ -21,9 +23,12 @@ int execute(const State& s) {
   options.compression = s.compression == "lz4"    ? rosbag::McapCompression::kLz4
                         : s.compression == "none" ? rosbag::McapCompression::kNone
                                                   : rosbag::McapCompression::kZstd;
-  const ExportSummary summary = export_rosbag2(s.log, s.out, options, s.overwrite);
+  // A run folder: the log it kept (run.json's log_file).
+  const std::filesystem::path log =
+      std::filesystem::is_directory(s.log) ? log_of_run(s.log) : std::filesystem::path(s.log);
+  const ExportSummary summary = export_rosbag2(log, s.out, options, s.overwrite);
   if (!s.quiet) {
-    std::printf("%s: %llu records -> %s: %llu messages, %.1f MB\n", s.log.c_str(),
+    std::printf("%s: %llu records -> %s: %llu messages, %.1f MB\n", log.c_str(),
                 static_cast<unsigned long long>(summary.records), s.out.c_str(),
                 static_cast<unsigned long long>(summary.messages),
                 static_cast<double>(summary.bag_bytes) / 1e6);
@@ -39,7 +44,11 @@ Command add_export(CLI::App& app) {
   const auto state = std::make_shared<export_cmd::State>();
   CLI::App* const command = app.add_subcommand(
       "export", "Write a log as a ROS 2 bag, to play into ROS or open in Foxglove (docs/ros.md)");
-  command->add_option("log", state->log, "The log (`locsim run --log`, `locsim import`)")
+  command
+      ->add_option("log", state->log,
+                   "The log (`locsim run --log`, `locsim import`), or a run folder that kept its "
+                   "log (a run with --log, a replay). Its localizers' estimates and particles: "
+                   "`run` or `replay` with --rosbag2")
       ->required();
   command
       ->add_option("--rosbag2", state->out,
