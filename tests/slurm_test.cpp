@@ -96,14 +96,20 @@ class OneNodeSlurm {
       std::ofstream(dir_ / "munge.key", std::ios::binary) << key;
       fs::permissions(dir_ / "munge.key", fs::perms::owner_read);
     }
-    char host[256] = {};
-    ::gethostname(host, sizeof host - 1);
+    // The node is this machine, named as slurmd names itself: the host name up to its first dot
+    // (and told so with -N, whatever the machine's name resolves to).
+    char name[256] = {};
+    ::gethostname(name, sizeof name - 1);
+    const std::string host = std::string(name).substr(0, std::string(name).find('.'));
     const unsigned cpus = std::max(1u, std::thread::hardware_concurrency());
     const fs::path socket = dir_ / "munge.sock";
+    const int ctld_port = free_port();
+    int slurmd_port = free_port();
+    while (slurmd_port == ctld_port) slurmd_port = free_port();
     std::ofstream(dir_ / "slurm.conf")
         << "ClusterName=locsimtest\nSlurmctldHost=" << host << "(127.0.0.1)\n"
         << "SlurmUser=root\nSlurmdUser=root\n"
-        << "SlurmctldPort=" << free_port() << "\nSlurmdPort=" << free_port() << "\n"
+        << "SlurmctldPort=" << ctld_port << "\nSlurmdPort=" << slurmd_port << "\n"
         << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << socket.string() << "\n"
         << "StateSaveLocation=" << (dir_ / "state").string() << "\n"
         << "SlurmdSpoolDir=" << (dir_ / "spool").string() << "\n"
@@ -135,7 +141,7 @@ class OneNodeSlurm {
                 "--pid-file=" + (dir_ / "munged.pid").string(),
                 "--seed-file=" + (dir_ / "munged.seed").string()}) ||
         !start({programs_["slurmctld"], "-f", (dir_ / "slurm.conf").string()}) ||
-        !start({programs_["slurmd"], "-f", (dir_ / "slurm.conf").string()})) {
+        !start({programs_["slurmd"], "-f", (dir_ / "slurm.conf").string(), "-N", host})) {
       return;
     }
     // Up when the node has registered and takes jobs. Generous: a loaded machine is slow.
