@@ -63,10 +63,11 @@ json number(double value) {
   return value;
 }
 
-// The localizers' messages, written straight to CDR: a particle cloud is thousands of poses
-// ten times a second, too many for the JSON of the other topics (twenty times the replay's own
-// time). The same bytes as MessageDefinition::encode of their JSON (the independent reader checks
-// them, tests/rosbag_export_test.cpp).
+// The frequent messages, written straight to CDR: through their JSON and the definitions a bag cost
+// several times the replay's own time (a particle cloud is thousands of poses ten times a
+// second). The same bytes as MessageDefinition::encode of their JSON, which
+// RosbagRecorderOptions::through_definitions writes instead (tests/rosbag_export_test.cpp compares
+// the two; the independent reader decodes both).
 void put_header(rosbag::CdrWriter& cdr, std::int64_t ns, std::string_view frame) {
   cdr.write(static_cast<std::int32_t>(ns / 1'000'000'000));
   cdr.write(static_cast<std::uint32_t>(ns % 1'000'000'000));
@@ -75,6 +76,23 @@ void put_header(rosbag::CdrWriter& cdr, std::int64_t ns, std::string_view frame)
 void put_pose(rosbag::CdrWriter& cdr, double x, double y, double theta) {
   for (const double v : {x, y, 0.0, 0.0, 0.0, std::sin(0.5 * theta), std::cos(0.5 * theta)})
     cdr.write(v);
+}
+
+void put_vector3(rosbag::CdrWriter& cdr, double x, double y, double z) {
+  cdr.write(x);
+  cdr.write(y);
+  cdr.write(z);
+}
+void put_zeros(rosbag::CdrWriter& cdr, int count) {
+  for (int i = 0; i < count; ++i) cdr.write(0.0);
+}
+/// tf2_msgs/TFMessage of one transform (a Transform is laid out as a Pose).
+void put_one_transform(rosbag::CdrWriter& cdr, std::int64_t ns, std::string_view parent,
+                       std::string_view child, const Pose2& p) {
+  cdr.write_count(1);
+  put_header(cdr, ns, parent);
+  cdr.write_string(child);
+  put_pose(cdr, p.x, p.y, p.theta);
 }
 
 json detections_json(std::int64_t ns, const std::string& frame, double pan, double tilt,
@@ -197,45 +215,95 @@ void RosbagRecorder::consume(const Record& record) {
       const RobotDef& robot = world_.robots[static_cast<std::size_t>(r)];
       if (const auto* odometry = std::get_if<OdometryReading>(&reading.data)) {
         if (odometry->has(kOdometryPose)) {
-          const json covariance = std::vector<double>(36, 0.0);
           const bool velocity = odometry->has(kOdometryVelocity);
-          write(topic(prefix(r) + "/odom", "nav_msgs/msg/Odometry"), ns,
+          const double v = velocity ? odometry->v_mps : 0.0;
+          const double w = velocity ? odometry->omega_radps : 0.0;
+          const Pose2& p = odometry->odometry;
+          const std::size_t odom = topic(prefix(r) + "/odom", "nav_msgs/msg/Odometry");
+          const std::size_t tf = topic("/tf", "tf2_msgs/msg/TFMessage");
+          if (options_.through_definitions) {
+            const json covariance = std::vector<double>(36, 0.0);
+            write(
+                odom, ns,
                 {{"header", header(ns, frame(r, "odom"))},
                  {"child_frame_id", frame(r, "base_link")},
-                 {"pose", {{"pose", pose(odometry->odometry)}, {"covariance", covariance}}},
+                 {"pose", {{"pose", pose(p)}, {"covariance", covariance}}},
                  {"twist",
-                  {{"twist",
-                    {{"linear", vector3(velocity ? odometry->v_mps : 0.0, 0.0, 0.0)},
-                     {"angular", vector3(0.0, 0.0, velocity ? odometry->omega_radps : 0.0)}}},
+                  {{"twist", {{"linear", vector3(v, 0.0, 0.0)}, {"angular", vector3(0.0, 0.0, w)}}},
                    {"covariance", covariance}}}});
-          write(topic("/tf", "tf2_msgs/msg/TFMessage"), ns,
-                {{"transforms",
-                  {transform(ns, frame(r, "odom"), frame(r, "base_link"), odometry->odometry)}}});
+            write(tf, ns,
+                  {{"transforms", {transform(ns, frame(r, "odom"), frame(r, "base_link"), p)}}});
+          } else {
+            cdr_.clear();
+            put_header(cdr_, ns, frame(r, "odom"));
+            cdr_.write_string(frame(r, "base_link"));
+            put_pose(cdr_, p.x, p.y, p.theta);
+            put_zeros(cdr_, 36);
+            put_vector3(cdr_, v, 0.0, 0.0);
+            put_vector3(cdr_, 0.0, 0.0, w);
+            put_zeros(cdr_, 36);
+            write_cdr(odom, ns, cdr_.bytes());
+            cdr_.clear();
+            put_one_transform(cdr_, ns, frame(r, "odom"), frame(r, "base_link"), p);
+            write_cdr(tf, ns, cdr_.bytes());
+          }
         }
         if (odometry->has(kOdometryTicks) && robot.sensors.encoders) {
           // A wheel's angle: its count over the counts a revolution (exact back to the count).
           const double per_tick = 2.0 * std::numbers::pi / robot.sensors.encoders->ticks_per_rev;
-          write(topic(prefix(r) + "/joint_states", "sensor_msgs/msg/JointState"), ns,
-                {{"header", header(ns, frame(r, "base_link"))},
-                 {"name", {"left_wheel_joint", "right_wheel_joint"}},
-                 {"position",
-                  {static_cast<double>(odometry->left_ticks) * per_tick,
-                   static_cast<double>(odometry->right_ticks) * per_tick}},
-                 {"velocity", json::array()},
-                 {"effort", json::array()}});
+          const double left = static_cast<double>(odometry->left_ticks) * per_tick;
+          const double right = static_cast<double>(odometry->right_ticks) * per_tick;
+          const std::size_t joints =
+              topic(prefix(r) + "/joint_states", "sensor_msgs/msg/JointState");
+          if (options_.through_definitions) {
+            write(joints, ns,
+                  {{"header", header(ns, frame(r, "base_link"))},
+                   {"name", {"left_wheel_joint", "right_wheel_joint"}},
+                   {"position", {left, right}},
+                   {"velocity", json::array()},
+                   {"effort", json::array()}});
+          } else {
+            cdr_.clear();
+            put_header(cdr_, ns, frame(r, "base_link"));
+            cdr_.write_count(2);
+            cdr_.write_string("left_wheel_joint");
+            cdr_.write_string("right_wheel_joint");
+            cdr_.write_count(2);
+            cdr_.write(left);
+            cdr_.write(right);
+            cdr_.write_count(0);
+            cdr_.write_count(0);
+            write_cdr(joints, ns, cdr_.bytes());
+          }
         }
       } else if (const auto* imu = std::get_if<ImuReading>(&reading.data)) {
         // No orientation (covariance[0] = -1, as REP 145 says); gravity on z as an IMU reads it.
-        std::vector<double> unknown(9, 0.0);
-        unknown[0] = -1.0;
-        write(topic(prefix(r) + "/imu", "sensor_msgs/msg/Imu"), ns,
-              {{"header", header(ns, frame(r, "imu_link"))},
-               {"orientation", yaw_quaternion(0.0)},
-               {"orientation_covariance", unknown},
-               {"angular_velocity", vector3(0.0, 0.0, imu->yaw_rate_radps)},
-               {"angular_velocity_covariance", std::vector<double>(9, 0.0)},
-               {"linear_acceleration", vector3(imu->accel_mps2.x(), imu->accel_mps2.y(), 9.80665)},
-               {"linear_acceleration_covariance", std::vector<double>(9, 0.0)}});
+        const std::size_t index = topic(prefix(r) + "/imu", "sensor_msgs/msg/Imu");
+        constexpr double kGravity_mps2 = 9.80665;
+        if (options_.through_definitions) {
+          std::vector<double> unknown(9, 0.0);
+          unknown[0] = -1.0;
+          write(index, ns,
+                {{"header", header(ns, frame(r, "imu_link"))},
+                 {"orientation", yaw_quaternion(0.0)},
+                 {"orientation_covariance", unknown},
+                 {"angular_velocity", vector3(0.0, 0.0, imu->yaw_rate_radps)},
+                 {"angular_velocity_covariance", std::vector<double>(9, 0.0)},
+                 {"linear_acceleration",
+                  vector3(imu->accel_mps2.x(), imu->accel_mps2.y(), kGravity_mps2)},
+                 {"linear_acceleration_covariance", std::vector<double>(9, 0.0)}});
+        } else {
+          cdr_.clear();
+          put_header(cdr_, ns, frame(r, "imu_link"));
+          for (const double q : {0.0, 0.0, std::sin(0.0), std::cos(0.0)}) cdr_.write(q);
+          cdr_.write(-1.0);
+          put_zeros(cdr_, 8);
+          put_vector3(cdr_, 0.0, 0.0, imu->yaw_rate_radps);
+          put_zeros(cdr_, 9);
+          put_vector3(cdr_, imu->accel_mps2.x(), imu->accel_mps2.y(), kGravity_mps2);
+          put_zeros(cdr_, 9);
+          write_cdr(index, ns, cdr_.bytes());
+        }
       } else if (const auto* ptz = std::get_if<PtzReading>(&reading.data)) {
         write(topic(prefix(r) + "/detections/ptz_camera", "locsim_msgs/msg/Detections"), ns,
               detections_json(ns, frame(r, "base_link"), ptz->pan_rad, ptz->tilt_rad, ptz->zoom,
@@ -262,39 +330,79 @@ void RosbagRecorder::consume(const Record& record) {
         const int beams = static_cast<int>(scan->ranges_m.size());
         const double first = laser_beam_angle(0, beams, laser.fov_rad);
         const double step = beams > 1 ? laser_beam_angle(1, beams, laser.fov_rad) - first : 0.0;
-        json ranges = json::array();
-        for (const float range : scan->ranges_m) {
-          // locsim's "nothing there" is max_range; ROS's is +inf (REP 117).
-          ranges.push_back(range >= static_cast<float>(laser.max_range_m)
-                               ? json("Infinity")
-                               : number(static_cast<double>(range)));
+        const std::size_t index = topic(prefix(r) + "/scan", "sensor_msgs/msg/LaserScan");
+        // locsim's "nothing there" is max_range; ROS's is +inf (REP 117).
+        const auto ros_range = [&](float range) {
+          return range >= static_cast<float>(laser.max_range_m)
+                     ? std::numeric_limits<float>::infinity()
+                     : range;
+        };
+        const double fields[7] = {first,
+                                  first + step * (beams - 1),
+                                  step,
+                                  0.0,
+                                  1.0 / laser.common.rate_hz,
+                                  laser.min_range_m,
+                                  laser.max_range_m};
+        if (options_.through_definitions) {
+          json ranges = json::array();
+          for (const float range : scan->ranges_m) {
+            ranges.push_back(number(static_cast<double>(ros_range(range))));
+          }
+          write(index, ns,
+                {{"header", header(ns, frame(r, "laser"))},
+                 {"angle_min", fields[0]},
+                 {"angle_max", fields[1]},
+                 {"angle_increment", fields[2]},
+                 {"time_increment", fields[3]},
+                 {"scan_time", fields[4]},
+                 {"range_min", fields[5]},
+                 {"range_max", fields[6]},
+                 {"ranges", ranges},
+                 {"intensities", json::array()}});
+        } else {
+          cdr_.clear();
+          put_header(cdr_, ns, frame(r, "laser"));
+          for (const double field : fields) cdr_.write(static_cast<float>(field));
+          cdr_.write_count(scan->ranges_m.size());
+          for (const float range : scan->ranges_m) cdr_.write(ros_range(range));
+          cdr_.write_count(0);
+          write_cdr(index, ns, cdr_.bytes());
         }
-        write(topic(prefix(r) + "/scan", "sensor_msgs/msg/LaserScan"), ns,
-              {{"header", header(ns, frame(r, "laser"))},
-               {"angle_min", first},
-               {"angle_max", first + step * (beams - 1)},
-               {"angle_increment", step},
-               {"time_increment", 0.0},
-               {"scan_time", 1.0 / laser.common.rate_hz},
-               {"range_min", laser.min_range_m},
-               {"range_max", laser.max_range_m},
-               {"ranges", ranges},
-               {"intensities", json::array()}});
       }
       break;
     }
     case Record::Type::kGroundTruth: {
       const std::int64_t ns = stamp_ns(record.t_s);
       if (record.t_s > last_clock_s_) {
-        write(topic("/clock", "rosgraph_msgs/msg/Clock"), ns, {{"clock", stamp(ns)}});
+        const std::size_t clock = topic("/clock", "rosgraph_msgs/msg/Clock");
+        if (options_.through_definitions) {
+          write(clock, ns, {{"clock", stamp(ns)}});
+        } else {
+          cdr_.clear();
+          cdr_.write(static_cast<std::int32_t>(ns / 1'000'000'000));
+          cdr_.write(static_cast<std::uint32_t>(ns % 1'000'000'000));
+          write_cdr(clock, ns, cdr_.bytes());
+        }
         last_clock_s_ = record.t_s;
       }
       if (!truth_known(record.pose) || record.robot < 0) break;
       const int r = record.robot;
-      write(topic(prefix(r) + "/ground_truth", "geometry_msgs/msg/PoseStamped"), ns,
-            {{"header", header(ns, "map")}, {"pose", pose(record.pose)}});
-      write(topic("/tf", "tf2_msgs/msg/TFMessage"), ns,
-            {{"transforms", {transform(ns, "map", frame(r, "base_link_truth"), record.pose)}}});
+      const Pose2& p = record.pose;
+      const std::size_t truth = topic(prefix(r) + "/ground_truth", "geometry_msgs/msg/PoseStamped");
+      const std::size_t tf = topic("/tf", "tf2_msgs/msg/TFMessage");
+      if (options_.through_definitions) {
+        write(truth, ns, {{"header", header(ns, "map")}, {"pose", pose(p)}});
+        write(tf, ns, {{"transforms", {transform(ns, "map", frame(r, "base_link_truth"), p)}}});
+      } else {
+        cdr_.clear();
+        put_header(cdr_, ns, "map");
+        put_pose(cdr_, p.x, p.y, p.theta);
+        write_cdr(truth, ns, cdr_.bytes());
+        cdr_.clear();
+        put_one_transform(cdr_, ns, "map", frame(r, "base_link_truth"), p);
+        write_cdr(tf, ns, cdr_.bytes());
+      }
       break;
     }
     case Record::Type::kEvent: {

@@ -62,6 +62,10 @@ struct RosbagRecorderOptions {
   std::string bag_name;
   /// The log's header (JSON text), written on /locsim/log_header; empty: none.
   std::string log_header;
+  /// Every message through its JSON and MessageDefinition::encode. The frequent ones are
+  /// otherwise written to CDR directly, several times faster; this slower way is the reference
+  /// the tests hold the direct one to (the same bytes).
+  bool through_definitions = false;
 };
 
 class RosbagRecorder final : public RecordConsumer, public EstimateConsumer {
