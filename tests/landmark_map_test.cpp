@@ -93,15 +93,26 @@ TEST(LandmarkMatching, TheAlignedErrorIsTheMapsShapeWithoutItsPlacement) {
   EXPECT_GT(*shifted.error_rms_m, 0.2);
   ASSERT_TRUE(shifted.aligned_rms_m && shifted.aligned_mean_m && shifted.aligned_max_m);
   EXPECT_LT(*shifted.aligned_max_m, 1e-9);
+  EXPECT_EQ(shifted.aligned_within, 4u);  // all within 0.3 m once aligned (0.14-0.35 m before)
   mapped[3].x_m += 0.2;
   const LandmarkMapSummary bent = summarize_landmark_map(mapped, truth, {1, 2, 3, 4});
   EXPECT_GT(*bent.aligned_max_m, 0.05);
   EXPECT_LT(*bent.aligned_max_m, 0.2);  // the fit shares the bend among the four
   EXPECT_GT(*bent.aligned_rms_m, 0.05);
+  EXPECT_EQ(bent.aligned_within, 4u);
+  // One landmark mapped 0.6 m out of shape: the fit spreads it (0.12-0.22 m on the others), but
+  // it alone stays beyond 0.3 m (0.40).
+  mapped[3].x_m += 0.4;
+  const LandmarkMapSummary broken = summarize_landmark_map(mapped, truth, {1, 2, 3, 4});
+  ASSERT_EQ(broken.matched, 4u);
+  EXPECT_GT(*broken.aligned_max_m, kLandmarkAlignedGateM);
+  EXPECT_EQ(broken.aligned_within, 3u);
+  mapped[3].x_m -= 0.6;
   // Two pairs fix the motion but for their distance: no aligned error below three.
   const LandmarkMapSummary two = summarize_landmark_map({mapped[0], mapped[1]}, truth, {1, 2});
   EXPECT_EQ(two.matched, 2u);
   EXPECT_FALSE(two.aligned_rms_m || two.aligned_mean_m || two.aligned_max_m);
+  EXPECT_EQ(two.aligned_within, 0u);  // judged as they are: 0.32 and 0.35 m off
 }
 
 // ---------------------------------------------------------------------------------- end to end
@@ -156,7 +167,10 @@ void expect_known_map_metrics(const ojson& l) {
   std::vector<std::string> keys;  // in the file's order
   for (const auto& [key, value] : m.items()) keys.push_back(key);
   EXPECT_EQ(keys, (std::vector<std::string>{"mapped", "matched", "error_m", "error_aligned_m",
-                                            "spurious", "missed", "observed", "gate_m"}));
+                                            "aligned_within", "aligned_gate_m", "spurious",
+                                            "missed", "observed", "gate_m"}));
+  EXPECT_EQ(m["aligned_within"], 3);  // the three matched, exact once aligned
+  EXPECT_EQ(m["aligned_gate_m"], 0.3);
   EXPECT_EQ(m["mapped"], 4);
   EXPECT_EQ(m["matched"], 3);
   EXPECT_EQ(m["spurious"], 1);

@@ -428,6 +428,62 @@ TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   EXPECT_EQ(never.tracking_samples, 0u);
 }
 
+TEST(Metrics, AJumpWhileTrackingIsCountedAndASlowDriftIsNot) {
+  // 10 Hz samples within 0.05 m; at 5 s the estimate leaps 15 m (a wrong guess winning) and
+  // stays there until 8 s, then is back; from 10 s it drifts off at 0.5 m/s (lost slowly);
+  // at 20 s it is back, and at 21 s the error steps 1.5 m (not a jump: under 2 m).
+  const ConvergenceCriterion criterion{0.25, deg_to_rad(10.0), 10};
+  ErrorAccumulator errors(criterion);
+  for (int i = 0; i < 250; ++i) {
+    const double t = 0.1 * i;
+    double dx = 0.05;
+    if (t >= 5.0 && t < 8.0) dx = 15.0;
+    if (t >= 10.0 && t < 20.0) dx = 0.05 + 0.5 * (t - 10.0);
+    if (t >= 21.0) dx = 1.55;
+    errors.add({t, dx, 0.0, 0.0, 0, {}});
+  }
+  const ErrorSummary s = errors.summary();
+  EXPECT_EQ(s.jumps, 1u);
+  ASSERT_TRUE(s.first_jump_s.has_value());
+  EXPECT_NEAR(*s.first_jump_s, 4.9, 1e-9);  // the last sample within the bound before it
+  // A leap within the window of the last sample within the bound counts; after a gap longer
+  // than the window (a carry) it does not.
+  ErrorAccumulator carried(criterion);
+  carried.add({0.0, 0.0, 0.0, 0.0, 0, {}});
+  carried.add({kJumpWindowS + 0.5, 5.0, 0.0, 0.0, 0, {}});
+  EXPECT_EQ(carried.summary().jumps, 0u);
+}
+
+TEST(Metrics, TheEllipseWhileConvergedCountsFromTheConvergenceOn) {
+  // 1 s lost with an honest wide covariance (truth inside), then on target for 2 s with a tight
+  // one that holds the truth, then 1 s off by 0.5 m with the same tight covariance (outside).
+  const ConvergenceCriterion criterion{0.25, deg_to_rad(10.0), 10};
+  ErrorAccumulator errors(criterion);
+  std::array<double, 9> wide{}, tight{};
+  wide[0] = wide[4] = 100.0;
+  wide[8] = 1.0;
+  tight[0] = tight[4] = 0.01;
+  tight[8] = 0.01;
+  for (int i = 0; i < 40; ++i) {
+    const double t = 0.1 * i;
+    if (t < 1.0)
+      errors.add({t, 3.0, 0.0, 0.0, 0, wide});
+    else if (t < 3.0)
+      errors.add({t, 0.02, 0.0, 0.0, 0, tight});
+    else
+      errors.add({t, 0.5, 0.0, 0.0, 0, tight});
+  }
+  const ErrorSummary s = errors.summary();
+  ASSERT_TRUE(s.converged_at_s.has_value());
+  EXPECT_NEAR(*s.converged_at_s, 1.0, 1e-9);
+  EXPECT_EQ(s.tracking_consistency_samples, 30u);
+  EXPECT_NEAR(s.tracking_inside_95_fraction, 20.0 / 30.0, 1e-12);
+  EXPECT_NEAR(s.inside_95_fraction, 30.0 / 40.0, 1e-12);  // the lost second was honest
+  ErrorAccumulator never(criterion);
+  never.add({0.0, 3.0, 0.0, 0.0, 0, wide});
+  EXPECT_EQ(never.summary().tracking_consistency_samples, 0u);
+}
+
 TEST(Metrics, AKidnapIsRecoverableByWhatTheFiltersOwnSensorsShowAfterTheLanding) {
   // One robot, two kidnaps. After the first landing its camera shows one landmark (besides a
   // false detection and another robot) and two beacons answer in line of sight (a third through

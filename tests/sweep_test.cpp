@@ -19,6 +19,7 @@
 
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
+#include "sim/experiments/suite_tables.hpp"
 #include "test_support.hpp"
 
 namespace locsim {
@@ -998,6 +999,83 @@ TEST(Sweep, ASuiteOfWorldsRunsAsOneSweepTabledByFamily) {
             "odometry/room_seed1/seed-1");
 }
 
+TEST(Sweep, TheHeldBackPartIsTabledBesideThePartTheDefaultsWereChosenOn) {
+  // Synthetic results: "pf" recovers 3 of 4 kidnaps where chosen and 1 of 4 held back, jumps in
+  // one held-back run, and its truth lies in its ellipse while converged 0.9 of the time chosen
+  // and 0.85 held back (5 points: not called out); "slam" maps 8 of 10 seen landmarks chosen and
+  // 5 of 10 held back, spurious 2 of 10 and 2 of 7.
+  using ojson = nlohmann::ordered_json;
+  const auto segment = [](bool recovered, std::size_t jumps, double inside) {
+    return ojson{{"carried_m", 3.0},
+                 {"turned_deg", 40.0},
+                 {"recoverable", true},
+                 {"recovery_s", recovered ? ojson(2.0) : ojson(nullptr)},
+                 {"tracking",
+                  {{"samples", 100},
+                   {"position_rms_m", 0.1},
+                   {"consistency_samples", 100},
+                   {"inside_95_ellipse", inside}}},
+                 {"jumps", {{"count", jumps}, {"first_s", nullptr}}}};
+  };
+  const auto run = [&](const std::string& config, std::size_t index, bool held_back,
+                       std::vector<ojson> segments, ojson map = nullptr) {
+    ojson metrics = {{"convergence", {{"position_m", 0.25}, {"heading_deg", 10.0}}},
+                     {"segments", segments}};
+    if (!map.is_null()) metrics["landmark_map"] = map;
+    ojson r = {{"index", index},
+               {"config", config},
+               {"world", "w" + std::to_string(index)},
+               {"family", held_back ? "crowd" : "room"},
+               {"status", "ok"},
+               {"metrics", metrics}};
+    if (held_back) r["held_back"] = true;
+    return r;
+  };
+  // A run's first segment has no kidnap before it: not a recovery to count.
+  std::vector<ojson> results = {
+      run("pf", 0, false, {segment(true, 0, 0.9), segment(true, 0, 0.9), segment(true, 0, 0.9)}),
+      run("pf", 1, false, {segment(true, 0, 0.9), segment(true, 0, 0.9), segment(false, 0, 0.9)}),
+      run("pf", 2, true, {segment(true, 0, 0.85), segment(true, 0, 0.85), segment(false, 1, 0.85)}),
+      run("pf", 3, true,
+          {segment(true, 0, 0.85), segment(false, 0, 0.85), segment(false, 0, 0.85)}),
+      run("slam", 4, false, {segment(true, 0, 0.9)},
+          {{"observed", 10}, {"aligned_within", 8}, {"mapped", 10}, {"spurious", 2}}),
+      run("slam", 5, true, {segment(true, 0, 0.9)},
+          {{"observed", 10}, {"aligned_within", 5}, {"mapped", 7}, {"spurious", 2}})};
+  const fs::path dir = testing::temp_dir("part-tables");
+  std::ostringstream md;
+  write_part_tables(dir, results, {"pf", "slam"}, md);
+  const std::string csv = testing::read_file(dir / "summary_by_part.csv");
+  EXPECT_NE(csv.find("\npf,chosen_on,2,2,2,4,3,0.7500,0,0,0.9000,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\npf,held_back,2,2,2,4,1,0.2500,1,1,0.8500,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\nslam,held_back,1,1,1,0,0,,0,0,0.9000,0.100000,10,5,0.5000,7,2,0.2857\n"),
+            std::string::npos)
+      << csv;
+  const std::string text = md.str();
+  EXPECT_NE(text.find("### Chosen on and held back"), std::string::npos) << text;
+  EXPECT_NE(text.find("- **pf**: kidnaps recovered 25 % held back against 75 % chosen on (50 "
+                      "points lower)."),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("- **pf**: runs with a jump while tracking 50 % held back against 0 % "
+                      "chosen on (50 points higher)."),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("- **pf**: truth in the 95 % ellipse"), std::string::npos) << text;
+  EXPECT_NE(text.find("- **slam**: landmarks mapped 50 % held back against 80 % chosen on (30 "
+                      "points lower)."),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(text.find("- **slam**: spurious"), std::string::npos) << text;  // 29 % vs 20 %
+  // Nothing held back: no section, no file.
+  for (ojson& r : results) r.erase("held_back");
+  const fs::path none = testing::temp_dir("part-tables-none");
+  std::ostringstream nothing;
+  write_part_tables(none, results, {"pf", "slam"}, nothing);
+  EXPECT_TRUE(nothing.str().empty());
+  EXPECT_FALSE(fs::exists(none / "summary_by_part.csv"));
+}
+
 TEST(Experiment, ASuitesWorldsAreCheckedWhereTheExperimentNamesThem) {
   const fs::path dir = testing::temp_dir("experiment-suite");
   fs::create_directories(dir / "a");
@@ -1027,6 +1105,9 @@ TEST(Experiment, ASuitesWorldsAreCheckedWhereTheExperimentNamesThem) {
                 .find("'worlds[1].files[0]': the file name 'demo' is also that of"),
             std::string::npos);
   EXPECT_NE(error("worlds: []\n").find("'worlds': give at least one world"), std::string::npos);
+  EXPECT_NE(error("worlds: [{family: f, files: " + demo + ", held_back: maybe}]\n")
+                .find("'worlds[0].held_back'"),
+            std::string::npos);
   // A world of several robots among them: named as the entry that brought it in.
   EXPECT_NE(error("worlds: [" + demo + ", {family: f, files: a/w*.yaml}]\n").find("bad.yaml:1:"),
             std::string::npos);

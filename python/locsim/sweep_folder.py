@@ -78,15 +78,23 @@ class Sweep:
                              "heading_rms_deg": (s.get("heading_error_deg") or {}).get("rms"),
                              "tracking_position_rms_m": (s.get("tracking") or {}).get("position_rms_m"),
                              "nees_mean": consistency.get("nees_mean"), "nees_median": consistency.get("nees_median"),
-                             "inside_95_ellipse": consistency.get("inside_95_ellipse")})
+                             "inside_95_ellipse": consistency.get("inside_95_ellipse"),
+                             "tracking_inside_95_ellipse": (s.get("tracking") or {}).get("inside_95_ellipse"),
+                             "jumps": (s.get("jumps") or {}).get("count")})
         columns = ["index", "id", "config", "seed", "world", "segment", "from_s", "to_s", "samples", "carried_m",
                    "turned_deg", "recoverable", "recovery_s", "recovery_steps", "position_rms_m", "heading_rms_deg",
-                   "tracking_position_rms_m", "nees_mean", "nees_median", "inside_95_ellipse"]
+                   "tracking_position_rms_m", "nees_mean", "nees_median", "inside_95_ellipse",
+                   "tracking_inside_95_ellipse", "jumps"]
         return pd.DataFrame(rows, columns=columns)
 
     def summary_by_family(self):
         """summary_by_family.csv of a suite of worlds (DataFrame)."""
         return io.read_csv(os.path.join(self.path, "summary_by_family.csv"))
+
+    def summary_by_part(self):
+        """summary_by_part.csv of a suite with held-back worlds (DataFrame): per configuration, the
+        part the defaults were chosen on and the held-back part."""
+        return io.read_csv(os.path.join(self.path, "summary_by_part.csv"))
 
     @property
     def configs(self):

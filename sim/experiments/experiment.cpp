@@ -92,12 +92,13 @@ void read_worlds(const YamlNode& root, const fs::path& base, const InputFile& in
   const auto many = root.find("worlds");
   if (one && many) many->fail("give world (one) or worlds (a list), not both");
   if (!many) {
-    out.push_back({input_file(root["world"]), "", "", root["world"].place()});
+    out.push_back({input_file(root["world"]), "", "", false, root["world"].place()});
     return;
   }
   if (!many->is_sequence()) many->fail("expected a list of world files or {family, files}");
   std::map<std::string, fs::path> stems;
-  const auto add = [&](const YamlNode& at, const fs::path& file, const std::string& family) {
+  const auto add = [&](const YamlNode& at, const fs::path& file, const std::string& family,
+                       bool held_back) {
     const std::string stem = file.stem().string();
     if (const auto [it, fresh] = stems.emplace(stem, file); !fresh) {
       at.fail("the file name '" + stem + "' is also that of '" + it->second.string() +
@@ -105,15 +106,16 @@ void read_worlds(const YamlNode& root, const fs::path& base, const InputFile& in
     }
     if (stems.size() > ExperimentDef::kMaxWorlds)
       at.fail("more than " + std::to_string(ExperimentDef::kMaxWorlds) + " worlds");
-    out.push_back({file, stem, family, at.place()});
+    out.push_back({file, stem, family, held_back, at.place()});
   };
   for (const YamlNode& item : many->items()) {
     if (item.is_scalar()) {
       const fs::path file = input_file(item);
-      add(item, file, file.stem().string());
+      add(item, file, file.stem().string(), false);
       continue;
     }
-    item.allow_keys({"family", "files"});
+    item.allow_keys({"family", "files", "held_back"});
+    const bool held_back = item.find("held_back") ? item["held_back"].as_bool() : false;
     const std::string family = item["family"].as_string();
     if (!valid_family(family))
       item["family"].fail("a family name may hold only a-z, A-Z, 0-9, '_', '-', '.'");
@@ -122,7 +124,8 @@ void read_worlds(const YamlNode& root, const fs::path& base, const InputFile& in
         files.is_sequence() ? files.items() : std::vector<YamlNode>{files};
     if (patterns.empty()) files.fail("give at least one file or pattern");
     for (const YamlNode& pattern : patterns) {
-      for (const fs::path& file : matching_files(pattern, base)) add(pattern, file, family);
+      for (const fs::path& file : matching_files(pattern, base))
+        add(pattern, file, family, held_back);
     }
   }
   if (out.empty()) many->fail("give at least one world");

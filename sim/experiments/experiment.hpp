@@ -47,7 +47,10 @@ struct ExperimentWorld {
   // ("logs/STEM/seed-N"). Empty for the one world of `world:` ("LABEL/seed-N", "logs/seed-N").
   std::string stem;
   std::string family;  // the group its results are tabled in; empty for `world:`
-  InputPlace place;    // of the entry that names it
+  // Held back from choosing the defaults (`held_back: true`): tabled apart from the rest,
+  // side by side (summary.md, "Chosen on and held back").
+  bool held_back = false;
+  InputPlace place;  // of the entry that names it
 };
 
 struct ExperimentDef {

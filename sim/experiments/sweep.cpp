@@ -30,6 +30,7 @@
 #include "sim/common/process_tree.hpp"
 #include "sim/experiments/experiment.hpp"
 #include "sim/experiments/statistics.hpp"
+#include "sim/experiments/suite_tables.hpp"
 #include "sim/experiments/sweep_lock.hpp"
 #include "sim/plugin_host/localizer_instance.hpp"
 #include "sim/plugin_host/plugin_library.hpp"
@@ -299,21 +300,6 @@ std::string error_output(const fs::path& log) {
   return out;
 }
 
-/// `text` on one line: each line break, with the next line's indentation, becomes a space.
-std::string one_line(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    if (text[i] != '\n' && text[i] != '\r') {
-      out += text[i];
-      continue;
-    }
-    while (i + 1 < text.size() && std::isspace(static_cast<unsigned char>(text[i + 1]))) ++i;
-    if (!out.empty() && out.back() != ' ') out += ' ';
-  }
-  return out;
-}
-
 /// Whether a run's process completed: its metrics.json holds the result (exit 5: completed, but
 /// the localizer failed, crash, timeout, NaN or error, and metrics.json says which and why).
 bool completed(int wait_status) {
@@ -338,6 +324,8 @@ json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int
   if (run.world != nullptr && !run.world->stem.empty()) {   // one of the experiment's worlds
     r["world"] = run.world->stem;
     r["family"] = run.world->family;
+    // Only when held back: the results of an experiment without such worlds are as they were.
+    if (run.world->held_back) r["held_back"] = true;
   }
   r["seed"] = run.seed;
   r["log"] = log.generic_string();
@@ -394,162 +382,6 @@ json result_of(const RunUnit& run, const fs::path& out, const fs::path& log, int
   return r;
 }
 
-std::string csv_field(const std::string& text) {
-  const std::string line = one_line(text);
-  if (line.find_first_of(",\"") == std::string::npos) return line;
-  std::string out = "\"";
-  for (const char c : line) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return out + "\"";
-}
-
-std::string number(const json& value, int decimals = 6) {
-  return value.is_number() ? fixed(value.get<double>(), decimals) : std::string();
-}
-
-/// A run's kidnaps as a test of recovery, from its metrics: those that moved the robot beyond
-/// the convergence criterion (a carry within it leaves a tracking filter converged, testing
-/// nothing); of those, the ones the localizer's sensors showed enough after the landing to
-/// recover from (the segment's `recoverable`), and how many of these it recovered from; and how
-/// well it tracked once converged, pooled over its segments.
-struct RunRecovery {
-  std::size_t kidnaps = 0, recoverable = 0, recovered = 0;
-  std::size_t tracking_samples = 0;
-  double tracking_sum_sq = 0.0;
-  std::optional<double> tracking_rms_m() const {
-    if (tracking_samples == 0) return std::nullopt;
-    return std::sqrt(tracking_sum_sq / static_cast<double>(tracking_samples));
-  }
-};
-
-RunRecovery recovery_of(const json& metrics) {
-  RunRecovery out;
-  const json convergence = metrics.value("convergence", json::object());
-  const double position_m = convergence.value("position_m", 0.0),
-               heading_deg = convergence.value("heading_deg", 0.0);
-  const json segments = metrics.value("segments", json::array());
-  for (std::size_t k = 0; k < segments.size(); ++k) {
-    const json& segment = segments[k];
-    if (const json tracking = segment.value("tracking", json()); tracking.is_object()) {
-      const auto n = tracking.value("samples", std::size_t{0});
-      const json rms = tracking.value("position_rms_m", json());
-      if (n > 0 && rms.is_number()) {
-        out.tracking_samples += n;
-        out.tracking_sum_sq += rms.get<double>() * rms.get<double>() * static_cast<double>(n);
-      }
-    }
-    if (k == 0) continue;
-    const json carried = segment.value("carried_m", json()),
-               turned = segment.value("turned_deg", json());
-    // Without the carry's measure (metrics of an older locsim): counted.
-    const bool moved = !carried.is_number() || !turned.is_number() ||
-                       carried.get<double>() > position_m || turned.get<double>() > heading_deg;
-    if (!moved) continue;
-    ++out.kidnaps;
-    // Without the scorer's judgement (metrics of an older locsim): recoverable.
-    if (!segment.value("recoverable", true)) continue;
-    ++out.recoverable;
-    out.recovered += segment["recovery_s"].is_null() ? 0 : 1;
-  }
-  return out;
-}
-
-/// Wilson's 95 % interval of a proportion k/n: unlike k/n +- 1.96 se, it stays within [0, 1]
-/// and is not empty at 0 or n.
-std::pair<double, double> wilson_95(std::size_t k, std::size_t n) {
-  if (n == 0) return {0.0, 1.0};
-  const double z = 1.959963984540054, nn = static_cast<double>(n);
-  const double p = static_cast<double>(k) / nn;
-  const double centre = (p + z * z / (2 * nn)) / (1 + z * z / nn);
-  const double half = z / (1 + z * z / nn) * std::sqrt(p * (1 - p) / nn + z * z / (4 * nn * nn));
-  return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
-}
-
-/// A suite of worlds (`worlds:`): each configuration on each family of worlds, and over all of
-/// them, in summary_by_family.csv and a section of summary.md. Nothing for an experiment of one
-/// world or of logs.
-void write_family_tables(const fs::path& out_dir, const std::vector<json>& results,
-                         const std::vector<std::string>& configs, std::ostream& md) {
-  std::vector<std::string> families;
-  for (const json& r : results) {
-    const std::string family = r.value("family", "");
-    if (!family.empty() && std::find(families.begin(), families.end(), family) == families.end())
-      families.push_back(family);
-  }
-  if (families.empty()) return;
-  if (families.size() > 1) families.push_back("");  // "": every family
-  std::ostringstream csv;
-  csv << "config,family,worlds,runs,ok,kidnaps,kidnaps_recoverable,kidnaps_recovered,"
-         "kidnaps_recovered_share,kidnaps_recovered_ci95_low,"
-         "kidnaps_recovered_ci95_high,position_rms_m_mean,"
-         "position_rms_m_ci95,tracking_runs,tracking_position_rms_m_mean,"
-         "tracking_position_rms_m_ci95,tracking_position_rms_m_median,inside_95_ellipse_mean\n";
-  md << "\n### Per world family\n\n"
-        "Each configuration on each family of the experiment's worlds, over worlds and seeds. "
-        "Kidnaps: those that moved the robot beyond the convergence criterion (a shorter carry "
-        "tests no recovery) and that the localizer's sensors made recoverable (after the "
-        "landing they showed two distinct landmarks, three beacons in line of sight, or a laser "
-        "scan; odometry alone never); recovered when the error came back within the criterion; "
-        "the share with Wilson's 95 % interval, and after '/ N' all kidnaps. Tracking: the "
-        "position RMS from each segment's "
-        "convergence on (later losses included), over the runs that converged; mean ± 95 % "
-        "confidence interval; median after ';'.\n\n"
-        "| config | family | worlds | runs | ok | kidnaps recovered | position RMS [m] | "
-        "tracking RMS [m] | truth in the 95 % ellipse |\n"
-        "|---|---|---|---|---|---|---|---|---|\n";
-  for (const std::string& config : configs) {
-    for (const std::string& family : families) {
-      std::set<std::string> worlds;
-      std::size_t runs = 0, ok = 0, kidnaps = 0, recoverable = 0, recovered = 0;
-      std::vector<double> position, tracking, inside;
-      for (const json& r : results) {
-        if (r["config"] != config || r.value("family", "").empty()) continue;
-        if (!family.empty() && r.value("family", "") != family) continue;
-        ++runs;
-        worlds.insert(r.value("world", ""));
-        if (r["status"] != "ok") continue;
-        ++ok;
-        const json& m = r["metrics"];
-        position.push_back(m["position_error_m"]["rms"]);
-        const RunRecovery recovery = recovery_of(m);
-        kidnaps += recovery.kidnaps;
-        recoverable += recovery.recoverable;
-        recovered += recovery.recovered;
-        if (const auto rms = recovery.tracking_rms_m()) tracking.push_back(*rms);
-        if (const json c = m.value("consistency", json()); c.is_object())
-          inside.push_back(c["inside_95_ellipse"]);
-      }
-      if (runs == 0) continue;
-      const Aggregate p = aggregate(position), t = aggregate(tracking), in = aggregate(inside);
-      const auto [low, high] = wilson_95(recovered, recoverable);
-      const std::string share =
-          recoverable > 0
-              ? fixed(static_cast<double>(recovered) / static_cast<double>(recoverable), 4)
-              : std::string();
-      const std::string name = family.empty() ? "all" : family;
-      csv << csv_field(config) << ',' << csv_field(name) << ',' << worlds.size() << ',' << runs
-          << ',' << ok << ',' << kidnaps << ',' << recoverable << ',' << recovered << ',' << share
-          << ',' << (recoverable > 0 ? fixed(low, 4) + ',' + fixed(high, 4) : std::string(","))
-          << ',' << fixed(p.mean, 6) << ',' << fixed(p.ci95, 6) << ',' << t.n << ','
-          << (t.n > 0 ? fixed(t.mean, 6) + ',' + fixed(t.ci95, 6) + ',' + fixed(t.median, 6)
-                      : std::string(",,"))
-          << ',' << (in.n > 0 ? fixed(in.mean, 4) : std::string()) << '\n';
-      md << "| " << config << " | " << (family.empty() ? "**all**" : family) << " | "
-         << worlds.size() << " | " << runs << " | " << ok << " | "
-         << (recoverable > 0 ? std::to_string(recovered) + "/" + std::to_string(recoverable) +
-                                   " (" + fixed(low, 2) + "–" + fixed(high, 2) + ")"
-                             : std::string("—"))
-         << (kidnaps > 0 ? " / " + std::to_string(kidnaps) : std::string()) << " | "
-         << fixed(p.mean, 3) << " ± " << fixed(p.ci95, 3) << "; " << fixed(p.median, 3) << " | "
-         << (t.n > 0 ? fixed(t.mean, 3) + " ± " + fixed(t.ci95, 3) + "; " + fixed(t.median, 3) +
-                           (t.n < ok ? " (" + std::to_string(t.n) + " runs)" : std::string())
-                     : std::string("—"))
-         << " | " << (in.n > 0 ? fixed(in.mean, 2) + " ± " + fixed(in.ci95, 2) : std::string("—"))
-         << " |\n";
-    }
-  }
-  write_file(out_dir / "summary_by_family.csv", csv.str());
-}
-
 /// segments.csv: one row per run and segment between kidnaps (segment 0 runs from the start to
 /// the first kidnap), with the scorer's per-segment figures as columns: what a researcher
 /// compares before and after a kidnap, tidy (docs/experiments.md).
@@ -557,7 +389,8 @@ std::string segments_csv(const std::vector<json>& results) {
   std::ostringstream csv;
   csv << "index,id,config,seed,world,segment,from_s,to_s,samples,carried_m,turned_deg,"
          "recoverable,recovery_s,recovery_steps,position_rms_m,heading_rms_deg,"
-         "tracking_position_rms_m,nees_mean,nees_median,inside_95_ellipse\n";
+         "tracking_position_rms_m,nees_mean,nees_median,inside_95_ellipse,"
+         "tracking_inside_95_ellipse,jumps\n";
   for (const json& r : results) {
     const json m = r.value("metrics", json::object());
     const json segments = m.is_object() ? m.value("segments", json::array()) : json::array();
@@ -565,24 +398,28 @@ std::string segments_csv(const std::vector<json>& results) {
       const json& s = segments[k];
       const json consistency = s.value("consistency", json());
       const auto from_consistency = [&](const char* key) {
-        return consistency.is_object() ? number(consistency.value(key, json()), 4) : std::string();
+        return consistency.is_object() ? csv_number(consistency.value(key, json()), 4)
+                                       : std::string();
       };
       const json recoverable = s.value("recoverable", json());
       const json steps = s.value("recovery_steps", json());
       csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
           << csv_field(r["config"]) << ',' << r["seed"].get<std::uint64_t>() << ','
           << csv_field(r.value("world", "")) << ',' << k << ','
-          << number(s.value("from_s", json()), 4) << ',' << number(s.value("to_s", json()), 4)
-          << ',' << s.value("samples", std::size_t{0}) << ','
-          << number(s.value("carried_m", json())) << ',' << number(s.value("turned_deg", json()), 4)
-          << ',' << (recoverable.is_boolean() ? (recoverable.get<bool>() ? "true" : "false") : "")
-          << ',' << number(s.value("recovery_s", json()), 4) << ','
+          << csv_number(s.value("from_s", json()), 4) << ','
+          << csv_number(s.value("to_s", json()), 4) << ',' << s.value("samples", std::size_t{0})
+          << ',' << csv_number(s.value("carried_m", json())) << ','
+          << csv_number(s.value("turned_deg", json()), 4) << ','
+          << (recoverable.is_boolean() ? (recoverable.get<bool>() ? "true" : "false") : "") << ','
+          << csv_number(s.value("recovery_s", json()), 4) << ','
           << (steps.is_number() ? std::to_string(steps.get<long>()) : std::string()) << ','
-          << number(s.value("position_error_m", json::object()).value("rms", json())) << ','
-          << number(s.value("heading_error_deg", json::object()).value("rms", json()), 4) << ','
-          << number(s.value("tracking", json::object()).value("position_rms_m", json())) << ','
+          << csv_number(s.value("position_error_m", json::object()).value("rms", json())) << ','
+          << csv_number(s.value("heading_error_deg", json::object()).value("rms", json()), 4) << ','
+          << csv_number(s.value("tracking", json::object()).value("position_rms_m", json())) << ','
           << from_consistency("nees_mean") << ',' << from_consistency("nees_median") << ','
-          << from_consistency("inside_95_ellipse") << '\n';
+          << from_consistency("inside_95_ellipse") << ','
+          << csv_number(s.value("tracking", json::object()).value("inside_95_ellipse", json()), 4)
+          << ',' << csv_number(s.value("jumps", json::object()).value("count", json()), 0) << '\n';
     }
   }
   return csv.str();
@@ -609,7 +446,7 @@ void write_tables(const fs::path& out_dir) {
            "nees_median,inside_95_ellipse,world,family,kidnaps,kidnaps_recoverable,"
            "kidnaps_recovered,"
            "tracking_position_rms_m,first_segment_position_rms_m,first_segment_nees_median,"
-           "first_segment_inside_95_ellipse\n";
+           "first_segment_inside_95_ellipse,tracking_inside_95_ellipse,jumps,held_back\n";
     for (const json& r : results) {
       const json m = r.value("metrics", json::object());
       std::string recoveries, recovery_steps;  // one per kidnap: the segments after the first
@@ -617,7 +454,7 @@ void write_tables(const fs::path& out_dir) {
       for (std::size_t k = 1; k < segments.size(); ++k) {
         const bool never = segments[k]["recovery_s"].is_null();
         recoveries += (k == 1 ? "" : ";") +
-                      (never ? std::string("never") : number(segments[k]["recovery_s"], 4));
+                      (never ? std::string("never") : csv_number(segments[k]["recovery_s"], 4));
         recovery_steps +=
             (k == 1 ? "" : ";") +
             (never ? std::string("never")
@@ -640,18 +477,21 @@ void write_tables(const fs::path& out_dir) {
       csv << r["index"].get<std::size_t>() << ',' << csv_field(r["id"]) << ','
           << csv_field(r["config"]) << ',' << csv_field(r.value("source_log", "")) << ','
           << r["seed"].get<std::uint64_t>() << ',' << r["status"].get<std::string>() << ','
-          << csv_field(r.value("reason", "")) << ',' << number(p.value("rms", json())) << ','
-          << number(p.value("mean", json())) << ',' << number(p.value("max", json())) << ','
-          << number(p.value("rms_x", json())) << ',' << number(p.value("rms_y", json())) << ','
-          << number(h.value("rms", json())) << ',' << number(h.value("mean", json())) << ','
-          << number(h.value("max", json())) << ',' << number(c.value("time_s", json()), 4) << ','
+          << csv_field(r.value("reason", "")) << ',' << csv_number(p.value("rms", json())) << ','
+          << csv_number(p.value("mean", json())) << ',' << csv_number(p.value("max", json())) << ','
+          << csv_number(p.value("rms_x", json())) << ',' << csv_number(p.value("rms_y", json()))
+          << ',' << csv_number(h.value("rms", json())) << ',' << csv_number(h.value("mean", json()))
+          << ',' << csv_number(h.value("max", json())) << ','
+          << csv_number(c.value("time_s", json()), 4) << ','
           << (c.value("steps", json()).is_number() ? std::to_string(c["steps"].get<long>())
                                                    : std::string())
-          << ',' << number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
-          << recovery_steps << ',' << number(landmark_error.value("rms", json())) << ','
-          << number(nees, 4) << ',' << number(nees_median, 4) << ',' << number(inside, 4) << ',';
+          << ',' << csv_number(m.value("time_lost_s", json()), 4) << ',' << recoveries << ','
+          << recovery_steps << ',' << csv_number(landmark_error.value("rms", json())) << ','
+          << csv_number(nees, 4) << ',' << csv_number(nees_median, 4) << ','
+          << csv_number(inside, 4) << ',';
       const RunRecovery recovery = recovery_of(m);
       const std::optional<double> tracking = recovery.tracking_rms_m();
+      const std::optional<double> tracking_inside = recovery.tracking_inside_95();
       csv << csv_field(r.value("world", "")) << ',' << csv_field(r.value("family", "")) << ','
           << (m.is_object() && !m.empty()
                   ? std::to_string(recovery.kidnaps) + ',' + std::to_string(recovery.recoverable) +
@@ -662,13 +502,15 @@ void write_tables(const fs::path& out_dir) {
       // filter lost after a kidnap has a whole-run NEES that says only that (segments.csv).
       const json first = segments.empty() ? json::object() : segments[0];
       const json first_consistency = first.value("consistency", json());
-      csv << ',' << number(first.value("position_error_m", json::object()).value("rms", json()))
+      csv << ',' << csv_number(first.value("position_error_m", json::object()).value("rms", json()))
           << ','
           << (first_consistency.is_object()
-                  ? number(first_consistency.value("nees_median", json()), 4) + ',' +
-                        number(first_consistency.value("inside_95_ellipse", json()), 4)
+                  ? csv_number(first_consistency.value("nees_median", json()), 4) + ',' +
+                        csv_number(first_consistency.value("inside_95_ellipse", json()), 4)
                   : std::string(","))
-          << '\n';
+          << ',' << (tracking_inside ? fixed(*tracking_inside, 4) : std::string()) << ','
+          << (m.is_object() && !m.empty() ? std::to_string(recovery.jumps) : std::string()) << ','
+          << (r.value("held_back", false) ? "true" : "false") << '\n';
     }
     write_file(out_dir / "results.csv", csv.str());
   }
@@ -757,6 +599,7 @@ void write_tables(const fs::path& out_dir) {
        << " | " << (fne.n > 0 ? fixed(fne.median, 1) : std::string("—")) << " |\n";
   }
   write_family_tables(out_dir, results, order, md);
+  write_part_tables(out_dir, results, order, md);
   write_file(out_dir / "summary.csv", csv.str());
   write_file(out_dir / "summary.md", md.str());
 }

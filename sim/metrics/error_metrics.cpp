@@ -32,6 +32,7 @@ void ErrorAccumulator::add(const ErrorSample& e) {
   sum_sq_y_ += e.dy_m * e.dy_m;
   sum_sq_h_ += heading * heading;
   sum_h_ += heading;
+  std::optional<bool> inside;  // the truth inside the 95 % ellipse; none: no covariance to judge
   if (e.covariance) {
     const Eigen::Matrix3d p =
         Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(e.covariance->data());
@@ -49,24 +50,38 @@ void ErrorAccumulator::add(const ErrorSample& e) {
       sum_nees_ += nees;
       nees_.add(nees);
       sum_position_nees_ += position_nees;
-      inside_95_ += position_nees <= kChiSquare2Dof95 ? 1 : 0;
+      inside = position_nees <= kChiSquare2Dof95;
+      inside_95_ += *inside ? 1 : 0;
     }
   }
+  if (within_position_ && e.t_s - within_position_->t_s <= kJumpWindowS &&
+      std::hypot(e.dx_m - within_position_->dx_m, e.dy_m - within_position_->dy_m) > kJumpM) {
+    ++jumps_;
+    if (!first_jump_s_) first_jump_s_ = within_position_->t_s;
+    within_position_.reset();  // one jump until the error is back within the bound
+  }
+  if (position <= criterion_.position_m) within_position_ = e;
   position_max_m_ = std::max(position_max_m_, position);
   heading_max_rad_ = std::max(heading_max_rad_, heading);
   if (converged_at_s_) {
     ++tracking_samples_;
     tracking_sum_sq_ += position * position;
+    tracking_consistency_ += inside ? 1 : 0;
+    tracking_inside_ += inside.value_or(false) ? 1 : 0;
   } else {
     const bool in = position <= criterion_.position_m && heading <= criterion_.heading_rad;
     run_ = in ? run_ + 1 : 0;
     run_sum_sq_ = in ? run_sum_sq_ + position * position : 0.0;
+    run_consistency_ = in ? run_consistency_ + (inside ? 1 : 0) : 0;
+    run_inside_ = in ? run_inside_ + (inside.value_or(false) ? 1 : 0) : 0;
     if (run_ == 1) run_start_ = e;
     if (in && run_ >= criterion_.hold_samples) {
       converged_at_s_ = run_start_.t_s;
       converged_at_steps_ = run_start_.steps - first_.steps;
       tracking_samples_ = static_cast<std::size_t>(run_);  // tracking since the run's start
       tracking_sum_sq_ = run_sum_sq_;
+      tracking_consistency_ = run_consistency_;
+      tracking_inside_ = run_inside_;
     }
   }
   last_ = e;
@@ -85,6 +100,12 @@ ErrorSummary ErrorAccumulator::summary() const {
   if (tracking_samples_ > 0)
     s.tracking_position_rms_m =
         std::sqrt(tracking_sum_sq_ / static_cast<double>(tracking_samples_));
+  s.tracking_consistency_samples = tracking_consistency_;
+  if (tracking_consistency_ > 0)
+    s.tracking_inside_95_fraction =
+        static_cast<double>(tracking_inside_) / static_cast<double>(tracking_consistency_);
+  s.jumps = jumps_;
+  s.first_jump_s = first_jump_s_;
   if (!within(last_)) {
     s.time_lost_s += samples_ > 1 ? typical_interval_s_ : 0.0;  // the last stands for a typical one
   }

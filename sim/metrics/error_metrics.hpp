@@ -40,6 +40,13 @@ class LogHistogram {
   double max_ = 0.0;
 };
 
+/// A jump: the estimate's error moving by more than kJumpM within kJumpWindowS of a sample
+/// within the convergence criterion's position bound. A tracking filter that takes a wrong guess
+/// (a recovery's injected pose winning over a scan spoilt by people) jumps; a filter losing
+/// track slowly (odometry drifting after a push) does not, and is seen in its tracking RMS.
+inline constexpr double kJumpM = 2.0;
+inline constexpr double kJumpWindowS = 1.0;
+
 /// A NEES above this (or NaN, from a covariance of 1e-300) counts as this in the statistics.
 inline constexpr double kNeesCap = 1e100;
 
@@ -67,6 +74,13 @@ struct ErrorSummary {
   // converged_at_s on (a later loss included), and how many they are. 0 samples: never converged.
   std::size_t tracking_samples = 0;
   double tracking_position_rms_m = 0.0;
+  // Of those, the ones with a positive definite covariance, and the share whose true position
+  // lies inside the estimate's 95 % ellipse: honest while it claims to know where it is.
+  std::size_t tracking_consistency_samples = 0;
+  double tracking_inside_95_fraction = 0.0;
+  // Jumps (kJumpM, kJumpWindowS) and when the first one began (the last sample within the bound).
+  std::size_t jumps = 0;
+  std::optional<double> first_jump_s;
   double time_lost_s =
       0.0;  // time with the error outside the criterion's bounds (carried time aside)
   // Whether the covariance is honest, over the samples whose covariance is positive definite
@@ -96,10 +110,16 @@ class ErrorAccumulator {
   std::size_t samples_ = 0;
   double sum_sq_ = 0, sum_ = 0, sum_sq_x_ = 0, sum_sq_y_ = 0, sum_sq_h_ = 0, sum_h_ = 0;
   double position_max_m_ = 0, heading_max_rad_ = 0;
-  int run_ = 0;                       // consecutive samples within the bounds
-  double run_sum_sq_ = 0;             // of their position errors
-  std::size_t tracking_samples_ = 0;  // from convergence on
+  int run_ = 0;                                       // consecutive samples within the bounds
+  double run_sum_sq_ = 0;                             // of their position errors
+  std::size_t run_consistency_ = 0, run_inside_ = 0;  // of their covariances
+  std::size_t tracking_samples_ = 0;                  // from convergence on
   double tracking_sum_sq_ = 0;
+  std::size_t tracking_consistency_ = 0, tracking_inside_ = 0;
+  // The latest sample within the criterion's position bound, while no jump has left it since.
+  std::optional<ErrorSample> within_position_;
+  std::size_t jumps_ = 0;
+  std::optional<double> first_jump_s_;
   ErrorSample run_start_;          // the first of them
   ErrorSample first_, last_;       // first and latest sample
   double typical_interval_s_ = 0;  // between the first two samples

@@ -57,6 +57,9 @@ LandmarkMapSummary summarize_landmark_map(const std::vector<LandmarkPoint>& mapp
     s.error_rms_m = std::sqrt(sum_sq / n);
     s.error_mean_m = sum / n;
     s.error_max_m = max;
+    s.aligned_within = static_cast<std::size_t>(std::count_if(
+        s.matches.begin(), s.matches.end(),
+        [](const LandmarkMatch& m) { return m.distance_m <= kLandmarkAlignedGateM; }));
   }
   if (s.matches.size() >= 3) {
     Eigen::MatrixXd from(2, s.matches.size()), to(2, s.matches.size());
@@ -74,6 +77,8 @@ LandmarkMapSummary summarize_landmark_map(const std::vector<LandmarkPoint>& mapp
     s.aligned_rms_m = std::sqrt(distance.squaredNorm() / n);
     s.aligned_mean_m = distance.sum() / n;
     s.aligned_max_m = distance.maxCoeff();
+    s.aligned_within =
+        static_cast<std::size_t>((distance.array() <= kLandmarkAlignedGateM).count());
   }
   return s;
 }

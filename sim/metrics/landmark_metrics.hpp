@@ -14,6 +14,10 @@ namespace locsim {
 /// a metre, on the worlds' landmark spacing of a few metres, it no longer stands for that landmark.
 inline constexpr double kLandmarkMatchGateM = 1.0;
 
+/// A matched landmark counts as mapped well when, after the alignment below, it lies within this
+/// of the true one [m]: the room's shape kept, whatever frame the filter started in.
+inline constexpr double kLandmarkAlignedGateM = 0.3;
+
 struct LandmarkPoint {
   int id = 0;  // the filter's numbering (mapped) or the world's (true)
   double x_m = 0.0, y_m = 0.0;
@@ -46,6 +50,9 @@ struct LandmarkMapSummary {
   // filter's start, and the start is known only roughly: 0.2 m and 1.3 degrees off put
   // landmarks 10 m away 0.4 m off, however well they are mapped.
   std::optional<double> aligned_rms_m, aligned_mean_m, aligned_max_m;
+  // Matched pairs within kLandmarkAlignedGateM after that motion (below three pairs: the pairs
+  // within it as they are).
+  std::size_t aligned_within = 0;
   std::vector<LandmarkMatch> matches;
 };
 

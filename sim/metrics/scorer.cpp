@@ -70,6 +70,8 @@ json landmark_map_json(const LandmarkMapSummary& s) {
            {{"rms", optional(s.aligned_rms_m)},
             {"mean", optional(s.aligned_mean_m)},
             {"max", optional(s.aligned_max_m)}}},
+          {"aligned_within", s.aligned_within},
+          {"aligned_gate_m", kLandmarkAlignedGateM},
           {"spurious", s.spurious},
           {"missed", s.missed},
           {"observed", s.observed},
@@ -250,7 +252,13 @@ json Scorer::segment_json(const Track& track) const {
   out["tracking"] = {
       {"samples", summary.tracking_samples},
       {"position_rms_m",
-       summary.tracking_samples > 0 ? json(summary.tracking_position_rms_m) : json(nullptr)}};
+       summary.tracking_samples > 0 ? json(summary.tracking_position_rms_m) : json(nullptr)},
+      {"consistency_samples", summary.tracking_consistency_samples},
+      {"inside_95_ellipse", summary.tracking_consistency_samples > 0
+                                ? json(summary.tracking_inside_95_fraction)
+                                : json(nullptr)}};
+  out["jumps"] = {{"count", summary.jumps},
+                  {"first_s", summary.first_jump_s ? json(*summary.first_jump_s) : json(nullptr)}};
   if (track.kidnaps_passed > 0) {
     out["carried_m"] = track.carried_m ? json(*track.carried_m) : json(nullptr);
     out["turned_deg"] = track.turned_rad ? json(rad_to_deg(*track.turned_rad)) : json(nullptr);
@@ -360,6 +368,15 @@ json Scorer::metrics_json(const Track& track, const LocalizerFinal& end) const {
       {"steps", e.converged_at_steps ? json(*e.converged_at_steps) : json(nullptr)}};
   json segments = track.closed_segments;
   if (!track.segment.empty()) segments.push_back(segment_json(track));
+  // Jumps are counted within segments: a kidnap's carry moves the truth, not the estimate.
+  std::size_t jumps = 0;
+  json first_jump_s = nullptr;
+  for (const json& segment : segments) {
+    jumps += segment["jumps"]["count"].get<std::size_t>();
+    if (first_jump_s.is_null()) first_jump_s = segment["jumps"]["first_s"];
+  }
+  out["jumps"] = {
+      {"count", jumps}, {"first_s", first_jump_s}, {"m", kJumpM}, {"window_s", kJumpWindowS}};
   out["segments"] = segments;
   json diagnostics = json::object(), means = json::object();
   for (const auto& [name, value] : track.last_diagnostics) diagnostics[name] = value;

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -10,6 +11,7 @@
 #include <stdexcept>
 
 #include "sim/common/errors.hpp"
+#include "sim/common/format.hpp"
 #include "sim/common/math.hpp"
 #include "sim/common/random.hpp"
 #include "sim/common/yaml_node.hpp"
@@ -177,9 +179,15 @@ std::size_t pick(RandomStream& random, std::size_t n) {
   return std::min(n - 1, static_cast<std::size_t>(random.uniform() * static_cast<double>(n)));
 }
 
-int count_or(int asked, RandomStream& random, int lo, int hi) {
-  if (asked >= 0) return asked;
-  return lo + static_cast<int>(std::floor(random.uniform() * (hi - lo + 1)));
+/// The count asked for, or one drawn in the family's range [lo, hi], or in the range asked for.
+/// A count asked for draws nothing: the stream's later draws stay as they were.
+int count_or(const CountKnob& asked, RandomStream& random, int lo, int hi) {
+  if (asked.given()) {
+    if (asked.min == asked.max) return asked.min;
+    lo = asked.min;
+    hi = asked.max;
+  }
+  return std::min(hi, lo + static_cast<int>(std::floor(random.uniform() * (hi - lo + 1))));
 }
 
 void place_obstacles(Layout& layout, int count, bool against_walls) {
@@ -639,7 +647,7 @@ std::string emit(const Layout& layout, const std::string& header) {
     out << YAML::EndMap;
   };
   sensor("encoders", 50, false, 0);
-  sensor("imu", 100, false, 0);
+  if (def.imu) sensor("imu", 100, false, 0);
   sensor("ptz_camera", 10, true, 0.1);
   sensor("omni_camera", 10, false, 0);
   if (!layout.beacons.empty()) sensor("ultrasonic", 20, false, 0);
@@ -683,6 +691,30 @@ std::string emit(const Layout& layout, const std::string& header) {
 
 }  // namespace
 
+std::string CountKnob::text() const {
+  if (!given()) return "drawn";
+  return min == max ? std::to_string(min) : std::to_string(min) + "-" + std::to_string(max);
+}
+
+CountKnob CountKnob::parse(std::string_view text, std::string_view option) {
+  const auto number = [](std::string_view part, int& out) {
+    const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), out);
+    return !part.empty() && ec == std::errc() && end == part.data() + part.size();
+  };
+  const std::size_t dash = text.find('-');
+  CountKnob knob;
+  const bool read =
+      dash == std::string_view::npos
+          ? number(text, knob.min) && (knob.max = knob.min, true)
+          : number(text.substr(0, dash), knob.min) && number(text.substr(dash + 1), knob.max);
+  const auto& range = GeneratorDef::kCountRange;
+  if (!read || knob.min < range.min || knob.max > range.max || knob.max < knob.min)
+    throw InputError(std::string(option) + ": expected a count N or a range A-B drawn per seed (" +
+                     short_number(range.min) + " <= A <= B <= " + short_number(range.max) +
+                     "), got '" + std::string(text) + "'");
+  return knob;
+}
+
 const std::vector<std::string>& generator_families() {
   static const std::vector<std::string> families = {"room", "corridor", "office"};
   return families;
@@ -712,15 +744,16 @@ std::optional<KidnapLanding> landing_from_name(std::string_view name) {
 std::string generate_command(const GeneratorDef& def) {
   const GeneratorDef defaults;
   std::ostringstream out;
-  out << "locsim generate " << def.family << " --seed " << def.seed;
+  out << "locsim generate " << def.family << " --seeds " << def.seed;
   if (def.length_m != defaults.length_m) out << " --length " << def.length_m;
   if (def.width_m != defaults.width_m) out << " --width " << def.width_m;
-  if (def.landmarks != defaults.landmarks) out << " --landmarks " << def.landmarks;
+  if (def.landmarks != defaults.landmarks) out << " --landmarks " << def.landmarks.text();
   if (def.landmarks_anywhere) out << " --landmarks-anywhere";
-  if (def.obstacles != defaults.obstacles) out << " --obstacles " << def.obstacles;
-  if (def.people != defaults.people) out << " --people " << def.people;
-  if (def.slippery != defaults.slippery) out << " --slippery " << def.slippery;
+  if (def.obstacles != defaults.obstacles) out << " --obstacles " << def.obstacles.text();
+  if (def.people != defaults.people) out << " --people " << def.people.text();
+  if (def.slippery != defaults.slippery) out << " --slippery " << def.slippery.text();
   if (!def.beacons) out << " --no-beacons";
+  if (!def.imu) out << " --no-imu";
   if (def.kidnaps != defaults.kidnaps) out << " --kidnaps " << def.kidnaps;
   if (def.quick_kidnaps) out << " --quick-kidnaps";
   if (def.landing != defaults.landing) out << " --landing " << landing_name(def.landing);
@@ -739,12 +772,17 @@ GeneratedWorld generate_world(const GeneratorDef& def) {
   if (def.length_m != 0.0) check(def.length_m, GeneratorDef::kSizeRange, "--length");
   if (def.width_m != 0.0) check(def.width_m, GeneratorDef::kSizeRange, "--width");
   check(def.duration_s, GeneratorDef::kDurationRange, "--duration");
-  for (const auto& [value, what] : {std::pair{def.landmarks, "--landmarks"},
-                                    {def.obstacles, "--obstacles"},
-                                    {def.people, "--people"},
-                                    {def.slippery, "--slippery"},
-                                    {def.kidnaps, "--kidnaps"}}) {
-    if (value >= 0) check(value, GeneratorDef::kCountRange, what);
+  for (const auto& [knob, what] : {std::pair{def.landmarks, "--landmarks"},
+                                   {def.obstacles, "--obstacles"},
+                                   {def.people, "--people"},
+                                   {def.slippery, "--slippery"},
+                                   {CountKnob(def.kidnaps), "--kidnaps"}}) {
+    if (!knob.given()) continue;
+    check(knob.min, GeneratorDef::kCountRange, what);
+    check(knob.max, GeneratorDef::kCountRange, what);
+    if (knob.max < knob.min)
+      throw InputError("generate: " + std::string(what) + ": the range " + knob.text() +
+                       " ends below its start");
   }
   const bool room = def.family == "room", office = def.family == "office";
   RandomStream size = make_stream(def.seed, "generate/size");
@@ -782,7 +820,8 @@ GeneratedWorld generate_world(const GeneratorDef& def) {
          << " landmarks" << (def.landmarks_anywhere ? " standing free" : " along the walls") << ", "
          << layout.obstacles.size() << " obstacles, " << layout.people.size() << " people, "
          << layout.patches.size() << " slippery patches, " << layout.beacons.size() << " beacons, "
-         << layout.kidnaps.size() << " kidnaps.";
+         << layout.kidnaps.size() << " kidnaps" << (def.imu ? "" : ", a robot without an IMU")
+         << ".";
   for (std::size_t k = 0; k < layout.kidnaps.size(); ++k) {
     const auto& kidnap = layout.kidnaps[k];
     header << "\nKidnap " << k + 1 << " at " << to_mm(kidnap.at_s) << " s lands "

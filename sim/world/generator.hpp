@@ -19,6 +19,21 @@ namespace locsim {
 /// its range and field of view, line of sight clear), with none, or either.
 enum class KidnapLanding { kAlternate, kInView, kBlind, kAny };
 
+/// A count knob: unset (drawn in the family's range), a number, or a range drawn per seed
+/// (`--people 5-20`: a crowd of 5 to 20, each seed its own).
+struct CountKnob {
+  int min = -1, max = -1;  // -1: the family's range [-]
+  CountKnob() = default;
+  CountKnob(int count) : min(count), max(count) {}  // NOLINT(google-explicit-constructor)
+  CountKnob(int lo, int hi) : min(lo), max(hi) {}
+  bool given() const { return min >= 0; }
+  bool operator==(const CountKnob&) const = default;
+  /// "N" or "A-B", as the command line takes it.
+  std::string text() const;
+  /// Reads "N" or "A-B" (0 <= A <= B <= 100); InputError naming `option` otherwise.
+  static CountKnob parse(std::string_view text, std::string_view option);
+};
+
 /// The knobs of `locsim generate`. A negative count or a zero size means "drawn for the family"
 /// (the ranges in each comment). docs/worlds.md#generated-worlds.
 struct GeneratorDef {
@@ -27,12 +42,13 @@ struct GeneratorDef {
   double length_m = 0.0;  // room: 8-20 m (x); corridor: 20-40 m [m]
   double width_m = 0.0;   // room: 6-12 m (y); corridor: 2-3 m [m]
   static constexpr Range kSizeRange{1.5, 200.0, "m"};
-  int landmarks = -1;               // room: 4-8 along the walls; corridor: 3 [-]
+  CountKnob landmarks;              // room: 4-8 along the walls; corridor: 3 [-]
   bool landmarks_anywhere = false;  // true: free-standing in the room, not along the walls
-  int obstacles = -1;               // pillars and cabinets: room 2-5, corridor 2-4 [-]
-  int people = -1;                  // walking across the room or along the corridor: 1-3 [-]
-  int slippery = -1;                // low-friction floor patches on the drive path: 0-2 [-]
+  CountKnob obstacles;              // pillars and cabinets: room 2-5, corridor 2-4 [-]
+  CountKnob people;                 // walking across the room or along the corridor: 1-3 [-]
+  CountKnob slippery;               // low-friction floor patches on the drive path: 0-2 [-]
   bool beacons = true;              // ultrasonic beacons: the room's corners, every 8 m of corridor
+  bool imu = true;                  // false: the robot has no IMU (wheels alone tell its turns)
   int kidnaps = 2;                  // kidnap events [-]
   bool quick_kidnaps = false;       // the second kidnap 3-6 s after the first lands
   KidnapLanding landing = KidnapLanding::kAlternate;  // first in view, then blind, ...

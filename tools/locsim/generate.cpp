@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -22,7 +23,9 @@ namespace locsim::cli::generate_cmd {
 struct State {
   GeneratorDef def;
   std::string out, seeds = "1", landing = "alternate";
-  bool overwrite = false, quiet = false, no_beacons = false;
+  // Count knobs as given ("N" or "A-B"); empty: drawn in the family's range.
+  std::string landmarks, obstacles, people, slippery;
+  bool overwrite = false, quiet = false, no_beacons = false, no_imu = false;
 };
 
 int execute(State& s) {
@@ -43,7 +46,14 @@ int execute(State& s) {
                        "'");
   }
   GeneratorDef& def = s.def;
+  for (const auto& [text, knob, option] : {std::tuple{&s.landmarks, &def.landmarks, "--landmarks"},
+                                           {&s.obstacles, &def.obstacles, "--obstacles"},
+                                           {&s.people, &def.people, "--people"},
+                                           {&s.slippery, &def.slippery, "--slippery"}}) {
+    if (!text->empty()) *knob = CountKnob::parse(*text, option);
+  }
   def.beacons = !s.no_beacons;
+  def.imu = !s.no_imu;
   def.landing = *landing_from_name(s.landing);  // CLI checked it
   const std::filesystem::path out(s.out);
   if (out.empty()) throw InputError("--out: the path is empty");
@@ -88,8 +98,8 @@ Command add_generate(CLI::App& app) {
   generate->add_option("--out", state->out, "Folder for FAMILY_seedN.yaml")->required();
   generate->add_option("--seeds", state->seeds, "A seed N, or a range A-B (one world each)")
       ->capture_default_str();
-  const auto count_option = [generate](const char* name, int& value, const char* what) {
-    generate->add_option(name, value, what)->transform(whole_number_in(0, 100));
+  const auto count_option = [generate](const char* name, std::string& value, const char* what) {
+    generate->add_option(name, value, what)->type_name("N|A-B");
   };
   generate
       ->add_option(
@@ -101,17 +111,21 @@ Command add_generate(CLI::App& app) {
           "--width", def.width_m,
           "Room: y extent (default drawn in 6-12); corridor: width (2-3); office: 9-14 [m]")
       ->check(number_in(GeneratorDef::kSizeRange.min, GeneratorDef::kSizeRange.max));
-  count_option(
-      "--landmarks", def.landmarks,
-      "Landmarks (default: room 4-8 along the walls, corridor 3, office one per 1-2 rooms + 2)");
+  count_option("--landmarks", state->landmarks,
+               "Landmarks (default: room 4-8 along the walls, corridor 3, office one per 1-2 "
+               "rooms + 2); A-B: drawn per seed, as every count");
   generate->add_flag("--landmarks-anywhere", def.landmarks_anywhere,
                      "Room: landmarks standing free, not along the walls");
-  count_option("--obstacles", def.obstacles,
+  count_option("--obstacles", state->obstacles,
                "Pillars and cabinets (default: room 2-5, corridor 2-4, office 3-8)");
-  count_option("--people", def.people, "People walking (default 1-3)");
-  count_option("--slippery", def.slippery, "Slippery floor patches on the path (0-2)");
+  count_option("--people", state->people,
+               "People walking, who shove the robot aside (default 1-3; a crowd: 5-20)");
+  count_option("--slippery", state->slippery, "Slippery floor patches on the path (0-2)");
   generate->add_flag("--no-beacons", state->no_beacons, "No ultrasonic beacons");
-  count_option("--kidnaps", def.kidnaps, "Kidnaps (default 2)");
+  generate->add_flag("--no-imu", state->no_imu,
+                     "A robot without an IMU (the wheels alone tell its turns)");
+  generate->add_option("--kidnaps", def.kidnaps, "Kidnaps (default 2)")
+      ->transform(whole_number_in(0, 100));
   generate->add_flag("--quick-kidnaps", def.quick_kidnaps,
                      "The second kidnap 3-6 s after the first lands");
   generate
