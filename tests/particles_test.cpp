@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <tuple>
 #include <vector>
@@ -459,6 +460,93 @@ TEST(Particles, MeanHeadingIsCircularAndResamplingKeepsTheCount) {
   EXPECT_EQ(p.size(), 2u);
   EXPECT_EQ(p.x[0], 3.0);
   EXPECT_EQ(p.weight[1], 0.5);
+}
+
+/// `count` particles about (x, y, theta), 0.05 m and 2 degrees apart, each of weight `w`.
+void add_group(ParticleSet& p, std::size_t count, double x, double y, double theta, double w) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const double d = static_cast<double>(k % 5) - 2.0;
+    p.x.push_back(x + 0.05 * d), p.y.push_back(y - 0.03 * d);
+    p.theta.push_back(wrap(theta + 0.035 * d)), p.weight.push_back(w);
+  }
+}
+
+TEST(Particles, ClustersJoinNeighbouringBinsAndGiveEachItsWeightAndCentre) {
+  // Two groups 5 m apart (one of them across the heading's wrap), a straggler left out.
+  ParticleSet p;
+  add_group(p, 30, 1.0, 2.0, std::numbers::pi - 0.01, 0.01);
+  add_group(p, 70, 6.0, 2.0, 0.5, 0.01);
+  add_group(p, 1, 20.0, 20.0, 0.0, 0.5);
+  PoseBins bins(0.5, 10.0 * std::numbers::pi / 180.0);
+  ParticleClusters clusters;
+  clusters.compute(p, 100, bins);  // the last particle not counted
+  std::vector<std::size_t> found;
+  clusters.for_each([&](std::size_t c) { found.push_back(c); });
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_EQ(clusters.heaviest(), found[1]);
+  EXPECT_NEAR(clusters.weight(found[0]), 0.30, 1e-12);
+  EXPECT_NEAR(clusters.weight(found[1]), 0.70, 1e-12);
+  const Pose wrapped = clusters.centre(found[0]);  // headings either side of +-pi
+  EXPECT_NEAR(wrapped(0), 1.0, 1e-9);
+  EXPECT_NEAR(std::abs(wrap(wrapped(2) - (std::numbers::pi - 0.01))), 0.0, 1e-9);
+  Pose mean;
+  Eigen::Matrix3d covariance;
+  clusters.moments(p, found[1], mean, covariance);
+  EXPECT_NEAR(mean(0), 6.0, 1e-9);
+  EXPECT_NEAR(mean(2), 0.5, 1e-9);
+  EXPECT_GT(covariance(0, 0), 0.0);
+  EXPECT_LT(covariance(0, 0), 0.01);
+}
+
+TEST(Particles, TheStableModeKeepsItsPlaceUntilARivalSettles) {
+  // The belief at (1, 2) and a recovery's guesses at (6, 2): the guesses outweigh it 0.6 to 0.4.
+  // The reported mode stays at (1, 2) for switch_updates - 1 updates, and moves on the next.
+  const StableMode::Settings settings{3, 0.9};
+  StableMode mode(settings);
+  PoseBins bins(0.5, 10.0 * std::numbers::pi / 180.0);
+  ParticleSet split;
+  add_group(split, 40, 1.0, 2.0, 0.0, 0.01);
+  add_group(split, 60, 6.0, 2.0, 0.0, 0.01);
+  ParticleSet belief;
+  add_group(belief, 100, 1.0, 2.0, 0.0, 0.01);
+  mode.update(belief, belief.size(), bins, std::nullopt);
+  EXPECT_NEAR(mode.mean()(0), 1.0, 1e-9);
+  for (int k = 1; k < settings.switch_updates; ++k) {
+    mode.update(split, split.size(), bins, mode.mean());
+    EXPECT_NEAR(mode.mean()(0), 1.0, 1e-9) << "update " << k;
+    // Unsure while the rival stands: its particles widen the covariance about the belief.
+    EXPECT_GT(mode.covariance()(0, 0), 0.6 * 25.0 * 0.9);
+  }
+  mode.update(split, split.size(), bins, mode.mean());
+  EXPECT_NEAR(mode.mean()(0), 6.0, 1e-9);
+  // A rival with nine tenths of the two's weight wins at once.
+  StableMode quick(settings);
+  quick.update(belief, belief.size(), bins, std::nullopt);
+  ParticleSet overwhelming;
+  add_group(overwhelming, 5, 1.0, 2.0, 0.0, 0.01);
+  add_group(overwhelming, 95, 6.0, 2.0, 0.0, 0.01);
+  quick.update(overwhelming, overwhelming.size(), bins, quick.mean());
+  EXPECT_NEAR(quick.mean()(0), 6.0, 1e-9);
+  // Nothing left where the belief was: its pose is held (whatever share a rival takes in one
+  // update) until a rival has been the heaviest, in one place, for switch_updates updates; a
+  // rival that moves starts the count again.
+  StableMode held(settings);
+  held.update(belief, belief.size(), bins, std::nullopt);
+  const auto elsewhere = [](double x) {
+    ParticleSet p;
+    add_group(p, 90, x, 2.0, 0.0, 0.01);
+    add_group(p, 10, x, 8.0, 0.0, 0.01);
+    return p;
+  };
+  held.update(elsewhere(6.0), 100, bins, held.mean());
+  EXPECT_NEAR(held.mean()(0), 1.0, 1e-9);
+  held.update(elsewhere(11.0), 100, bins, held.mean());  // the rival moved: count from one
+  EXPECT_NEAR(held.mean()(0), 1.0, 1e-9);
+  held.update(elsewhere(11.0), 100, bins, held.mean());
+  EXPECT_NEAR(held.mean()(0), 1.0, 1e-9);
+  held.update(elsewhere(11.0), 100, bins, held.mean());
+  EXPECT_NEAR(held.mean()(0), 11.0, 1e-9);
+  EXPECT_NEAR(held.mean()(1), 2.0, 1e-9);
 }
 
 }  // namespace

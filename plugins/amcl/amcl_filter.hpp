@@ -53,6 +53,15 @@ inline constexpr locsim_param_decl kAmclParams[] = {
     {"kld_bin_xy", LOCSIM_PARAM_DOUBLE, 0.5, 1e-3, 100.0, nullptr, "KLD bin size in x and y [m]"},
     {"kld_bin_theta_deg", LOCSIM_PARAM_DOUBLE, 10.0, 0.1, 180.0, nullptr,
      "KLD bin size in heading [deg]"},
+    {"estimate", LOCSIM_PARAM_STRING, 0, 0, 0, "stable",
+     "stable: the cluster reported before (clusters of the KLD bins) until another has been the "
+     "heaviest for switch_updates updates or holds switch_share of the two's weight, the "
+     "covariance every particle's spread about it; heaviest: the heaviest cluster at each update "
+     "(nav2), which an injected guess winning one update moves at once"},
+    {"switch_updates", LOCSIM_PARAM_INT, 3, 1, 1000, nullptr,
+     "estimate stable: updates in a row a rival cluster must be the heaviest [-]"},
+    {"switch_share", LOCSIM_PARAM_DOUBLE, 0.9, 0.5, 1.0, nullptr,
+     "estimate stable: a rival with this share of the two's weight wins at once [-]"},
     {"update_min_d", LOCSIM_PARAM_DOUBLE, 0.25, 0.0, 100.0, nullptr,
      "travel before a filter update [m]"},
     {"update_min_a", LOCSIM_PARAM_DOUBLE, 0.2, 0.0, 10.0, nullptr,
@@ -74,6 +83,14 @@ inline constexpr locsim_param_decl kAmclParams[] = {
      "spread in x and y of injected poses drawn about the estimate [m]"},
     {"recovery_near_sigma_deg", LOCSIM_PARAM_DOUBLE, 30.0, 0.0, 180.0, nullptr,
      "spread in heading of injected poses drawn about the estimate [deg]"},
+    {"recovery_through_share", LOCSIM_PARAM_DOUBLE, 0.05, 0.0, 1.0, nullptr,
+     "inject only while at least this share of the scan's beams, seen from the estimate, pass "
+     "through a wall (recovery_through_margin_m before their end): people and carts shorten "
+     "beams, only a wrong pose lengthens them past walls, so a scan spoilt by a crowd does not "
+     "start a recovery (0: AMCL's, any low likelihood does) [-]"},
+    {"recovery_through_margin_m", LOCSIM_PARAM_DOUBLE, 0.3, 0.0, 100.0, nullptr,
+     "recovery_through_share: a beam passes through a wall when an occupied cell lies more than "
+     "this before its end [m]"},
     {"recovery_search_updates", LOCSIM_PARAM_INT, 5, 0, 1000000, nullptr,
      "after injecting for this many updates in a row, and again every this many while it goes "
      "on, search the whole map for the places that fit the scan and draw the poses from afar "
@@ -103,6 +120,12 @@ class AmclFilter {
       : pf_(static_cast<std::size_t>(params.integer("max_particles")), seed),
         bins_(params.number("kld_bin_xy"),
               params.number("kld_bin_theta_deg") * std::numbers::pi / 180.0) {
+    const std::string estimate = params.string("estimate");
+    if (estimate != "stable" && estimate != "heaviest")
+      throw std::invalid_argument("estimate must be stable or heaviest, not '" + estimate + "'");
+    estimate_stable_ = estimate == "stable";
+    stable_ = sdk::StableMode(
+        {static_cast<int>(params.integer("switch_updates")), params.number("switch_share")});
     min_particles_ = static_cast<std::size_t>(params.integer("min_particles"));
     max_particles_ = static_cast<std::size_t>(params.integer("max_particles"));
     if (min_particles_ > max_particles_)
@@ -120,6 +143,8 @@ class AmclFilter {
     recovery_near_sigma_m_ = params.number("recovery_near_sigma_m");
     recovery_near_sigma_rad_ = params.number("recovery_near_sigma_deg") * std::numbers::pi / 180.0;
     recovery_search_updates_ = params.integer("recovery_search_updates");
+    recovery_through_share_ = params.number("recovery_through_share");
+    recovery_through_margin_m_ = params.number("recovery_through_margin_m");
     if (averages_.alpha_slow > 0.0 && averages_.alpha_fast <= averages_.alpha_slow)
       throw std::invalid_argument("recovery_alpha_fast must exceed recovery_alpha_slow");
     pf_.odometry().use_gyro(params.flag("use_gyro"));
@@ -174,7 +199,7 @@ class AmclFilter {
     weigh(scan);
     ++updates_;
     if (resample_interval_ > 0 && updates_ % resample_interval_ == 0) resample();
-    compute_estimate();
+    compute_estimate(estimate_at_mark_);
     return true;
   }
 
@@ -205,6 +230,8 @@ class AmclFilter {
             {"n_eff", n_eff_},
             {"kld_bins", static_cast<double>(last_bins_)},
             {"injected", static_cast<double>(injected_)},
+            {"through_share", through_share_},
+            {"short_share", short_share_},
             {"updates", static_cast<double>(updates_)},
             {"reseeds", static_cast<double>(reseeds_)}};
   }
@@ -218,6 +245,7 @@ class AmclFilter {
     const std::size_t count = scan.count;
     const std::size_t step = std::max<std::size_t>(1, (count + max_beams_ - 1) / max_beams_);
     const double cm = std::cos(scan.mount.theta), sm = std::sin(scan.mount.theta);
+    sensor_x_ = scan.mount.x, sensor_y_ = scan.mount.y;
     for (std::size_t b = 0; b < count; b += step) {
       const double r = scan.ranges[b];
       if (!(r < scan.range_max) || r < scan.range_min) continue;  // max range: no return
@@ -344,6 +372,16 @@ class AmclFilter {
     if (averages_.alpha_slow > 0.0) {
       averages_.update(w_avg_);
       inject_probability = std::max(0.0, averages_.deficit(recovery_level_));
+      // A scan the estimate explains but for shortened beams: people, not a wrong pose.
+      if (inject_probability > 0.0 && recovery_through_share_ > 0.0 && !beam_x_.empty()) {
+        const sdk::BeamsAgainstMap beams = sdk::beams_against_map(
+            grid_, estimate_at_mark_(0), estimate_at_mark_(1), estimate_at_mark_(2), sensor_x_,
+            sensor_y_, beam_x_, beam_y_, recovery_through_margin_m_);
+        const auto count = static_cast<double>(beam_x_.size());
+        through_share_ = static_cast<double>(beams.through) / count;
+        short_share_ = static_cast<double>(beams.short_of_walls) / count;
+        if (through_share_ < recovery_through_share_) inject_probability = 0.0;
+      }
       search_places(inject_probability > 0.0);
     }
     sdk::ParticleSet& particles = pf_.particles();
@@ -426,79 +464,33 @@ class AmclFilter {
   }
 
   /// Mean and covariance of the heaviest cluster of occupied bins (26-connected), of the
-  /// particles a scan has weighed (all of them if none has been).
-  void compute_estimate() {
+  /// particles a scan has weighed (all of them if none has been); with estimate stable, of the
+  /// mode reported before (`held`: that estimate moved by the odometry since) while a rival has
+  /// not yet settled (sdk::StableMode).
+  void compute_estimate(const std::optional<sdk::Pose>& held = std::nullopt) {
     const sdk::ParticleSet& particles = pf_.particles();
     const std::size_t n = particles.size();
     // The guesses (the last fresh_) count once weighed, or when nothing else is left.
     const std::size_t counted = fresh_ < n ? n - fresh_ : n;
-    if (!binned_) {
-      bins_.clear();
-      particle_bin_.resize(n);
-      for (std::size_t i = 0; i < n; ++i)
-        particle_bin_[i] =
-            i < counted  // the rest neither weigh nor bridge clusters
-                ? bins_.insert(bins_.bin_of(particles.x[i], particles.y[i], particles.theta[i]))
-                      .first
-                : kNoBin;
-    }
+    sdk::ParticleClusters& clusters = stable_.clusters();
+    if (binned_)
+      clusters.compute_binned(particles, bins_, particle_bin_);
+    else
+      clusters.compute(particles, counted, bins_);
     binned_ = false;
-    // Union-find over the bins and their neighbours. A cluster's root is its lowest-numbered bin
-    // (the first a particle fell in), whatever the order of the joins: the tie-break between
-    // equally heavy clusters below is then the particles' order, not the hash table's.
-    parent_.resize(bins_.size());
-    for (std::size_t b = 0; b < parent_.size(); ++b) parent_[b] = b;
-    const auto root = [&](std::size_t b) {
-      while (parent_[b] != b) b = parent_[b] = parent_[parent_[b]];
-      return b;
-    };
-    const double bin_theta_rad = bins_.bin_theta_rad();
-    const auto theta_bins =
-        static_cast<std::int64_t>(std::ceil(2.0 * std::numbers::pi / bin_theta_rad));
-    const auto low_theta = static_cast<std::int64_t>(std::floor(-std::numbers::pi / bin_theta_rad));
-    for (std::size_t index = 0; index < bins_.size(); ++index) {
-      const sdk::PoseBin bin = bins_.bins()[index];
-      for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy)
-          for (std::int64_t dt = -1; dt <= 1; ++dt) {
-            sdk::PoseBin other{bin.x + dx, bin.y + dy, bin.theta + dt};
-            // Headings wrap around.
-            if (other.theta < low_theta) other.theta += theta_bins;
-            if (other.theta >= low_theta + theta_bins) other.theta -= theta_bins;
-            const std::size_t found = bins_.find(other);
-            if (found == sdk::PoseBins::kNone) continue;
-            const std::size_t a = root(index), b = root(found);
-            parent_[std::max(a, b)] = std::min(a, b);
-          }
+    if (estimate_stable_) {
+      stable_.choose(particles, counted, held);
+      mean_ = stable_.mean();
+      covariance_ = stable_.covariance();
+    } else {
+      clusters.moments(particles, clusters.heaviest(), mean_, covariance_);
     }
-    cluster_weight_.assign(bins_.size(), 0.0);
-    // A run of particles in one cluster (resampled copies sit side by side) summed in a local
-    // and stored once: the same sums in the same order, without a store and reload per particle.
-    std::size_t current = kNoBin;
-    double current_weight = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (particle_bin_[i] == kNoBin) continue;
-      if (const std::size_t cluster = root(particle_bin_[i]); cluster != current) {
-        if (current != kNoBin) cluster_weight_[current] = current_weight;
-        current = cluster, current_weight = cluster_weight_[cluster];
-      }
-      current_weight += particles.weight[i];
-    }
-    if (current != kNoBin) cluster_weight_[current] = current_weight;
-    const std::size_t best = static_cast<std::size_t>(
-        std::max_element(cluster_weight_.begin(), cluster_weight_.end()) - cluster_weight_.begin());
-    cluster_.resize(0);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (particle_bin_[i] == kNoBin || root(particle_bin_[i]) != best) continue;
-      cluster_.x.push_back(particles.x[i]), cluster_.y.push_back(particles.y[i]),
-          cluster_.theta.push_back(particles.theta[i]),
-          cluster_.weight.push_back(particles.weight[i]);
-    }
-    sdk::mean_and_covariance(cluster_, mean_, covariance_);
   }
 
   sdk::ParticleFilter pf_;  // with max_particles_ at the start; KLD sampling changes the count
-  sdk::ParticleSet next_, guesses_, cluster_;
+  sdk::ParticleSet next_, guesses_;
+  sdk::StableMode stable_;  // its clusters are the estimate's
+  bool estimate_stable_ = true;
   sdk::OdometryNoise noise_;
   sdk::LikelihoodFieldDef field_def_;
   sdk::LikelihoodField field_;
@@ -511,6 +503,9 @@ class AmclFilter {
   int resample_interval_;
   sdk::LikelihoodAverages averages_;  // recovery_alpha_slow, recovery_alpha_fast
   double w_avg_ = 0.0;
+  double recovery_through_share_ = 0.0, recovery_through_margin_m_ = 0.0;
+  double sensor_x_ = 0.0, sensor_y_ = 0.0;          // the latest scan's origin in the robot frame
+  double through_share_ = 0.0, short_share_ = 0.0;  // of its beams, when last asked
   double recovery_level_, recovery_far_prior_, recovery_near_sigma_m_, recovery_near_sigma_rad_;
   // The place search (with recovery and recovery_search_updates > 0): the places it found, where
   // the odometry stood then and how far it has moved since.
@@ -526,14 +521,14 @@ class AmclFilter {
   std::vector<std::size_t> place_guesses_;  // per place: guesses drawn about it
   sdk::Pose odometry_at_search_ = sdk::Pose::Zero(), moved_since_search_ = sdk::Pose::Zero();
   sdk::Pose estimate_at_mark_ = sdk::Pose::Zero();  // the estimate moved to the latest update
-  std::vector<double> beam_x_, beam_y_, log_w_, cumulative_, cluster_weight_;
+  std::vector<double> beam_x_, beam_y_, log_w_, cumulative_;
   mutable std::vector<float> scan_log_p_;  // scan_log_p's per-beam terms, storage reused
   sdk::PoseBins bins_;  // KLD sampling's in resample(), the clusters' in compute_estimate()
   static constexpr std::size_t kNoBin = sdk::PoseBins::kNone;
   sdk::OpenEndedDraws draws_;
   // Per particle: its bin (particle_bin_), in the old set while resampling (drawn_bin_), in the
   // new one (next_bin_); binned_: particle_bin_ and bins_ are the current set's already.
-  std::vector<std::size_t> particle_bin_, drawn_bin_, next_bin_, parent_;
+  std::vector<std::size_t> particle_bin_, drawn_bin_, next_bin_;
   bool binned_ = false;
   std::size_t fresh_ = 0;  // the last resampling's guesses, at the end of the set, not yet weighed
   sdk::Pose mean_ = sdk::Pose::Zero();

@@ -72,6 +72,12 @@ LandmarkParticleFilter::LandmarkParticleFilter(const locsim_init& init, const sd
     wheels_.emplace(wheel_base_m_);
     wheels_->use_gyro(params.flag("use_gyro"));
   }
+  const std::string estimate = params.string("estimate");
+  if (estimate != "stable" && estimate != "mean")
+    throw std::invalid_argument("estimate must be stable or mean, not '" + estimate + "'");
+  estimate_stable_ = estimate == "stable";
+  stable_ = sdk::StableMode(
+      {static_cast<int>(params.integer("switch_updates")), params.number("switch_share")});
   reset_after_steps_ = params.integer("reset_after_steps");
   reset_min_detections_ = static_cast<std::size_t>(params.integer("reset_min_detections"));
   use_ptz_ = params.flag("use_ptz");
@@ -372,6 +378,9 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
   prepare_step(t_s, reading);
   if (step_count_ == 0) return;  // nothing (on the map) seen: no information, no step
   ++steps_;
+  // The mode reported so far, moved by the odometry since: the stable estimate's anchor.
+  const std::optional<sdk::Pose> held =
+      stable_ready_ ? std::optional<sdk::Pose>(stable_moved()) : std::nullopt;
   apply_pending_motion(t_s);
   const std::size_t n = pf_.size();
   weigh_particles();
@@ -394,6 +403,11 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
     pf_.resample();
   }
   regularize(pf_.particles(), regularization_, pf_.random());
+  if (estimate_stable_) {  // of the weighed set, before any reset replaces particles
+    stable_.update(pf_.particles(), n, cluster_bins_, held);
+    stable_ready_ = true;
+    odometry_at_stable_ = pf_.odometry().now();
+  }
 
   // How many to replace.
   double fraction = 0.0;
@@ -444,7 +458,26 @@ void LandmarkParticleFilter::on_landmarks(double t_s, const locsim_landmarks& re
   injected_ = resets;
 }
 
+sdk::Pose LandmarkParticleFilter::stable_moved() const {
+  // The odometry since the stable update, not since the follower's mark: with motion_model
+  // wheels the particles move, and the mark with them, at every odometry reading.
+  if (!pf_.odometry().ready()) return stable_.mean();
+  return sdk::compose(stable_.mean(), sdk::between(odometry_at_stable_, pf_.odometry().now()));
+}
+
 sdk::Estimate LandmarkParticleFilter::estimate() const {
+  if (estimate_stable_ && stable_ready_) {
+    const sdk::Pose mean = stable_moved();
+    // With motion_model wheels the particles spread at every odometry reading: their spread now,
+    // not at the last step (MRCLAM's camera reads a few times a second; frozen, the ellipse held
+    // the truth 0.76 of the time instead of 0.87).
+    if (wheel_motion_) {
+      if (const auto spread = sdk::StableMode::second_moment(
+              pf_.particles(), injected_ < pf_.size() ? pf_.size() - injected_ : pf_.size(), mean))
+        return {{mean(0), mean(1), mean(2)}, *spread};
+    }
+    return {{mean(0), mean(1), mean(2)}, stable_.covariance()};
+  }
   // The weighted-and-resampled part only: the injected particles are not evidence yet.
   return pf_.estimate(injected_ < pf_.size() ? pf_.size() - injected_ : pf_.size());
 }

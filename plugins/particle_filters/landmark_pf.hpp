@@ -13,6 +13,7 @@
 #include <locsim/localizer.hpp>
 #include <locsim/particle_filter.hpp>
 #include <locsim/particles.hpp>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -99,7 +100,16 @@ enum class Recovery { kNone, kSensorResetting, kAdaptiveSensorResetting, kAugmen
    "one; 1: the paper)"},                                                                          \
   {"reset_min_detections", LOCSIM_PARAM_INT, 2, 1, 1000, nullptr,                                  \
    "reset only in a step with at least this many detections (1: the paper; one detection puts "  \
-   "the robot anywhere on a ring around its landmark)"}
+   "the robot anywhere on a ring around its landmark)"},                                          \
+  {"estimate", LOCSIM_PARAM_STRING, 0, 0, 0, "stable",                                             \
+   "stable: the mode the filter reported (clusters of 0.5 m and 10 deg bins, as AMCL's) until "   \
+   "another has outweighed it for switch_updates steps or holds switch_share of the weight, the "  \
+   "covariance every particle's spread about it; mean: every particle's mean and covariance (the " \
+   "paper), which lies between the places of a split set"},                                       \
+  {"switch_updates", LOCSIM_PARAM_INT, 6, 1, 1000, nullptr,                                        \
+   "estimate stable: steps in a row a rival mode must outweigh the reported one [-]"},            \
+  {"switch_share", LOCSIM_PARAM_DOUBLE, 0.9, 0.5, 1, nullptr,                                      \
+   "estimate stable: a rival mode with this share of the two's weight wins at once [-]"}
 // clang-format on
 
 class LandmarkParticleFilter : public sdk::Localizer {
@@ -189,6 +199,13 @@ class LandmarkParticleFilter : public sdk::Localizer {
   /// next step, not yet evidence, so the estimate leaves them out (the paper's order: the
   /// estimate is taken after resampling, step 4, before resetting, step 5).
   std::size_t injected_ = 0;
+  // estimate stable: the mode reported, updated at each step (stable_ready_ once updated).
+  bool estimate_stable_ = true, stable_ready_ = false;
+  sdk::PoseBins cluster_bins_{0.5, 10.0 * std::numbers::pi / 180.0};
+  sdk::StableMode stable_;
+  sdk::Pose odometry_at_stable_ = sdk::Pose::Zero();  // the odometry's pose at that update
+  /// The stable mode's mean moved by the odometry since its update.
+  sdk::Pose stable_moved() const;
   // Diagnostics of the last step.
   double n_eff_ = 0.0, mean_likelihood_ = 0.0, resets_ = 0.0, rejected_ = 0.0;
   long steps_ = 0;

@@ -49,13 +49,15 @@ constexpr std::array<locsim_param_decl, A + B + C> join(const locsim_param_decl 
 }
 // AMCL's random injection off: the ultrasonic fix restarts the fusion after a kidnap, and
 // guesses elsewhere would only compete with it. AMCL turns by the wheels, as paper 003's (the
-// IMU drives the EKF).
+// IMU drives the EKF), and its estimate is its heaviest cluster (the fusion gates that pose by
+// its covariance).
 constexpr auto kParams = [] {
   auto params = join(ultrasonic::kUltrasonicParams, amcl::kAmclParams, kFusionParams);
   for (locsim_param_decl& p : params) {
     const std::string_view name = p.name;
     if (name == "recovery_alpha_slow" || name == "recovery_alpha_fast" || name == "use_gyro")
       p.default_number = 0.0;
+    if (name == "estimate") p.default_string = "heaviest";
   }
   return params;
 }();

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <vector>
 
@@ -103,6 +104,31 @@ void BM_ParticleFilterWeighAndResample(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 BENCHMARK(BM_ParticleFilterWeighAndResample)->Arg(1000)->Arg(10000);
+
+// The SDK's StableMode (the landmark filters' and amcl's estimate) on a set split between the
+// belief and a recovery's guesses 5 m away, the guesses spread over many bins: clustering, the
+// choice and the second moment, per update.
+void BM_StableModeUpdate(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  ParticleSet p;
+  Random random(3);
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool guess = i % 3 == 0;
+    p.x.push_back((guess ? 6.0 : 1.0) + random.normal(guess ? 1.0 : 0.1));
+    p.y.push_back(2.0 + random.normal(guess ? 1.0 : 0.1));
+    p.theta.push_back(wrap(random.normal(guess ? 1.0 : 0.05)));
+    p.weight.push_back(1.0 / static_cast<double>(n));
+  }
+  PoseBins bins(0.5, 10.0 * std::numbers::pi / 180.0);
+  StableMode mode;
+  mode.update(p, n, bins, std::nullopt);
+  for (auto _ : state) {
+    mode.update(p, n, bins, mode.mean());
+    benchmark::DoNotOptimize(mode.covariance());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+BENCHMARK(BM_StableModeUpdate)->Arg(200)->Arg(5000)->Unit(benchmark::kMicrosecond);
 
 // The SDK's OdometryTracker on a velocity-only source (the host integrated odom_pose): pose
 // increment, and the wheel travel that makes it (the arc inverted), per reading.

@@ -414,4 +414,52 @@ class LikelihoodField {
   std::vector<float> log_p_;
 };
 
+/// A scan's beams held against the map from a pose: how many pass through an occupied cell more
+/// than the margin before their end (`through`: beams the pose cannot explain whatever moves
+/// about, since something the map does not hold, a person or a cart, can shorten a beam, but
+/// nothing lengthens one past a wall), and how many end in free space, no occupied cell within
+/// the margin of their end along the ray (`short_of_walls`: on something the map does not hold,
+/// or a pose that is wrong).
+struct BeamsAgainstMap {
+  std::size_t through = 0, short_of_walls = 0;
+};
+
+/// The beams, seen from the pose (x, y, theta), against `grid`: `sensor_x`, `sensor_y` where they
+/// start, `end_x`, `end_y` where they end, in the robot frame. The ray is walked in half-cell
+/// steps to the margin past its end; cells off the grid are free.
+inline BeamsAgainstMap beams_against_map(const locsim_occupancy_grid& grid, double x, double y,
+                                         double theta, double sensor_x, double sensor_y,
+                                         const std::vector<double>& end_x,
+                                         const std::vector<double>& end_y, double margin_m) {
+  const double c = std::cos(theta), s = std::sin(theta);
+  const double ox = x + c * sensor_x - s * sensor_y, oy = y + s * sensor_x + c * sensor_y;
+  const double step_m = 0.5 * grid.resolution_m, inv_resolution = 1.0 / grid.resolution_m;
+  BeamsAgainstMap out;
+  for (std::size_t k = 0; k < end_x.size(); ++k) {
+    const double ex = x + c * end_x[k] - s * end_y[k];
+    const double ey = y + s * end_x[k] + c * end_y[k];
+    const double range = std::hypot(ex - ox, ey - oy);
+    if (!(range > 0.0)) continue;
+    const double ux = (ex - ox) / range, uy = (ey - oy) / range;
+    bool wall_at_end = false, through = false;
+    for (double d = 0.0; d <= range + margin_m; d += step_m) {
+      const double gx = (ox + d * ux - grid.origin_x) * inv_resolution;
+      const double gy = (oy + d * uy - grid.origin_y) * inv_resolution;
+      if (!(gx >= 0.0 && gy >= 0.0 && gx < grid.width && gy < grid.height)) continue;
+      if (grid.cells[static_cast<std::size_t>(gy) * static_cast<std::size_t>(grid.width) +
+                     static_cast<std::size_t>(gx)] == 0)
+        continue;
+      if (d < range - margin_m) {
+        through = true;
+      } else {
+        wall_at_end = true;
+      }
+      break;
+    }
+    out.through += through ? 1 : 0;
+    out.short_of_walls += !through && !wall_at_end ? 1 : 0;
+  }
+  return out;
+}
+
 }  // namespace locsim::sdk

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <utility>
@@ -627,5 +628,253 @@ inline void mean_and_covariance(const ParticleSet& p, Pose& mean, Eigen::Matrix3
     for (std::size_t c = 0; c < 3; ++c)
       covariance(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = sum[3 * r + c];
 }
+
+/// The clusters of a particle set: particles binned (PoseBins), occupied bins joined to their 26
+/// neighbours (headings wrapping round), each cluster's weight and weighted mean. A set split
+/// between two places (a recovery's guesses beside the belief, a symmetric room) has a mean
+/// between them, where no particle is; a cluster's mean is one of the places (AMCL's estimate is
+/// the heaviest cluster's, nav2 pf_cluster_stats). Buffers are kept from call to call: no
+/// allocation once warm.
+class ParticleClusters {
+ public:
+  static constexpr std::size_t kNone = PoseBins::kNone;
+
+  /// Bins the first `counted` particles (the rest neither weigh nor bridge clusters) into `bins`
+  /// (cleared first) and joins them.
+  void compute(const ParticleSet& particles, std::size_t counted, PoseBins& bins) {
+    const std::size_t n = particles.size();
+    bins.clear();
+    particle_bin_.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      particle_bin_[i] =
+          i < counted
+              ? bins.insert(bins.bin_of(particles.x[i], particles.y[i], particles.theta[i])).first
+              : kNone;
+    compute_binned(particles, bins, particle_bin_);
+  }
+
+  /// The same with the particles already binned: `particle_bin[i]` the number in `bins` of
+  /// particle i's bin, kNone for one left out.
+  void compute_binned(const ParticleSet& particles, const PoseBins& bins,
+                      const std::vector<std::size_t>& particle_bin) {
+    const std::size_t n = particles.size();
+    // Union-find over the bins and their neighbours. A cluster's root is its lowest-numbered bin
+    // (the first a particle fell in), whatever the order of the joins: the tie-break between
+    // equally heavy clusters below is then the particles' order, not the hash table's.
+    parent_.resize(bins.size());
+    for (std::size_t b = 0; b < parent_.size(); ++b) parent_[b] = b;
+    const auto root = [&](std::size_t b) {
+      while (parent_[b] != b) b = parent_[b] = parent_[parent_[b]];
+      return b;
+    };
+    const double bin_theta_rad = bins.bin_theta_rad();
+    const auto theta_bins =
+        static_cast<std::int64_t>(std::ceil(2.0 * std::numbers::pi / bin_theta_rad));
+    const auto low_theta = static_cast<std::int64_t>(std::floor(-std::numbers::pi / bin_theta_rad));
+    for (std::size_t index = 0; index < bins.size(); ++index) {
+      const PoseBin bin = bins.bins()[index];
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy)
+          for (std::int64_t dt = -1; dt <= 1; ++dt) {
+            PoseBin other{bin.x + dx, bin.y + dy, bin.theta + dt};
+            // Headings wrap around.
+            if (other.theta < low_theta) other.theta += theta_bins;
+            if (other.theta >= low_theta + theta_bins) other.theta -= theta_bins;
+            const std::size_t found = bins.find(other);
+            if (found == PoseBins::kNone) continue;
+            const std::size_t a = root(index), b = root(found);
+            parent_[std::max(a, b)] = std::min(a, b);
+          }
+    }
+    particle_cluster_.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      particle_cluster_[i] = particle_bin[i] == kNone ? kNone : root(particle_bin[i]);
+    weight_.assign(bins.size(), 0.0);
+    // A run of particles in one cluster (resampled copies sit side by side) summed in a local
+    // and stored once: the same sums in the same order, without a store and reload per particle.
+    std::size_t current = kNone;
+    double current_weight = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t cluster = particle_cluster_[i];
+      if (cluster == kNone) continue;
+      if (cluster != current) {
+        if (current != kNone) weight_[current] = current_weight;
+        current = cluster, current_weight = weight_[cluster];
+      }
+      current_weight += particles.weight[i];
+    }
+    if (current != kNone) weight_[current] = current_weight;
+    // Each cluster's centre: weighted mean position and circular mean heading, in one pass.
+    sums_.assign(4 * bins.size(), 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t cluster = particle_cluster_[i];
+      if (cluster == kNone) continue;
+      const double w = particles.weight[i];
+      double* sum = &sums_[4 * cluster];
+      sum[0] += w * particles.x[i], sum[1] += w * particles.y[i];
+      sum[2] += w * std::cos(particles.theta[i]), sum[3] += w * std::sin(particles.theta[i]);
+    }
+    heaviest_ = weight_.empty()
+                    ? kNone
+                    : static_cast<std::size_t>(std::max_element(weight_.begin(), weight_.end()) -
+                                               weight_.begin());
+  }
+
+  /// The heaviest cluster (kNone when no particle was counted).
+  std::size_t heaviest() const { return heaviest_; }
+  /// A cluster's total weight (of the counted particles' weights as they are); 0 for a number
+  /// that is no cluster's.
+  double weight(std::size_t cluster) const {
+    return cluster < weight_.size() ? weight_[cluster] : 0.0;
+  }
+  /// The clusters' numbers in increasing order (a cluster is numbered by its first bin).
+  template <class F>
+  void for_each(F&& f) const {
+    for (std::size_t c = 0; c < weight_.size(); ++c)
+      if (parent_[c] == c && weight_[c] > 0.0) f(c);
+  }
+
+  /// A cluster's weighted mean position and circular mean heading (the origin for a cluster of
+  /// weight 0).
+  Pose centre(std::size_t cluster) const {
+    const double w = weight(cluster);
+    if (!(w > 0.0)) return Pose::Zero();
+    const double* sum = &sums_[4 * cluster];
+    return {sum[0] / w, sum[1] / w, std::atan2(sum[3], sum[2])};
+  }
+
+  /// A cluster's weighted mean (circular in heading) and covariance.
+  void moments(const ParticleSet& particles, std::size_t cluster, Pose& mean,
+               Eigen::Matrix3d& covariance) const {
+    members_.resize(0);
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+      if (particle_cluster_[i] != cluster) continue;
+      members_.x.push_back(particles.x[i]), members_.y.push_back(particles.y[i]),
+          members_.theta.push_back(particles.theta[i]),
+          members_.weight.push_back(particles.weight[i]);
+    }
+    mean_and_covariance(members_, mean, covariance);
+  }
+
+ private:
+  std::vector<std::size_t> particle_bin_, parent_, particle_cluster_;
+  std::vector<double> weight_, sums_;  // sums_: per cluster, w x, w y, w cos, w sin
+  std::size_t heaviest_ = kNone;
+  mutable ParticleSet members_;
+};
+
+/// The estimate of a particle filter that does not leap to a new place on one update's say: the
+/// mode it reported (the cluster nearest its last estimate moved by the odometry since, or, when
+/// no particle is left there, that pose itself) is kept until another cluster has been the
+/// heaviest, in the same place, for `switch_updates` updates in a row, or holds `switch_share` of
+/// the two's weight (when the reported mode has no particle left, persistence alone counts). A set
+/// split between the belief and a recovery's guesses (a push the filter did not see, a false
+/// detection reset on) reports the belief until the evidence has settled; a kidnapped robot's new
+/// place wins a few updates later. The mean reported is that of every particle within the gate of
+/// the mode's centre; the covariance is the second moment of every counted particle about it: a
+/// strong rival widens it, so the ellipse says the filter is unsure while it is.
+class StableMode {
+ public:
+  struct Settings {
+    int switch_updates = 6;     // updates in a row a rival must be the heaviest cluster [-]
+    double switch_share = 0.9;  // a rival holding this share of the weight wins at once [-]
+    double gate_m = 1.0;        // the reported mode, the same rival: within this... [m]
+    double gate_rad = 0.5235987755982988;  // ...and this (30 deg) [rad]
+  };
+  StableMode() = default;
+  explicit StableMode(const Settings& settings) : settings_(settings) {}
+
+  /// After an update: `held`, the last estimate moved by the odometry since (none at the first
+  /// update: the heaviest cluster wins).
+  void update(const ParticleSet& particles, std::size_t counted, PoseBins& bins,
+              const std::optional<Pose>& held) {
+    clusters_.compute(particles, counted, bins);
+    choose(particles, counted, held);
+  }
+
+  /// The clusters update() computes; a filter that bins its particles anyway (AMCL's KLD
+  /// sampling) computes them itself (compute_binned) and then calls choose().
+  ParticleClusters& clusters() { return clusters_; }
+
+  /// update()'s choice, on the clusters as computed.
+  void choose(const ParticleSet& particles, std::size_t counted, const std::optional<Pose>& held) {
+    const std::size_t heaviest = clusters_.heaviest();
+    if (heaviest == ParticleClusters::kNone) return;
+    const auto near = [&](const Pose& a, const Pose& b) {
+      return std::hypot(a(0) - b(0), a(1) - b(1)) <= settings_.gate_m &&
+             std::abs(wrap(a(2) - b(2))) <= settings_.gate_rad;
+    };
+    // The reported mode: the heaviest cluster near the held estimate.
+    std::size_t kept = ParticleClusters::kNone;
+    if (held) {
+      clusters_.for_each([&](std::size_t c) {
+        if (near(clusters_.centre(c), *held) &&
+            (kept == ParticleClusters::kNone || clusters_.weight(c) > clusters_.weight(kept)))
+          kept = c;
+      });
+    }
+    const Pose rival = clusters_.centre(heaviest);
+    bool keep = false;
+    if (held && kept != heaviest) {
+      rival_updates_ = rival_ && near(rival, *rival_) ? rival_updates_ + 1 : 1;
+      rival_ = rival;
+      // With no particle left where the reported mode was, one update's weights say little (a
+      // mirror pose in a symmetric room can take nine tenths of them): only persistence counts.
+      const bool outweighs =
+          kept != ParticleClusters::kNone &&
+          clusters_.weight(heaviest) >=
+              settings_.switch_share * (clusters_.weight(heaviest) + clusters_.weight(kept));
+      keep = rival_updates_ < settings_.switch_updates && !outweighs;
+    }
+    if (!keep) {
+      rival_updates_ = 0;
+      rival_.reset();
+    }
+    const std::size_t n = std::min(counted, particles.size());
+    if (keep && kept == ParticleClusters::kNone) {
+      mean_ = *held;  // nothing left where it was: that pose, as unsure as the particles say
+    } else {
+      // The mean of every particle within the gate of the mode's centre: of a wide but single
+      // cloud, which bins split into fragments, the whole cloud's mean, not a fragment's.
+      const Pose centre = clusters_.centre(keep ? kept : heaviest);
+      double sw = 0.0, sx = 0.0, sy = 0.0, sc = 0.0, ss = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Pose p{particles.x[i], particles.y[i], particles.theta[i]};
+        if (!near(p, centre)) continue;
+        const double w = particles.weight[i];
+        sw += w, sx += w * p(0), sy += w * p(1), sc += w * std::cos(p(2)), ss += w * std::sin(p(2));
+      }
+      mean_ = sw > 0.0 ? Pose(sx / sw, sy / sw, std::atan2(ss, sc)) : centre;
+    }
+    if (const auto spread = second_moment(particles, counted, mean_)) covariance_ = *spread;
+  }
+
+  /// The weighted second moment of the first `counted` particles about `about` (headings wrapped
+  /// about it); none when they weigh nothing.
+  static std::optional<Eigen::Matrix3d> second_moment(const ParticleSet& particles,
+                                                      std::size_t counted, const Pose& about) {
+    double sw = 0.0;
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    for (std::size_t i = 0; i < std::min(counted, particles.size()); ++i) {
+      const Eigen::Vector3d d(particles.x[i] - about(0), particles.y[i] - about(1),
+                              wrap(particles.theta[i] - about(2)));
+      sum += particles.weight[i] * d * d.transpose();
+      sw += particles.weight[i];
+    }
+    if (!(sw > 0.0)) return std::nullopt;
+    return Eigen::Matrix3d(sum / sw);
+  }
+
+  const Pose& mean() const { return mean_; }
+  const Eigen::Matrix3d& covariance() const { return covariance_; }
+
+ private:
+  Settings settings_;
+  ParticleClusters clusters_;
+  int rival_updates_ = 0;
+  std::optional<Pose> rival_;  // where the heaviest cluster was while the reported mode held
+  Pose mean_{0.0, 0.0, 0.0};
+  Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Identity();
+};
 
 }  // namespace locsim::sdk
