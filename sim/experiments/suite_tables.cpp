@@ -256,7 +256,7 @@ std::string optional_fixed(const std::optional<double>& v, int decimals) {
   return v ? fixed(*v, decimals) : std::string();
 }
 
-std::string percent(const std::optional<double>& v) {
+std::string share_percent(const std::optional<double>& v) {
   return v ? fixed(100.0 * *v, 0) + " %" : std::string("—");
 }
 
@@ -312,15 +312,15 @@ void write_part_tables(const fs::path& out_dir, const std::vector<json>& results
       csv << '\n';
       md << "| " << config << " | " << (k == 0 ? "chosen on" : "**held back**") << " | "
          << f.worlds.size() << " | " << f.runs << " | " << f.ok << " | "
-         << (f.recoverable > 0 ? percent(f.recovered_share()) + " (" + std::to_string(f.recovered) +
+         << (f.recoverable > 0 ? share_percent(f.recovered_share()) + " (" + std::to_string(f.recovered) +
                                      "/" + std::to_string(f.recoverable) + ")"
                                : std::string("—"))
-         << " | " << f.runs_with_jumps << "/" << f.ok << " | " << percent(f.inside_share()) << " | "
+         << " | " << f.runs_with_jumps << "/" << f.ok << " | " << share_percent(f.inside_share()) << " | "
          << (t.n > 0 ? fixed(t.median, 3) : std::string("—")) << " | "
-         << (f.maps > 0 ? percent(f.landmark_share()) + " (" + std::to_string(f.aligned_within) +
+         << (f.maps > 0 ? share_percent(f.landmark_share()) + " (" + std::to_string(f.aligned_within) +
                               "/" + std::to_string(f.observed) + ")"
                         : std::string("—"))
-         << " | " << (f.maps > 0 ? percent(f.spurious_share()) : std::string("—")) << " |\n";
+         << " | " << (f.maps > 0 ? share_percent(f.spurious_share()) : std::string("—")) << " |\n";
     }
     // Gaps between the parts, in points of a share.
     const auto gap = [&](const char* what, const std::optional<double>& chosen,
