@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -405,6 +406,62 @@ TEST(Models, TheGainWanderPredictsAsItsParticlesSpread) {
   EXPECT_GT(Pg(0, 0), 4.0 * plain_P(0, 0));
 }
 
+TEST(Models, ALostFilterWidensItsCovarianceWhileItRejectsMoreThanItAccepts) {
+  const sdk::LostWatchDef def{3, 0.5, 0.2, 1.0, 0.3};  // three rejections in excess: lost
+  sdk::LostWatch watch(def);
+  Eigen::Matrix<double, 5, 5> P = Eigen::Matrix<double, 5, 5>::Identity() * 0.01;
+  const Eigen::Matrix<double, 5, 5> before = P;
+  // Outliers among accepted detections: the count returns to 0 each time.
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_FALSE(watch.rejected(0.1 * i, P));
+    watch.accepted();
+    watch.accepted();
+  }
+  EXPECT_EQ(P, before);
+  // Rejections, the odd one let through: 1, 2, 1, 2 (the count left 0 at 3.0 s) ...
+  EXPECT_FALSE(watch.rejected(3.0, P));
+  EXPECT_FALSE(watch.rejected(3.1, P));
+  watch.accepted();
+  EXPECT_FALSE(watch.rejected(3.2, P));
+  EXPECT_EQ(P, before);
+  EXPECT_FALSE(watch.lost());
+  // ... 3: lost, widened by the random walk since the count left 0.
+  EXPECT_TRUE(watch.rejected(3.4, P));
+  EXPECT_TRUE(watch.lost());
+  EXPECT_EQ(watch.times_lost(), 1);
+  EXPECT_NEAR(P(0, 0), 0.01 + 0.25 * 0.4, 1e-12);
+  EXPECT_NEAR(P(1, 1), 0.01 + 0.25 * 0.4, 1e-12);
+  EXPECT_NEAR(P(2, 2), 0.01 + 0.04 * 0.4, 1e-12);
+  // The pose block alone; the rest of the state (a filter's gains) is not the pose's.
+  EXPECT_EQ(P(3, 3), 0.01);
+  EXPECT_EQ(P(0, 1), 0.0);
+  // Let through meanwhile (4, then 3): still lost; the next rejection widens from the last
+  // widening on, up to the limits, which it never narrows.
+  EXPECT_TRUE(watch.rejected(3.5, P));
+  watch.accepted();
+  EXPECT_TRUE(watch.lost());
+  EXPECT_TRUE(watch.rejected(4.5, P));
+  EXPECT_NEAR(P(0, 0), 0.11 + 0.25 * 0.1 + 0.25, 1e-12);
+  EXPECT_NEAR(P(2, 2), 0.026 + 0.04 * 0.1 + 0.04, 1e-12);
+  EXPECT_TRUE(watch.rejected(100.0, P));
+  EXPECT_NEAR(P(0, 0), 1.0, 1e-12);
+  EXPECT_NEAR(P(2, 2), 0.09, 1e-12);
+  P(2, 2) = 0.5;
+  EXPECT_TRUE(watch.rejected(101.0, P));
+  EXPECT_EQ(P(2, 2), 0.5);
+  EXPECT_EQ(watch.times_lost(), 1);
+  // Detections that fit again end it; being lost again counts anew.
+  for (int i = 0; i < 5; ++i) watch.accepted();
+  EXPECT_FALSE(watch.lost());
+  EXPECT_FALSE(watch.rejected(102.0, P));
+  EXPECT_TRUE(watch.rejected(103.0, P));
+  EXPECT_EQ(watch.times_lost(), 2);
+  // after_rejections 0: never lost.
+  sdk::LostWatch off(sdk::LostWatchDef{0});
+  for (int i = 0; i < 100; ++i) EXPECT_FALSE(off.rejected(i, P));
+  EXPECT_FALSE(off.lost());
+}
+
 TEST(Metrics, ErrorSummaryCountsConvergenceAndTimeLost) {
   // 50 Hz samples: 1 m off for 1 s, then on target; a 2 s gap (carried) at t = 3 s while lost.
   std::vector<ErrorSample> samples;
@@ -593,7 +650,7 @@ TEST(Models, ComposeAndBetweenAreInverse) {
 }
 
 // --------------------------------------------------------------------------- first filters
-TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
+TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndThenSaysItIsLost) {
   const fs::path out = testing::temp_dir("run") / "out";
   const auto metrics = run_demo(out, 30.0, {"odometry", "ekf_landmarks"});
   const auto& odometry = entry(metrics, "odometry");
@@ -606,8 +663,11 @@ TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
       << "ekf " << ekf_rms << " m, odometry " << odometry_rms << " m";
   EXPECT_GT(odometry["segments"][1]["position_error_m"]["rms"].get<double>(), 1.0);
   EXPECT_GT(ekf["segments"][1]["position_error_m"]["rms"].get<double>(), 1.0);
+  // Within the 10 s left, neither finds the robot again; the EKF rejects what it sees, and says
+  // it is lost (its covariance widens: the demo's full minute, it finds the pose after 18 s).
   EXPECT_TRUE(ekf["segments"][1]["recovery_s"].is_null());
   EXPECT_GT(ekf["diagnostics"]["updates_accepted"].get<double>(), 100.0);
+  EXPECT_GE(ekf["diagnostics"]["times_lost"].get<double>(), 1.0);
   // How far the kidnap carried the robot: from where it was lifted to where it was put down,
   // as events.csv has them, to within what the robot drives between samples.
   const std::string events = testing::read_file(out / "events.csv");
@@ -637,6 +697,50 @@ TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndNeitherRecovers) {
   EXPECT_GT(ekf["segments"][0]["tracking"]["samples"].get<int>(), 100);
   EXPECT_LT(ekf["segments"][0]["tracking"]["position_rms_m"].get<double>(), ekf_rms + 1e-9);
   EXPECT_TRUE(ekf["segments"][1]["tracking"]["position_rms_m"].is_null());
+}
+
+// Issue 53: a push turns the robot 40-50 degrees where the EKF has no gyro to see it. Blind to
+// being lost, the gate then rejects every detection and the EKF stays off and sure of itself; with
+// the LostWatch its covariance widens until the landmarks fit, and it tracks again.
+TEST(Filters, AnEkfThatAPushLeftRejectingWhatItSeesWidensAndFindsThePoseAgain) {
+  const fs::path dir = testing::temp_dir("push");
+  std::ofstream(dir / "push.yaml") << R"(name: push
+duration_s: 30
+drive:
+  mode: waypoints
+  path: [[8.5, 1.5], [8.5, 5.0], [6.0, 5.0], [6.0, 3.2], [1.5, 3.2], [1.5, 1.5]]
+  loop: true
+  speed_mps: 0.4
+ptz: {policy: nearest_landmark}
+events:
+  - at_s: 8
+    push: {robot: robot, impulse_ns: [0, 0], angular_impulse_nms: -1.5}
+)";
+  RunOptions options;
+  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
+  options.scenario_file = dir / "push.yaml";
+  options.out_dir = dir / "out";
+  options.localizers = {"ekf_landmarks:use_gyro=false,lost_after_rejections=0@blind",
+                        "ekf_landmarks:use_gyro=false@watching"};
+  run_simulation(options);
+  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "out" / "metrics.json"));
+  const auto& blind = entry(metrics, "blind");
+  const auto& watching = entry(metrics, "watching");
+  const auto rms = [](const nlohmann::json& l) {
+    return l["position_error_m"]["rms"].get<double>();
+  };
+  const auto inside = [](const nlohmann::json& l) {
+    return l["consistency"]["inside_95_ellipse"].get<double>();
+  };
+  EXPECT_GT(blind["heading_error_deg"]["max"].get<double>(), 30.0);  // measured: 46
+  EXPECT_GT(rms(blind), 1.0);                                        // measured: 2.2 m
+  EXPECT_LT(inside(blind), 0.5);                                     // measured: 0.27
+  EXPECT_EQ(blind["diagnostics"]["times_lost"].get<double>(), 0.0);
+  EXPECT_LT(rms(watching), 0.1);     // measured: 0.024 m
+  EXPECT_GT(inside(watching), 0.8);  // measured: 0.89
+  EXPECT_GE(watching["diagnostics"]["times_lost"].get<double>(), 1.0);
+  EXPECT_LT(watching["diagnostics"]["updates_rejected"].get<double>(),
+            0.2 * blind["diagnostics"]["updates_rejected"].get<double>());  // measured: 25, 565
 }
 
 }  // namespace

@@ -9,7 +9,11 @@
 // (command_*); a base whose gains wander (gain_wander_*) has them in the state, (x, y, theta, g_v,
 // g_omega), where the detections estimate them. Detections are associated by id when the camera
 // gives ids, else by colour, choosing among same-coloured landmarks the one nearest in Mahalanobis
-// distance; a chi-square gate rejects false detections and wrong associations.
+// distance; a chi-square gate rejects false detections and wrong associations. Most detections
+// rejected (lost_*: a push the wheels did not feel) widens the covariance until they fit again:
+// the filter says it is lost rather than stay sure of a pose it has left, and finds the pose again
+// when the landmarks it sees fit the widened belief. It has no other recovery: a kidnap far away,
+// or a turn by more than lost_max_deg, it does not come back from.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -36,6 +40,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     response_ = locsim::sdk::CommandFollower(locsim::sdk::CommandResponse::from(params));
     wander_ = locsim::sdk::GainWander::from(params);
     gate_ = params.number("gate_chi2");
+    lost_ = locsim::sdk::LostWatch(locsim::sdk::LostWatchDef::from(params));
     odometry_.use_gyro(params.flag("use_gyro"));
     use_ptz_ = params.flag("use_ptz");
     use_omni_ = params.flag("use_omni");
@@ -97,7 +102,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       const auto inflated = correlated_.inflation(reading.camera, detection, t_s);
       const Eigen::DiagonalMatrix<double, 2> inflation(inflated.range, inflated.bearing);
       if (reading.camera == LOCSIM_CAMERA_OMNI) {
-        correct(detection, {detection.range_m, detection.bearing_rad},
+        correct(t_s, detection, {detection.range_m, detection.bearing_rad},
                 inflation * noise(reading.camera, detection.range_m));
         continue;
       }
@@ -105,7 +110,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       const auto z = bias_.corrected(detection.range_m, detection.bearing_rad);
       Eigen::Matrix2d R = noise(reading.camera, z.model_x_m);
       R(0, 0) *= z.range_scale * z.range_scale;
-      correct(detection, {z.range_m, z.bearing_rad}, inflation * R);
+      correct(t_s, detection, {z.range_m, z.bearing_rad}, inflation * R);
     }
   }
 
@@ -118,8 +123,11 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   }
 
   std::vector<std::pair<std::string, double>> diagnostics() const override {
-    std::vector<std::pair<std::string, double>> out = {{"updates_accepted", accepted_},
-                                                       {"updates_rejected", rejected_}};
+    std::vector<std::pair<std::string, double>> out = {
+        {"updates_accepted", accepted_},
+        {"updates_rejected", rejected_},
+        {"lost", lost_.lost() ? 1.0 : 0.0},
+        {"times_lost", static_cast<double>(lost_.times_lost())}};
     if (with_gains_) {
       out.emplace_back("gain_error_v", with_gains_->x(3));
       out.emplace_back("gain_error_omega", with_gains_->x(4));
@@ -148,18 +156,18 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     Eigen::Matrix<double, N, N> P;
   };
 
-  void correct(const locsim_detection& detection, const Eigen::Vector2d& z,
+  void correct(double t_s, const locsim_detection& detection, const Eigen::Vector2d& z,
                const Eigen::Matrix2d& R) {
     if (with_gains_)
-      correct(*with_gains_, detection, z, R);
+      correct(t_s, *with_gains_, detection, z, R);
     else
-      correct(pose_, detection, z, R);
+      correct(t_s, pose_, detection, z, R);
   }
 
   /// The update by a detection's range and bearing z (bias taken out) with noise R.
   template <int N>
-  void correct(Belief<N>& b, const locsim_detection& detection, const Eigen::Vector2d& z,
-               const Eigen::Matrix2d& R) {
+  void correct(double t_s, Belief<N>& b, const locsim_detection& detection,
+               const Eigen::Vector2d& z, const Eigen::Matrix2d& R) {
     // Association: the candidate with the smallest Mahalanobis distance of the innovation.
     double best = std::numeric_limits<double>::infinity();
     Eigen::Vector2d best_innovation;
@@ -184,9 +192,12 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     }
     if (!(best < gate_)) {
       ++rejected_;
+      // A colour no landmark of the map has says nothing about the pose.
+      if (std::isfinite(best)) lost_.rejected(t_s, b.P);
       return;
     }
     ++accepted_;
+    lost_.accepted();
     const Eigen::Matrix<double, N, 2> K = b.P * best_H.transpose() * best_S.inverse();
     b.x += K * best_innovation;
     b.x(2) = locsim::sdk::wrap(b.x(2));
@@ -201,6 +212,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
   locsim::sdk::CorrelatedRangeBearing correlated_;
   locsim::sdk::CommandFollower response_;
   locsim::sdk::GainWander wander_;
+  locsim::sdk::LostWatch lost_;
   bool use_ptz_, use_omni_, use_range_bearing_;
   std::vector<Landmark> landmarks_;
   Belief<3> pose_;                       // without gain wander
@@ -224,6 +236,7 @@ constexpr locsim_param_decl kParams[] = {
     LOCSIM_COMMAND_RESPONSE_PARAMS,
     LOCSIM_GAIN_WANDER_PARAMS,
     LOCSIM_GYRO_PARAMS,
+    LOCSIM_LOST_PARAMS,
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},
     {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},

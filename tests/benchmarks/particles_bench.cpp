@@ -224,6 +224,27 @@ void BM_PredictByWheels(benchmark::State& state) {
 }
 BENCHMARK(BM_PredictByWheels)->ArgName("gains")->Arg(0)->Arg(1);
 
+// LostWatch per detection: a tracking filter's (arg 0: one rejection in ten, the count never
+// reaching lost) and a lost one's (arg 1: every detection rejected, each widening the pose's
+// covariance): what ekf_landmarks pays per detection for lost_*.
+void BM_LostWatch(benchmark::State& state) {
+  const bool lost = state.range(0) != 0;
+  LostWatch watch{LostWatchDef{}};
+  Eigen::Matrix3d P = Eigen::Matrix3d::Identity() * 1e-3;
+  double t_s = 0.0;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    t_s += 0.1;
+    if (lost || ++k % 10 == 0)
+      benchmark::DoNotOptimize(watch.rejected(t_s, P));
+    else
+      watch.accepted();
+    benchmark::DoNotOptimize(P.data());
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_LostWatch)->ArgName("lost")->Arg(0)->Arg(1);
+
 // Eight landmarks seen in turn every 0.1 s, each detection's variance factors summed by
 // `factors` from what `seen.inflation` gives.
 template <class Seen, class Factors>

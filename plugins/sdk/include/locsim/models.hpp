@@ -653,6 +653,97 @@ inline void predict_by_wheels_and_gains(PoseGains& x, PoseGainsCovariance& P, do
   P(4, 4) += wander.sigma_omega * wander.sigma_omega * renewal;
 }
 
+/// A tracking filter that rejects most of what it sees is lost (a push its wheels did not feel, a
+/// kidnap): its covariance must say so, and widen until what it sees fits again, or the filter
+/// stays sure of a pose it left long ago. LostWatch keeps a running count of the rejections in
+/// excess of the detections accepted (+1 a rejection, -1 an acceptance, never below 0: a CUSUM
+/// test of "most are rejected" against "few are"); while it is at least after_rejections, each
+/// rejection widens the pose's covariance as a random walk of growth_m (position) and growth_rad
+/// (heading) per root second over the time since the count last left 0, then since the last
+/// widening, up to max_m / max_rad (never narrowing it: wider than that, a linearised update
+/// means little). Why a count in excess and not a run or a share: a belief off by more than the
+/// gate still lets the odd detection through near its edge, which breaks a run; a sensor with
+/// gross outliers (a tenth of its detections, spread over every target, some in bursts) fills a
+/// short window's share by chance, while its count in excess drifts down by 0.8 a detection: the
+/// default 12 is the least that such a sensor (tests/twin_test.cpp's) does not reach but in a
+/// burst or two over three minutes; a belief off by a push reaches it within 2-4 s.
+// clang-format off
+#define LOCSIM_LOST_PARAMS                                                                         \
+  {"lost_after_rejections", LOCSIM_PARAM_INT, 12, 0, 1000000, nullptr,                              \
+   "detections rejected in excess of those accepted (a running count, +1 a rejection, -1 an "      \
+   "acceptance, never below 0) that say the pose is lost (a push the wheels did not feel, a "      \
+   "kidnap): from then on each rejection widens its covariance (0: never) [-]"},                   \
+  {"lost_growth_m", LOCSIM_PARAM_DOUBLE, 0.5, 0.0, 100.0, nullptr,                                 \
+   "... its position spread grows by this per root second while lost [m/sqrt(s)]"},               \
+  {"lost_growth_deg", LOCSIM_PARAM_DOUBLE, 20.0, 0.0, 180.0, nullptr,                              \
+   "... its heading spread by this [deg/sqrt(s)]"},                                                \
+  {"lost_max_m", LOCSIM_PARAM_DOUBLE, 3.0, 0.0, 1000.0, nullptr,                                   \
+   "... up to this position spread [m]"},                                                          \
+  {"lost_max_deg", LOCSIM_PARAM_DOUBLE, 60.0, 0.0, 180.0, nullptr,                                 \
+   "... and this heading spread [deg]"}
+// clang-format on
+
+struct LostWatchDef {
+  int after_rejections = 12;  // the count in excess that says lost [-]
+  double growth_m = 0.5;      // position spread per root second [m/sqrt(s)]
+  double growth_rad =
+      20.0 * std::numbers::pi / 180;               // heading spread per root second [rad/sqrt(s)]
+  double max_m = 3.0;                              // widened up to this position spread [m]
+  double max_rad = 60.0 * std::numbers::pi / 180;  // ... and this heading spread [rad]
+
+  /// From a plugin's parameters LOCSIM_LOST_PARAMS declares.
+  template <class Params>
+  static LostWatchDef from(const Params& params) {
+    const double to_rad = std::numbers::pi / 180.0;
+    return {static_cast<int>(params.integer("lost_after_rejections")),
+            params.number("lost_growth_m"), params.number("lost_growth_deg") * to_rad,
+            params.number("lost_max_m"), params.number("lost_max_deg") * to_rad};
+  }
+};
+
+class LostWatch {
+ public:
+  LostWatch() = default;
+  explicit LostWatch(const LostWatchDef& def) : def_(def) {}
+
+  /// A detection the filter took.
+  void accepted() {
+    if (excess_ > 0) --excess_;
+    if (!lost()) was_lost_ = false;
+  }
+
+  /// A detection of a known target the filter rejected at t_s [s]; when that says lost, P's pose
+  /// block (x, y, theta: its first three rows and columns) is widened. True if it was.
+  template <class Covariance>
+  bool rejected(double t_s, Covariance& P) {
+    if (def_.after_rejections <= 0) return false;
+    if (excess_++ == 0) widened_s_ = t_s;  // the count leaves 0: the random walk starts here
+    if (!lost()) return false;
+    if (!was_lost_) ++times_lost_, was_lost_ = true;
+    const double dt_s = std::max(0.0, t_s - widened_s_);
+    widened_s_ = t_s;
+    const double limits[3] = {def_.max_m, def_.max_m, def_.max_rad};
+    const double growth[3] = {def_.growth_m, def_.growth_m, def_.growth_rad};
+    for (int i = 0; i < 3; ++i) {
+      const double room = limits[i] * limits[i] - P(i, i);
+      if (room > 0.0) P(i, i) += std::min(growth[i] * growth[i] * dt_s, room);
+    }
+    return true;
+  }
+
+  /// Whether the latest detections say lost.
+  bool lost() const { return def_.after_rejections > 0 && excess_ >= def_.after_rejections; }
+  /// How many times the filter has become lost.
+  long times_lost() const { return times_lost_; }
+
+ private:
+  LostWatchDef def_;
+  long excess_ = 0;  // rejections in excess of acceptances, never below 0
+  bool was_lost_ = false;
+  long times_lost_ = 0;
+  double widened_s_ = 0.0;  // when the count left 0, then the latest widening [s]
+};
+
 /// A pose and the bias b of the rate its heading source turns it by, (x, y, theta, b)
 /// [m, m, rad, rad/s]: the state of a filter on a base whose odometry turns by a gyro (a
 /// gyro-fused odometry's heading drifts by b dt; the encoders' `heading: gyro`).
