@@ -6,6 +6,9 @@ import locsim
 
 class EkfLandmarks(locsim.Localizer):
     """EKF on landmarks, in numpy: wheel-travel prediction, range-bearing updates of known ids."""
+    # Rejecting more than it accepts, it is lost (a push its wheels did not feel, a kidnap): the
+    # SDK's LostWatch widens its covariance until the landmarks fit again (lost_*, as the C++
+    # ekf_landmarks').
 
     # The wheel and detection noise under the built-in filters' names, so that the file
     # `locsim calibrate` writes sets this filter too.
@@ -14,7 +17,8 @@ class EkfLandmarks(locsim.Localizer):
                locsim.param("gate", float, 13.8, 0.0, 1e9, "chi-square (2 dof) beyond which a detection is an outlier [-]")]
               # Looser than the C++ filters' defaults: this example has no gyro, and with their
               # noise its heading NEES is tens on the demo.
-              + locsim.detection_noise_params(sigma_range_m=0.3, sigma_range_per_m2=0.0, sigma_bearing_deg=5.73))
+              + locsim.detection_noise_params(sigma_range_m=0.3, sigma_range_per_m2=0.0, sigma_bearing_deg=5.73)
+              + locsim.lost_params())
 
     def __init__(self, init):
         super().__init__(init)
@@ -22,6 +26,7 @@ class EkfLandmarks(locsim.Localizer):
         self.odom, self.rejected = None, 0
         self.landmark_at = {int(i): xy for i, xy in zip(init.landmark_ids, np.array(init.landmarks))}
         self.detection = locsim.DetectionNoise.from_params(init.params)
+        self.lost = locsim.LostWatch.from_params(init.params)
 
     def on_odometry(self, t_s, odometry):  # x' = f(x, u), P' = F P F^T + G Q G^T
         pose, p = np.array(odometry.pose), self.init.params
@@ -42,7 +47,9 @@ class EkfLandmarks(locsim.Localizer):
             S = H @ self.P @ H.T + R
             if nu @ np.linalg.solve(S, nu) > p["gate"]:
                 self.rejected += 1
+                self.lost.rejected(t_s, self.P)
                 continue
+            self.lost.accepted()
             K = self.P @ H.T @ np.linalg.inv(S)
             self.x = self.x + K @ nu
             self.x[2] = locsim.wrap_angle(self.x[2])
@@ -53,4 +60,4 @@ class EkfLandmarks(locsim.Localizer):
         return self.x, self.P
 
     def diagnostics(self):
-        return {"rejected": self.rejected}
+        return {"rejected": self.rejected, "times_lost": self.lost.times_lost}

@@ -37,9 +37,9 @@ _find_debian_numpy()
 
 from .cli import LocsimError, binary, replay, report, run, sweep  # noqa: E402
 from .io import read_events, read_tum, wrap_angle  # noqa: E402
-from .models import (K_LEFT, K_RIGHT, DetectionNoise, OdometryNoise, add_motion_floor,  # noqa: E402
+from .models import (K_LEFT, K_RIGHT, DetectionNoise, LostWatch, OdometryNoise, add_motion_floor,  # noqa: E402
                      advance_by_velocity, between, compose, decompose, detection_noise_params, diff_drive_motion,
-                     landmark_log_likelihood, landmark_log_match, motion_noise_params, motion_spread,
+                     landmark_log_likelihood, landmark_log_match, lost_params, motion_noise_params, motion_spread,
                      numeric_jacobian, predict_by_wheels, range_bearing, sample_motion,
                      sample_wheel_motion, sinc, wheel_travel_from_increment)
 from .particles import (circular_mean, effective_sample_size, free_space_poses,  # noqa: E402
@@ -51,11 +51,12 @@ from .stats import Aggregate, aggregate, mean_ci, t975  # noqa: E402
 from .sweep_folder import Sweep, load_sweep  # noqa: E402
 from .world import World  # noqa: E402
 
-__all__ = ["Aggregate", "DetectionNoise", "Init", "K_LEFT", "K_RIGHT", "Localizer", "LocsimError", "OdometryNoise",
+__all__ = ["Aggregate", "DetectionNoise", "Init", "K_LEFT", "K_RIGHT", "Localizer", "LocsimError", "LostWatch",
+           "OdometryNoise",
            "Param", "Run", "Sweep", "World", "add_motion_floor", "advance_by_velocity", "aggregate", "between",
            "binary", "circular_mean", "compose", "decompose", "detection_noise_params", "diff_drive_motion",
            "effective_sample_size", "error_arrays", "free_space_poses",
-           "landmark_log_likelihood", "landmark_log_match", "load_run", "load_sweep",
+           "landmark_log_likelihood", "landmark_log_match", "load_run", "load_sweep", "lost_params",
            "low_variance_resample", "mean_and_covariance", "mean_ci", "motion_noise_params", "motion_spread",
            "normalize", "numeric_jacobian", "param", "predict_by_wheels", "range_bearing",
            "read_events", "read_tum", "replay", "report", "roulette_resample", "run",

@@ -142,7 +142,8 @@ def param_entries(node):
                 raise Problem(node.lineno, f"{called}: {error}") from None
             return [(row, node.lineno) for row in rows]
     raise Problem(node.lineno, "params must be a list of locsim.param(...) calls (to which "
-                               "locsim.detection_noise_params() and locsim.motion_noise_params() may be added)")
+                               "locsim.detection_noise_params(), locsim.motion_noise_params() and "
+                               "locsim.lost_params() may be added)")
 
 
 def describe(path):

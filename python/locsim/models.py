@@ -274,6 +274,64 @@ def detection_noise_params(**defaults):
     return [param(*row) for row in noise_params.with_defaults(noise_params.DETECTION_NOISE, defaults)]
 
 
+class LostWatch:
+    """Whether a filter with a gate is lost, and its covariance widened while it is (the C++ SDK's
+    LostWatch): a running count of the rejections in excess of the acceptances (+1, -1, never
+    below 0); while it is at least after_rejections, each rejection widens P's pose block (its
+    first three rows and columns) as a random walk of growth_m and growth_rad per root second over
+    the time since the count left 0, then since the last widening, up to max_m / max_rad, never
+    narrowing it."""
+
+    def __init__(self, after_rejections=12, growth_m=0.5, growth_rad=math.radians(20.0), max_m=3.0,
+                 max_rad=math.radians(60.0)):
+        self.after_rejections, self.growth_m, self.growth_rad = after_rejections, growth_m, growth_rad
+        self.max_m, self.max_rad = max_m, max_rad
+        self.excess, self.times_lost, self._was_lost, self._widened_s = 0, 0, False, 0.0
+
+    @classmethod
+    def from_params(cls, params):
+        """From a filter's parameters as lost_params() declares them (the heading in degrees)."""
+        return cls(int(params["lost_after_rejections"]), params["lost_growth_m"],
+                   math.radians(params["lost_growth_deg"]), params["lost_max_m"], math.radians(params["lost_max_deg"]))
+
+    @property
+    def lost(self):
+        return self.after_rejections > 0 and self.excess >= self.after_rejections
+
+    def accepted(self):
+        """A detection the filter took."""
+        self.excess = max(0, self.excess - 1)
+        if not self.lost:
+            self._was_lost = False
+
+    def rejected(self, t_s, P):
+        """A detection of a known target the filter rejected at t_s [s]; when that says lost, P's
+        pose block is widened in place. True if it was."""
+        if self.after_rejections <= 0:
+            return False
+        if self.excess == 0:
+            self._widened_s = t_s
+        self.excess += 1
+        if not self.lost:
+            return False
+        if not self._was_lost:
+            self.times_lost, self._was_lost = self.times_lost + 1, True
+        dt_s = max(0.0, t_s - self._widened_s)
+        self._widened_s = t_s
+        for i, (limit, growth) in enumerate(((self.max_m, self.growth_m), (self.max_m, self.growth_m),
+                                             (self.max_rad, self.growth_rad))):
+            room = limit * limit - P[i, i]
+            if room > 0.0:
+                P[i, i] += min(growth * growth * dt_s, room)
+        return True
+
+
+def lost_params(**defaults):
+    """LostWatch's parameters as ekf_landmarks declares them (noise_params.py), so that a Python
+    filter with a gate takes the same keys: `[...] + locsim.lost_params()`."""
+    return [param(*row) for row in noise_params.with_defaults(noise_params.LOST, defaults)]
+
+
 def landmark_log_match(particles, range_m, bearing_rad, landmarks, sigma_range_m, sigma_bearing_rad):
     """log of the landmark likelihood scaled to 1 at a perfect match, for every particle (N, 3)
     and landmark (K, 2) at once, (N, K):

@@ -1,4 +1,4 @@
-"""The noise parameters the built-in C++ filters declare, as plain data (names, types, defaults,
+"""The noise parameters the built-in C++ filters declare (and the LostWatch's), as plain data (names, types, defaults,
 ranges and docs as plugins/particle_filters/landmark_pf.hpp and the SDK's models.hpp declare them),
 so that a Python filter declares them alike and one parameter file (the one `locsim calibrate`
 writes) sets it as it sets the built-in ones. Standard library only: _describe.py, which reads a
@@ -38,8 +38,21 @@ MOTION_NOISE = [
     ("roughening_deg", float, 0.5, 0.0, 180.0, "heading noise added likewise [deg]"),
 ]
 
+# When a filter with a gate is lost, and how its covariance widens then (LOCSIM_LOST_PARAMS, the
+# SDK's LostWatch, as ekf_landmarks declares them).
+LOST = [
+    ("lost_after_rejections", int, 12, 0, 1000000,
+     "detections rejected in excess of those accepted (a running count, +1 a rejection, -1 an acceptance, "
+     "never below 0) that say the pose is lost (a push the wheels did not feel, a kidnap): from then on each "
+     "rejection widens its covariance (0: never) [-]"),
+    ("lost_growth_m", float, 0.5, 0.0, 100.0, "... its position spread grows by this per root second while lost [m/sqrt(s)]"),
+    ("lost_growth_deg", float, 20.0, 0.0, 180.0, "... its heading spread by this [deg/sqrt(s)]"),
+    ("lost_max_m", float, 3.0, 0.0, 1000.0, "... up to this position spread [m]"),
+    ("lost_max_deg", float, 60.0, 0.0, 180.0, "... and this heading spread [deg]"),
+]
+
 # The calls a filter's `params` may add, by name.
-LISTS = {"detection_noise_params": DETECTION_NOISE, "motion_noise_params": MOTION_NOISE}
+LISTS = {"detection_noise_params": DETECTION_NOISE, "motion_noise_params": MOTION_NOISE, "lost_params": LOST}
 
 
 def with_defaults(rows, defaults):

@@ -61,22 +61,29 @@ def test_the_sdks_noise_lists_are_declared_as_the_cpp_filters_declare_them(tmp_p
 
 
 def test_the_sdks_noise_lists_are_the_cpp_filters_declarations():
-    """noise_params.py states the C++ landmark filters' declarations once more, for Python: `locsim
-    plugins` (mcl's) must list the same types, defaults and ranges."""
+    """noise_params.py states the C++ filters' declarations once more, for Python: `locsim plugins`
+    (mcl's, ekf_landmarks' for the LostWatch) must list the same types, defaults and ranges."""
     from locsim import noise_params
 
     listing = subprocess.run([locsim.binary(), "plugins"], capture_output=True, text=True).stdout
-    block = listing.split("\nmcl  ", 1)[1].split("\n\n", 1)[0]
-    declared = {}
-    for line in block.splitlines()[2:]:
-        fields = line.split()
-        declared[fields[0]] = (fields[1], fields[3].strip("'"), " ".join(fields[5:7]) if fields[4:5] == ["in"] else "")
-    kinds = {float: "double", bool: "bool", str: "string"}
-    for name, kind, default, low, high, _ in noise_params.DETECTION_NOISE + noise_params.MOTION_NOISE:
-        shown = "true" if default is True else "false" if default is False else default if isinstance(default, str) \
-            else f"{default:g}"
-        bounds = f"[{low:g}, {high:g}]" if low is not None else ""
-        assert declared[name] == (kinds[kind], shown, bounds), name
+
+    def declared_by(plugin):
+        block = listing.split(f"\n{plugin}  ", 1)[1].split("\n\n", 1)[0]
+        declared = {}
+        for line in block.splitlines()[2:]:
+            fields = line.split()
+            declared[fields[0]] = (fields[1], fields[3].strip("'"),
+                                   " ".join(fields[5:7]) if fields[4:5] == ["in"] else "")
+        return declared
+    kinds = {float: "double", int: "int", bool: "bool", str: "string"}
+    for plugin, rows in (("mcl", noise_params.DETECTION_NOISE + noise_params.MOTION_NOISE),
+                         ("ekf_landmarks", noise_params.LOST)):
+        declared = declared_by(plugin)
+        for name, kind, default, low, high, _ in rows:
+            shown = "true" if default is True else "false" if default is False else default \
+                if isinstance(default, str) else f"{default:g}"
+            bounds = f"[{low:g}, {high:g}]" if low is not None else ""
+            assert declared[name] == (kinds[kind], shown, bounds), name
 
 
 @pytest.mark.parametrize("body, line, message", [

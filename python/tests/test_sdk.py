@@ -107,3 +107,42 @@ def test_free_space_poses_lie_in_free_cells():
     rows = np.floor((x[:, 1] - 2.0) / 0.1).astype(int)
     assert np.all(grid[rows, cols] == 0)
     assert x[:, 2].min() < -3.0 and x[:, 2].max() > 3.0
+
+
+def test_lost_watch_widens_while_more_is_rejected_than_accepted_as_the_cpp_sdks_does():
+    """The sequence and numbers of tests/plugin_test.cpp's LostWatch test."""
+    watch = locsim.LostWatch(3, 0.5, 0.2, 1.0, 0.3)
+    P = np.eye(5) * 0.01
+    for i in range(20):  # outliers among accepted detections: the count returns to 0
+        assert not watch.rejected(0.1 * i, P)
+        watch.accepted()
+        watch.accepted()
+    assert not watch.rejected(3.0, P)
+    assert not watch.rejected(3.1, P)
+    watch.accepted()
+    assert not watch.rejected(3.2, P)
+    assert np.array_equal(P, np.eye(5) * 0.01) and not watch.lost
+    assert watch.rejected(3.4, P) and watch.lost and watch.times_lost == 1
+    assert P[0, 0] == pytest.approx(0.01 + 0.25 * 0.4, abs=1e-12)
+    assert P[2, 2] == pytest.approx(0.01 + 0.04 * 0.4, abs=1e-12)
+    assert P[3, 3] == 0.01 and P[0, 1] == 0.0
+    assert watch.rejected(3.5, P)
+    watch.accepted()
+    assert watch.lost
+    assert watch.rejected(4.5, P)
+    assert P[0, 0] == pytest.approx(0.11 + 0.25 * 0.1 + 0.25, abs=1e-12)
+    assert watch.rejected(100.0, P)
+    assert P[0, 0] == pytest.approx(1.0, abs=1e-12) and P[2, 2] == pytest.approx(0.09, abs=1e-12)
+    P[2, 2] = 0.5
+    assert watch.rejected(101.0, P) and P[2, 2] == 0.5 and watch.times_lost == 1
+    for _ in range(5):
+        watch.accepted()
+    assert not watch.lost
+    assert not watch.rejected(102.0, P)
+    assert watch.rejected(103.0, P) and watch.times_lost == 2
+    off = locsim.LostWatch(0)
+    assert not any(off.rejected(float(i), P) for i in range(100)) and not off.lost
+    # From a filter's parameters, the heading in degrees.
+    defaults = {p.name: p.default for p in locsim.lost_params()}
+    from_params = locsim.LostWatch.from_params(defaults)
+    assert from_params.after_rejections == 12 and from_params.growth_rad == pytest.approx(math.radians(20.0))
