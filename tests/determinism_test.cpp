@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 // random streams, these two filters, the scorer or the file formats moves them. Update them only
 // on purpose, with a one-line note in the commit message saying why the behaviour changed.
 constexpr std::string_view kPinnedStateHash = "ae09117b0263683b";   // run.json "state_hash"
-constexpr std::uint64_t kPinnedOutputHash = 0xe5ea9e4ac84b6472ULL;  // FNV-1a of the outputs
+constexpr std::uint64_t kPinnedOutputHash = 0x9405db3998aa2167ULL;  // FNV-1a of the outputs
 // FNV-1a of the particle filters' estimates on the demo (PinnedEstimatesOfTheParticleFilters).
 constexpr std::uint64_t kPinnedFilterHash = 0xfd238b43fa593789ULL;
 
@@ -475,12 +475,13 @@ TEST(Determinism, WithoutVariationTheDemoWritesWhatItDidBeforeVariationExisted) 
   // landmark filters declare the camera's bias, the noise correlation and the command response,
   // and since they declare the gains' wander and the errors' slow part, then the bearing's own
   // persistence: metrics.json lists them, with the estimates unchanged; and since ekf_landmarks
-  // widens its covariance while it rejects more than it accepts: its estimates after the kidnap).
+  // widens its covariance while it rejects more than it accepts: its estimates after the kidnap;
+  // and since it widens its position by the wheels' slip against the gyro).
   const fs::path dir = testing::temp_dir("none");
   std::ofstream(dir / "demo.yaml") << testing::read_file(testing::kDemo) << "variation: none\n";
   const Pins pins = pinned_run(dir / "demo.yaml", dir / "out");
   EXPECT_EQ(pins.state_hash, "e8179cbeba8d3c97");
-  EXPECT_EQ(pins.output_hash, 0xbdd1d0eacfb605c2ULL) << std::hex << "0x" << pins.output_hash;
+  EXPECT_EQ(pins.output_hash, 0xe08e1aea44681064ULL) << std::hex << "0x" << pins.output_hash;
   // `locsim run --no-variation` on the unchanged file: the same, byte for byte.
   const Pins option = pinned_run(testing::kDemo, dir / "out_option", true);
   EXPECT_EQ(option.state_hash, pins.state_hash);

@@ -40,6 +40,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     response_ = locsim::sdk::CommandFollower(locsim::sdk::CommandResponse::from(params));
     wander_ = locsim::sdk::GainWander::from(params);
     gate_ = params.number("gate_chi2");
+    slide_per_slip_ = params.number("slide_per_slip");
     lost_ = locsim::sdk::LostWatch(locsim::sdk::LostWatchDef::from(params));
     odometry_.use_gyro(params.flag("use_gyro"));
     use_ptz_ = params.flag("use_ptz");
@@ -83,6 +84,16 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
       } else {
         locsim::sdk::predict_by_wheels(pose_.x, pose_.P, step->d_left_m, step->d_right_m,
                                        wheel_base_m_, k_left_, k_right_, slip_m);
+      }
+      // Wheels that slipped against the gyro (a push, a wheel spinning) say the body moved by
+      // about as much, in a direction they do not show: a person's shove slid the robot 2-4
+      // times its wheels' slip (crowd collisions, over 1.6 s), which the wheels' noise above,
+      // along the heading only, leaves out.
+      const double slide_m2 = slide_per_slip_ * slide_per_slip_ * slip_m * slip_m;
+      if (with_gains_) {
+        with_gains_->P(0, 0) += slide_m2, with_gains_->P(1, 1) += slide_m2;
+      } else {
+        pose_.P(0, 0) += slide_m2, pose_.P(1, 1) += slide_m2;
       }
     }
   }
@@ -206,7 +217,7 @@ class EkfLandmarks final : public locsim::sdk::Localizer {
     b.P = I_KH * b.P * I_KH.transpose() + K * R * K.transpose();
   }
 
-  double k_left_, k_right_, gate_, wheel_base_m_;
+  double k_left_, k_right_, gate_, wheel_base_m_, slide_per_slip_;
   locsim::sdk::DetectionNoise noise_;
   locsim::sdk::DetectionBias bias_;
   locsim::sdk::CorrelatedRangeBearing correlated_;
@@ -237,6 +248,10 @@ constexpr locsim_param_decl kParams[] = {
     LOCSIM_GAIN_WANDER_PARAMS,
     LOCSIM_GYRO_PARAMS,
     LOCSIM_LOST_PARAMS,
+    {"slide_per_slip", LOCSIM_PARAM_DOUBLE, 4.0, 0.0, 100.0, nullptr,
+     "with a gyro: position noise per axis of a step, this times the wheels' slip against the "
+     "gyro (half the wheel base times their extra turn): a push or a spinning wheel moved the "
+     "body by about as much, in a direction the wheels do not show (0: none) [-]"},
     {"gate_chi2", LOCSIM_PARAM_DOUBLE, 9.21, 0.0, 1e9, nullptr,
      "Mahalanobis gate on the innovation (chi-square, 2 dof; 9.21 = 99 %) [-]"},
     {"use_ptz", LOCSIM_PARAM_BOOL, 1, 0, 1, nullptr, "use the PTZ camera's detections"},
