@@ -699,31 +699,33 @@ TEST(Filters, EkfBeatsOdometryUntilTheKidnapAndThenSaysItIsLost) {
   EXPECT_TRUE(ekf["segments"][1]["tracking"]["position_rms_m"].is_null());
 }
 
-// Issue 53: a push turns the robot 40-50 degrees where the EKF has no gyro to see it. Blind to
-// being lost, the gate then rejects every detection and the EKF stays off and sure of itself; with
-// the LostWatch its covariance widens until the landmarks fit, and it tracks again.
-TEST(Filters, AnEkfThatAPushLeftRejectingWhatItSeesWidensAndFindsThePoseAgain) {
-  const fs::path dir = testing::temp_dir("push");
-  std::ofstream(dir / "push.yaml") << R"(name: push
-duration_s: 30
-drive:
-  mode: waypoints
-  path: [[8.5, 1.5], [8.5, 5.0], [6.0, 5.0], [6.0, 3.2], [1.5, 3.2], [1.5, 1.5]]
-  loop: true
-  speed_mps: 0.4
-ptz: {policy: nearest_landmark}
-events:
-  - at_s: 8
-    push: {robot: robot, impulse_ns: [0, 0], angular_impulse_nms: -1.5}
-)";
+/// The demo world's loop for 30 s with one push at 8 s (`push`: the event's flow map, e.g.
+/// "impulse_ns: [0, 0], angular_impulse_nms: -1.5"), run with `localizers`; metrics.json.
+nlohmann::json run_demo_pushed(const fs::path& dir, const std::string& push,
+                               std::vector<std::string> localizers) {
+  std::ofstream(dir / "push.yaml") << "name: push\nduration_s: 30\ndrive:\n  mode: waypoints\n"
+                                      "  path: [[8.5, 1.5], [8.5, 5.0], [6.0, 5.0], [6.0, 3.2], "
+                                      "[1.5, 3.2], [1.5, 1.5]]\n  loop: true\n  speed_mps: 0.4\n"
+                                      "ptz: {policy: nearest_landmark}\nevents:\n  - at_s: 8\n"
+                                      "    push: {robot: robot, "
+                                   << push << "}\n";
   RunOptions options;
   options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
   options.scenario_file = dir / "push.yaml";
   options.out_dir = dir / "out";
-  options.localizers = {"ekf_landmarks:use_gyro=false,lost_after_rejections=0@blind",
-                        "ekf_landmarks:use_gyro=false@watching"};
+  options.localizers = std::move(localizers);
   run_simulation(options);
-  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "out" / "metrics.json"));
+  return nlohmann::json::parse(testing::read_file(dir / "out" / "metrics.json"));
+}
+
+// Issue 53: a push turns the robot 40-50 degrees where the EKF has no gyro to see it. Blind to
+// being lost, the gate then rejects every detection and the EKF stays off and sure of itself; with
+// the LostWatch its covariance widens until the landmarks fit, and it tracks again.
+TEST(Filters, AnEkfThatAPushLeftRejectingWhatItSeesWidensAndFindsThePoseAgain) {
+  const auto metrics =
+      run_demo_pushed(testing::temp_dir("push"), "impulse_ns: [0, 0], angular_impulse_nms: -1.5",
+                      {"ekf_landmarks:use_gyro=false,lost_after_rejections=0@blind",
+                       "ekf_landmarks:use_gyro=false@watching"});
   const auto& blind = entry(metrics, "blind");
   const auto& watching = entry(metrics, "watching");
   const auto rms = [](const nlohmann::json& l) {
@@ -747,26 +749,9 @@ events:
 // gyro, show neither the slide nor its direction. Widened by the slip (slide_per_slip), the EKF
 // takes the landmarks' word for where the shove left it; without, it rejects them for a while.
 TEST(Filters, AnEkfWithAGyroWidensItsPositionByTheWheelsSlipAndAbsorbsAShove) {
-  const fs::path dir = testing::temp_dir("shove");
-  std::ofstream(dir / "shove.yaml") << R"(name: shove
-duration_s: 30
-drive:
-  mode: waypoints
-  path: [[8.5, 1.5], [8.5, 5.0], [6.0, 5.0], [6.0, 3.2], [1.5, 3.2], [1.5, 1.5]]
-  loop: true
-  speed_mps: 0.4
-ptz: {policy: nearest_landmark}
-events:
-  - at_s: 8
-    push: {robot: robot, impulse_ns: [-30, 20], angular_impulse_nms: 1.0}
-)";
-  RunOptions options;
-  options.world_file = fs::path(LOCSIM_SOURCE_DIR) / "worlds/demo/demo.yaml";
-  options.scenario_file = dir / "shove.yaml";
-  options.out_dir = dir / "out";
-  options.localizers = {"ekf_landmarks:slide_per_slip=0@plain", "ekf_landmarks@sliding"};
-  run_simulation(options);
-  const auto metrics = nlohmann::json::parse(testing::read_file(dir / "out" / "metrics.json"));
+  const auto metrics =
+      run_demo_pushed(testing::temp_dir("shove"), "impulse_ns: [-30, 20], angular_impulse_nms: 1.0",
+                      {"ekf_landmarks:slide_per_slip=0@plain", "ekf_landmarks@sliding"});
   const auto& plain = entry(metrics, "plain");
   const auto& sliding = entry(metrics, "sliding");
   const auto error = [](const nlohmann::json& l, const char* what) {
